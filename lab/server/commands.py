@@ -23,6 +23,16 @@ NAME_MAX_LEN = 128  # characters in a robot / scene / task / link / method / gai
 STACK_MAX_LEVELS = 16
 STACK_MAX_TASKS = 64  # task names over all levels
 
+LIMITS: dict[str, float] = {
+    "vx": VX_MAX,
+    "vy": VY_MAX,
+    "yaw_rate": YAW_RATE_MAX,
+    "push_force": PUSH_FORCE_MAX,
+    "push_duration": PUSH_DURATION_MAX,
+    "gain": GAIN_MAX,
+    "weight": WEIGHT_MAX,
+}  # reported by `info` so clients can size sliders
+
 _NAME_RE = re.compile(r"[A-Za-z0-9_.:/-]+")
 
 

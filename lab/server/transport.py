@@ -1,0 +1,113 @@
+"""The Zenoh side of the sim process: configuration, the command queryable and the publishers.
+
+No Python runs on Zenoh's threads in the sim process: commands land in a Zenoh ring channel and
+the loop thread takes them out between ticks (`receive`), applies them and replies (`reply`).
+See docs/protocol.md.
+"""
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import zenoh
+
+DEFAULT_PORT = 7447
+DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+CMD_PREFIX = "lab/cmd/"
+KEY_TELEMETRY = "lab/telemetry"
+KEY_STATE = "lab/state"
+KEY_EVENTS = "lab/events"
+MAX_PAYLOAD_BYTES = 64 * 1024
+COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
+
+_NO_SCOUTING = {"multicast": {"enabled": False}, "gossip": {"enabled": False}}
+
+
+def server_config(
+    port: int = DEFAULT_PORT, listen: Sequence[str] = (), connect: Sequence[str] = ()
+) -> zenoh.Config:
+    """Peer listening on 127.0.0.1:`port` only, no scouting; `listen`/`connect` are opt-ins
+    (a non-empty `listen` replaces the loopback endpoint)."""
+    return _config(
+        {
+            "mode": "peer",
+            "listen": {"endpoints": list(listen) or [f"tcp/127.0.0.1:{port}"]},
+            "connect": {"endpoints": list(connect)},
+            "scouting": _NO_SCOUTING,
+        }
+    )
+
+
+def client_config(endpoint: str = DEFAULT_ENDPOINT) -> zenoh.Config:
+    """Client connecting to exactly `endpoint`, no scouting."""
+    return _config(
+        {"mode": "client", "connect": {"endpoints": [endpoint]}, "scouting": _NO_SCOUTING}
+    )
+
+
+def _config(settings: dict[str, object]) -> zenoh.Config:
+    return zenoh.Config.from_json5(json.dumps(settings))
+
+
+@dataclass(frozen=True)
+class Request:
+    """One received command: the verb from the key, the decoded payload or why it is unreadable."""
+
+    verb: str
+    payload: object
+    error: str | None
+    query: zenoh.Query
+
+
+def decode_query(query: zenoh.Query) -> Request:
+    """Verb from `lab/cmd/<verb>`; payload parsed as JSON (empty payload = {})."""
+    verb = str(query.key_expr).removeprefix(CMD_PREFIX)[:64]
+    raw = query.payload.to_bytes() if query.payload is not None else b""
+    if len(raw) > MAX_PAYLOAD_BYTES:
+        return Request(verb, None, f"{verb}: payload larger than {MAX_PAYLOAD_BYTES} bytes", query)
+    if not raw.strip():
+        return Request(verb, {}, None, query)
+    try:
+        return Request(verb, json.loads(raw), None, query)
+    except (ValueError, RecursionError) as exc:  # bad UTF-8 / JSON, or nesting too deep
+        return Request(verb, None, f"{verb}: payload is not valid JSON ({exc})"[:300], query)
+
+
+class ServerTransport:
+    """The sim process's Zenoh session: one command queryable, three publishers."""
+
+    def __init__(self, config: zenoh.Config) -> None:
+        self._session = zenoh.open(config)
+        self._queryable = self._session.declare_queryable(
+            CMD_PREFIX + "**", zenoh.handlers.RingChannel(COMMAND_QUEUE)
+        )
+        self._telemetry = self._session.declare_publisher(KEY_TELEMETRY)
+        self._state = self._session.declare_publisher(KEY_STATE)
+        self._events = self._session.declare_publisher(KEY_EVENTS)
+
+    def receive(self) -> Request | None:
+        """The oldest waiting command, without blocking."""
+        query = self._queryable.try_recv()
+        return None if query is None else decode_query(query)
+
+    def reply(self, request: Request, body: dict[str, object]) -> None:
+        try:
+            request.query.reply(request.query.key_expr, json.dumps(body), express=True)
+        except zenoh.ZError:
+            pass  # the querier asked on a key we may not answer (wildcards) or has gone
+        finally:
+            request.query.drop()
+
+    def publish_telemetry(self, message: dict[str, object]) -> None:
+        self._telemetry.put(json.dumps(message))
+
+    def publish_state(self, message: dict[str, object]) -> None:
+        self._state.put(json.dumps(message))
+
+    def publish_event(self, message: dict[str, object]) -> None:
+        self._events.put(json.dumps(message))
+
+    def close(self) -> None:
+        for entity in (self._queryable, self._telemetry, self._state, self._events):
+            entity.undeclare()
+        self._session.close()
