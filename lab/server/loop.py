@@ -1,0 +1,367 @@
+"""The realtime sim loop: tick the session on an absolute schedule, apply commands between ticks,
+publish telemetry, keep live deadline statistics.
+
+One thread runs `SimLoop.run`. Each iteration: sleep until the next deadline (`next += period`,
+never "sleep one period"), take waiting commands from the transport (a bounded number per tick),
+apply them through `Session.handle` and reply, run the velocity deadman, `Session.tick()`, and
+every few ticks publish telemetry, drawing state and events.
+"""
+
+import ctypes
+import math
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from itertools import accumulate
+from typing import Protocol
+
+from lab.server.commands import LIMITS, CommandError, VelocityCommand, parse_command
+from lab.server.transport import Request
+
+ON_TIME_TOLERANCE = 0.1  # a tick is on time if it starts <= 10 % of a period after its deadline
+MAX_BEHIND_S = 0.05  # after a longer stall (e.g. a robot switch) re-anchor instead of catching up
+DEADMAN_TIMEOUT_S = 0.5  # a velocity command expires this long after its last refresh...
+DEADMAN_RAMP_S = 0.5  # ...and then ramps linearly to zero over this long
+DEADMAN_UPDATE_S = 0.01  # how often the ramp sends a new velocity to the session
+EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per second each
+STATS_INTERVAL_TICKS = 100  # recompute the percentiles of the loop statistics this often
+FIFO_PRIORITY = 50
+_PR_SET_TIMERSLACK = 29
+
+
+class Session(Protocol):
+    """What the loop needs from `lab.server.session.Session`."""
+
+    def tick(self) -> None: ...
+    def handle(self, verb: str, payload: object) -> dict: ...
+    def telemetry(self) -> dict: ...
+    def drawing_state(self) -> dict: ...
+    def pop_events(self) -> list[dict]: ...
+
+
+class Transport(Protocol):
+    """What the loop needs from `lab.server.transport.ServerTransport`."""
+
+    def receive(self) -> Request | None: ...
+    def reply(self, request: Request, body: dict[str, object]) -> None: ...
+    def publish_telemetry(self, message: dict[str, object]) -> None: ...
+    def publish_state(self, message: dict[str, object]) -> None: ...
+    def publish_event(self, message: dict[str, object]) -> None: ...
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    rate_hz: float = 1000.0
+    fast: bool = False  # no sleeping: run as fast as the CPU allows
+    telemetry_hz: float = 100.0
+    state_hz: float = 60.0
+    max_commands_per_tick: int = 4
+
+
+class LogHistogram:
+    """Counts of positive durations in geometric bins (5 % wide from 0.1 µs to 10 s); cheap to
+    record every tick, percentiles read as the upper edge of the bin."""
+
+    LOW_S = 1e-7
+    RATIO = 1.05
+    BINS = 380
+
+    def __init__(self) -> None:
+        self.counts = [0] * (self.BINS + 1)
+        self.total = 0
+        self.max = 0.0
+        self._log_ratio = math.log(self.RATIO)
+
+    def record(self, seconds: float) -> None:
+        if seconds <= self.LOW_S:
+            index = 0
+        else:
+            index = min(self.BINS, 1 + int(math.log(seconds / self.LOW_S) / self._log_ratio))
+        self.counts[index] += 1
+        self.total += 1
+        self.max = max(self.max, seconds)
+
+    def percentile(self, p: float) -> float:
+        """Upper edge of the bin holding the p-th percentile (s), capped at the maximum."""
+        if self.total == 0:
+            return 0.0
+        rank = p / 100.0 * self.total
+        for index, cumulative in enumerate(accumulate(self.counts)):
+            if cumulative >= rank and index < self.BINS:
+                return min(self.max, self.LOW_S * self.RATIO**index)
+            if cumulative >= rank:
+                break  # the overflow bin: only the maximum is known
+        return self.max
+
+
+class DeadlineStats:
+    """Live statistics of the schedule: lateness of each tick start, work per iteration,
+    on-time ticks, overruns (work ended after the next deadline), skipped periods."""
+
+    def __init__(self, period: float, realtime: bool, fifo: bool) -> None:
+        self.period = period
+        self.realtime = realtime
+        self.fifo = fifo
+        self.ticks = 0
+        self.on_time = 0
+        self.overruns = 0
+        self.skipped = 0
+        self.lateness = LogHistogram()
+        self.work = LogHistogram()
+
+    def record(self, lateness: float, work: float, overrun: bool) -> None:
+        self.ticks += 1
+        self.on_time += lateness <= ON_TIME_TOLERANCE * self.period
+        self.overruns += overrun
+        self.lateness.record(lateness)
+        self.work.record(work)
+
+    def snapshot(self) -> dict[str, object]:
+        def us(h: LogHistogram) -> dict[str, float]:
+            return {
+                "p50": round(h.percentile(50) * 1e6, 2),
+                "p99": round(h.percentile(99) * 1e6, 2),
+                "max": round(h.max * 1e6, 2),
+            }
+
+        return {
+            "rate_hz": 1.0 / self.period,
+            "realtime": self.realtime,
+            "fifo": self.fifo,
+            "ticks": self.ticks,
+            "on_time_fraction": self.on_time / self.ticks if self.ticks else 1.0,
+            "lateness_us": us(self.lateness),
+            "tick_us": us(self.work),
+            "overruns": self.overruns,
+            "skipped": self.skipped,
+        }
+
+
+class Deadman:
+    """A velocity command expires `DEADMAN_TIMEOUT_S` after its last refresh, then ramps
+    linearly to zero over `DEADMAN_RAMP_S`."""
+
+    def __init__(self) -> None:
+        self._command = VelocityCommand()
+        self._refreshed = 0.0
+        self._last_update = 0.0
+        self._active = False
+
+    def refresh(self, command: VelocityCommand, now: float) -> None:
+        self._command = command
+        self._refreshed = now
+        self._active = command != VelocityCommand()
+
+    def update(self, now: float) -> VelocityCommand | None:
+        """The decayed command to send now, or None when nothing needs to change."""
+        age = now - self._refreshed
+        if not self._active or age <= DEADMAN_TIMEOUT_S:
+            return None
+        scale = max(0.0, 1.0 - (age - DEADMAN_TIMEOUT_S) / DEADMAN_RAMP_S)
+        if scale > 0.0 and now - self._last_update < DEADMAN_UPDATE_S:
+            return None
+        self._last_update = now
+        self._active = scale > 0.0
+        c = self._command
+        return VelocityCommand(c.vx * scale, c.vy * scale, c.yaw_rate * scale)
+
+
+class EventThrottle:
+    """Folds bursts of one kind of event into at most one message per `EVENT_INTERVAL_S`."""
+
+    def __init__(self) -> None:
+        self.pending = 0
+        self._last = -math.inf
+
+    def hit(self) -> None:
+        self.pending += 1
+
+    def take(self, now: float) -> int:
+        """How many hits to report now (0 when nothing is due)."""
+        if self.pending == 0 or now - self._last < EVENT_INTERVAL_S:
+            return 0
+        count, self.pending, self._last = self.pending, 0, now
+        return count
+
+
+def request_realtime() -> bool:
+    """Ask for SCHED_FIFO and 1 ns timer slack for the calling thread; True if FIFO was granted.
+    Refusals are expected without privileges and ignored."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_TIMERSLACK, ctypes.c_ulong(1), 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(FIFO_PRIORITY))
+    except (OSError, AttributeError):
+        return False
+    return True
+
+
+class SimLoop:
+    """Drives one session in real time (or as fast as possible) and serves the protocol."""
+
+    def __init__(
+        self,
+        session: Session,
+        transport: Transport,
+        config: LoopConfig = LoopConfig(),
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.session = session
+        self.transport = transport
+        self.config = config
+        self.clock = clock
+        self.period = 1.0 / config.rate_hz
+        self.stats = DeadlineStats(self.period, realtime=not config.fast, fifo=False)
+        self.error: BaseException | None = None
+        self._telemetry_every = max(1, math.floor(config.rate_hz / config.telemetry_hz))
+        self._state_every = max(1, math.floor(config.rate_hz / config.state_hz))
+        self._deadman = Deadman()
+        self._overrun_events = EventThrottle()
+        self._rejected_events = EventThrottle()
+        self._last_rejection: tuple[str, str] = ("", "")
+        self._worst_lateness = 0.0
+        self._loop_stats = self.stats.snapshot()
+
+    def run(self, stop: threading.Event) -> None:
+        """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
+        try:
+            if not self.config.fast:
+                self.stats.fifo = request_realtime()
+            self._run(stop)
+        except BaseException as exc:
+            self.error = exc
+            stop.set()
+
+    def _run(self, stop: threading.Event) -> None:
+        period, clock, fast = self.period, self.clock, self.config.fast
+        deadline = clock()
+        while not stop.is_set():
+            if not fast:
+                delay = deadline - clock()
+                if delay > 0.0:
+                    time.sleep(delay)
+            start = clock()
+            lateness = 0.0 if fast else max(0.0, start - deadline)
+            self._iterate(start)
+            end = clock()
+            deadline = start if fast else deadline + period
+            overrun = not fast and end > deadline
+            self.stats.record(lateness, end - start, overrun)
+            if overrun:
+                self._overrun_events.hit()
+                self._worst_lateness = max(self._worst_lateness, end - deadline)
+                if end - deadline > MAX_BEHIND_S:
+                    missed = math.ceil((end - deadline) / period)
+                    self.stats.skipped += missed
+                    deadline += missed * period
+
+    def _iterate(self, now: float) -> None:
+        self._apply_commands(now)
+        decayed = self._deadman.update(now)
+        if decayed is not None:
+            self.session.handle("velocity", _velocity_payload(decayed))
+        self.session.tick()
+        ticks = self.stats.ticks
+        if ticks % STATS_INTERVAL_TICKS == 0:
+            self._loop_stats = self.stats.snapshot()
+        if ticks % self._telemetry_every == 0:
+            telemetry = self.session.telemetry()
+            telemetry["loop"] = self._loop_stats
+            self.transport.publish_telemetry(telemetry)
+            self._publish_events(now)
+        if ticks % self._state_every == self._state_every // 2:
+            self.transport.publish_state(self.session.drawing_state())
+
+    def _apply_commands(self, now: float) -> None:
+        velocity: list[Request] = []
+        for _ in range(self.config.max_commands_per_tick):
+            request = self.transport.receive()
+            if request is None:
+                break
+            if request.verb == "velocity" and request.error is None:
+                velocity.append(request)
+            else:
+                self._apply(request, now)
+        if velocity:  # latest value: only the newest valid velocity command is applied
+            valid = []
+            for request in velocity:
+                try:
+                    valid.append((request, parse_command("velocity", request.payload)))
+                except CommandError as exc:
+                    self._answer(request, {"ok": False, "error": str(exc)})
+            for request, _ in valid[:-1]:
+                self._answer(request, {"ok": True, "superseded": True})
+            if valid:
+                self._apply(valid[-1][0], now, valid[-1][1])
+
+    def _apply(self, request: Request, now: float, velocity: VelocityCommand | None = None) -> None:
+        if request.error is not None:
+            self._answer(request, {"ok": False, "error": request.error})
+            return
+        reply = self.session.handle(request.verb, request.payload)
+        if reply.get("ok"):
+            if velocity is not None:
+                self._deadman.refresh(velocity, now)
+            elif request.verb == "info":
+                reply = {**reply, "limits": LIMITS, "loop": self.stats.snapshot()}
+            elif request.verb in ("robot", "scene"):
+                self._deadman.refresh(VelocityCommand(), now)
+                self.transport.publish_event(
+                    {
+                        "type": "session_rebuilt",
+                        "t": self._sim_time(),
+                        "message": f"{request.verb} switched to {request.payload!r}"[:200],
+                    }
+                )
+            elif request.verb == "reset":
+                self._deadman.refresh(VelocityCommand(), now)
+        self._answer(request, reply)
+
+    def _answer(self, request: Request, reply: dict[str, object]) -> None:
+        if not reply.get("ok"):
+            self._rejected_events.hit()
+            self._last_rejection = (request.verb[:64], str(reply.get("error", ""))[:300])
+        self.transport.reply(request, reply)
+
+    def _publish_events(self, now: float) -> None:
+        for event in self.session.pop_events():
+            self.transport.publish_event(event)
+        overruns = self._overrun_events.take(now)
+        if overruns:
+            worst = self._worst_lateness * 1e6
+            self._worst_lateness = 0.0
+            self.transport.publish_event(
+                {
+                    "type": "overrun",
+                    "t": self._sim_time(),
+                    "message": f"{overruns} tick(s) overran the {self.period * 1e3:g} ms period",
+                    "count": overruns,
+                    "total": self.stats.overruns,
+                    "max_lateness_us": round(worst, 1),
+                }
+            )
+        rejected = self._rejected_events.take(now)
+        if rejected:
+            verb, error = self._last_rejection
+            self.transport.publish_event(
+                {
+                    "type": "rejected_command",
+                    "t": self._sim_time(),
+                    "message": f"{rejected} command(s) rejected; last: {error}",
+                    "verb": verb,
+                    "error": error,
+                    "count": rejected,
+                }
+            )
+
+    def _sim_time(self) -> float:
+        return float(self.session.telemetry().get("t", 0.0))
+
+
+def _velocity_payload(command: VelocityCommand) -> dict[str, float]:
+    return {"vx": command.vx, "vy": command.vy, "yaw_rate": command.yaw_rate}

@@ -1,0 +1,152 @@
+"""`lab teleop`: drive the lab server from a terminal.
+
+Keys (velocity in the robot's heading frame, pushes along world axes on the base link):
+  w / s  forward / back        a / d  strafe left / right      q / e  turn left / right
+  space  stop                  i / k  push +x / -x             j / l  push +y / -y
+  r      reset                 p      pause / resume           x      quit (also Ctrl-C, EOF)
+Velocity is resent every 0.1 s while non-zero (the server's deadman stops the robot 0.5 s after
+the last one). Each reply is printed; a status line shows the latest telemetry.
+"""
+
+import argparse
+import math
+import os
+import select
+import sys
+import termios
+import time
+import tty
+from dataclasses import dataclass, replace
+
+from lab.client import LabClient
+from lab.server.commands import VX_MAX, VY_MAX, YAW_RATE_MAX
+from lab.server.transport import DEFAULT_ENDPOINT
+
+VX_STEP = 0.1  # m/s per key press
+VY_STEP = 0.1  # m/s
+YAW_STEP = 0.2  # rad/s
+PUSH_DURATION_S = 0.2
+REFRESH_S = 0.1  # resend a non-zero velocity this often
+PUSH_DIRECTIONS = {"i": (1.0, 0.0), "k": (-1.0, 0.0), "j": (0.0, 1.0), "l": (0.0, -1.0)}
+QUIT_KEYS = ("x", "\x03", "\x04")
+
+
+@dataclass(frozen=True)
+class TeleopState:
+    vx: float = 0.0
+    vy: float = 0.0
+    yaw_rate: float = 0.0
+    paused: bool = False
+
+    def velocity(self) -> dict[str, float]:
+        return {"vx": self.vx, "vy": self.vy, "yaw_rate": self.yaw_rate}
+
+
+def _step(value: float, step: float, limit: float) -> float:
+    return round(min(limit, max(-limit, value + step)), 6)
+
+
+def key_to_commands(
+    key: str, state: TeleopState, body: str, push_force: float
+) -> tuple[TeleopState, list[tuple[str, dict[str, object]]]]:
+    """The new state and the commands (verb, payload) one key press sends; unknown keys send
+    nothing."""
+    velocity_keys = {
+        "w": ("vx", VX_STEP, VX_MAX),
+        "s": ("vx", -VX_STEP, VX_MAX),
+        "a": ("vy", VY_STEP, VY_MAX),
+        "d": ("vy", -VY_STEP, VY_MAX),
+        "q": ("yaw_rate", YAW_STEP, YAW_RATE_MAX),
+        "e": ("yaw_rate", -YAW_STEP, YAW_RATE_MAX),
+    }
+    if key in velocity_keys:
+        field, step, limit = velocity_keys[key]
+        state = replace(state, **{field: _step(getattr(state, field), step, limit)})
+        return state, [("velocity", state.velocity())]
+    if key == " ":
+        state = replace(state, vx=0.0, vy=0.0, yaw_rate=0.0)
+        return state, [("velocity", state.velocity())]
+    if key in PUSH_DIRECTIONS:
+        dx, dy = PUSH_DIRECTIONS[key]
+        force = [dx * push_force, dy * push_force, 0.0]
+        return state, [("push", {"body": body, "force": force, "duration": PUSH_DURATION_S})]
+    if key == "r":
+        return TeleopState(paused=state.paused), [("reset", {})]
+    if key == "p":
+        return replace(state, paused=not state.paused), [
+            ("resume" if state.paused else "pause", {})
+        ]
+    return state, []
+
+
+def status_line(telemetry: dict | None, state: TeleopState) -> str:
+    """One line: sim time, base height and world velocity, command, QP and loop health."""
+    cmd = f"cmd vx {state.vx:+.1f} vy {state.vy:+.1f} wz {state.yaw_rate:+.1f}"
+    if telemetry is None:
+        return f"(no telemetry yet) {cmd}"
+    base = telemetry["base"]
+    v = base["linear_velocity"]
+    on_time = telemetry.get("loop", {}).get("on_time_fraction", math.nan)
+    flags = " PAUSED" if telemetry["paused"] else ""
+    flags += " FELL" if telemetry["fell"] else ""
+    return (
+        f"t {telemetry['t']:7.2f}s {telemetry['robot']} z {base['position'][2]:.3f}m "
+        f"v [{v[0]:+.2f} {v[1]:+.2f}] {cmd} | qp {telemetry['qp']['status']} "
+        f"{telemetry['qp']['solve_us']:.0f}us | on-time {on_time:.4f}"
+        f"{flags}"
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="lab teleop", description=__doc__, formatter_class=argparse.RawTextHelpFormatter
+    )
+    p.add_argument("--connect", default=DEFAULT_ENDPOINT, help="Zenoh endpoint of the server")
+    p.add_argument("--push-force", type=float, default=150.0, help="N (default: 150)")
+    p.add_argument("--body", help="link to push (default: the first of info's bodies)")
+    return p
+
+
+def teleop_main(argv: list[str]) -> int:
+    args = build_parser().parse_args(argv)
+    with LabClient(args.connect) as lab:
+        info = lab.command("info")
+        if not info.get("ok"):
+            print(f"lab teleop: info failed: {info.get('error')}", file=sys.stderr)
+            return 1
+        body = args.body or info["bodies"][0]
+        print(__doc__.split("\n\n")[1])
+        state = TeleopState(paused=bool(info.get("paused", False)))
+        fd = sys.stdin.fileno()
+        saved = termios.tcgetattr(fd) if sys.stdin.isatty() else None
+        if saved is not None:
+            tty.setcbreak(fd)
+        try:
+            _run(lab, state, body, args.push_force, fd)
+        finally:
+            if saved is not None:
+                termios.tcsetattr(fd, termios.TCSADRAIN, saved)
+            print()
+    return 0
+
+
+def _run(lab: LabClient, state: TeleopState, body: str, push_force: float, fd: int) -> None:
+    last_sent = time.monotonic()
+    while True:
+        ready, _, _ = select.select([fd], [], [], REFRESH_S)
+        if ready:
+            data = os.read(fd, 1).decode(errors="replace")
+            if not data or data in QUIT_KEYS:
+                return
+            state, commands = key_to_commands(data, state, body, push_force)
+            for verb, payload in commands:
+                reply = lab.command(verb, **payload)
+                print(f"\r\x1b[K{verb} {payload} -> {reply}")
+                last_sent = time.monotonic()
+        if (
+            state.velocity() != TeleopState().velocity()
+            and time.monotonic() - last_sent > REFRESH_S
+        ):
+            lab.command("velocity", **state.velocity())
+            last_sent = time.monotonic()
+        print(f"\r\x1b[K{status_line(lab.latest_telemetry(), state)}", end="", flush=True)

@@ -1,0 +1,72 @@
+"""The teleop key map: which commands each key sends, and that they are valid commands."""
+
+import pytest
+
+from lab.server.commands import VX_MAX, parse_command
+from lab.teleop import PUSH_DURATION_S, TeleopState, key_to_commands, status_line
+
+
+def press(keys: str, state: TeleopState | None = None) -> tuple[TeleopState, list]:
+    state = state or TeleopState()
+    sent = []
+    for key in keys:
+        state, commands = key_to_commands(key, state, body="base", push_force=150.0)
+        sent.extend(commands)
+    return state, sent
+
+
+def test_velocity_keys_step_and_clamp() -> None:
+    state, sent = press("ww")
+    assert state.vx == pytest.approx(0.2)
+    assert sent[-1] == ("velocity", {"vx": 0.2, "vy": 0.0, "yaw_rate": 0.0})
+    state, _ = press("w" * 100)
+    assert state.vx == VX_MAX
+    state, _ = press("aqq")
+    assert (state.vy, state.yaw_rate) == (pytest.approx(0.1), pytest.approx(0.4))
+    state, _ = press("sdde", state)
+    assert (state.vx, state.vy, state.yaw_rate) == (pytest.approx(-0.1), pytest.approx(-0.1), 0.2)
+    state, sent = press(" ", state)
+    assert state.velocity() == {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
+    assert sent == [("velocity", state.velocity())]
+
+
+def test_push_keys_push_the_body_along_world_axes() -> None:
+    _, sent = press("ikjl")
+    forces = [payload["force"] for verb, payload in sent if verb == "push"]
+    assert forces == [[150.0, 0, 0], [-150.0, 0, 0], [0, 150.0, 0], [0, -150.0, 0]]
+    assert all(p["body"] == "base" and p["duration"] == PUSH_DURATION_S for _, p in sent)
+
+
+def test_pause_toggles_and_reset_clears_velocity() -> None:
+    state, sent = press("wpp")
+    assert [verb for verb, _ in sent] == ["velocity", "pause", "resume"]
+    state, sent = press("p", state)
+    assert state.paused
+    state, sent = press("r", state)
+    assert sent == [("reset", {})]
+    assert state == TeleopState(paused=True)
+
+
+def test_every_key_sends_valid_commands_and_others_send_nothing() -> None:
+    for key in "wsadqe ikjlrp":
+        _, sent = press(key)
+        assert sent
+        for verb, payload in sent:
+            parse_command(verb, payload)  # raises if the teleop sent something invalid
+    assert press("zZ1\x1b")[1] == []
+
+
+def test_status_line_without_and_with_telemetry() -> None:
+    assert "no telemetry" in status_line(None, TeleopState())
+    telemetry = {
+        "t": 1.5,
+        "robot": "anymal",
+        "paused": False,
+        "fell": True,
+        "base": {"position": [0, 0, 0.45], "linear_velocity": [0.3, -0.1, 0]},
+        "qp": {"status": "ok", "solve_us": 120.0},
+        "loop": {"on_time_fraction": 0.9995},
+    }
+    line = status_line(telemetry, TeleopState(vx=0.3))
+    assert "z 0.450m" in line and "v [+0.30 -0.10]" in line and "FELL" in line
+    assert "0.9995" in line
