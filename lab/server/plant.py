@@ -1,0 +1,408 @@
+"""The MuJoCo world of one robot, spoken to in pinocchio conventions.
+
+`MujocoPlant` loads the robot's URDF into an `MjSpec` (the same file pinocchio reads), welds the
+locked joints at their reference angle, adds a free joint, one torque motor per actuated joint and
+the scene, and is the only place that converts between the engines:
+
+- q = [base position (world), quaternion (x, y, z, w), joints in pinocchio order]
+  vs MuJoCo qpos = [position, quaternion (w, x, y, z), joints in MuJoCo order];
+- v = [base linear velocity (base frame), angular velocity (base frame), joint velocities]
+  vs MuJoCo qvel = [linear velocity (world frame), angular velocity (body frame), joints];
+- joints are matched by name (ANYmal's order differs between the engines).
+
+Physics choices (documented in the report of issue 2):
+- URDF joint damping, friction and armature are zeroed, and inertias are taken from the URDF only
+  (never from geoms), so MuJoCo's rigid-body dynamics equal pinocchio's.
+- Static (fixed-joint) bodies are fused into their parent, which also merges dummy inertia links
+  such as ANYmal's massless `base` + `base_inertia` into one valid body.
+- Visual geometry is dropped (the browser draws meshes itself). Collision geometry is kept for fall
+  detection: primitives as they are, STL meshes by file, Collada meshes (HyQ) converted with
+  trimesh. The collision geometry of each foot link is replaced by the contact shape: a sphere of
+  the contact radius centred on the contact frame, or a box whose bottom face is the sole
+  rectangle. Self-collision is off (robot geoms only collide with terrain), so overlapping URDF
+  boxes (ANYmal's base and thighs) never fight.
+- Timestep 1 ms, `implicitfast` integrator (semi-implicit Euler for the rigid body here, since no
+  joint damping is modelled, and it stays stable if damping or velocity-dependent actuators are
+  added), Newton solver with elliptic friction cones (the physical cone; the controller uses an
+  inner pyramid of it), default soft-contact parameters: stable standing under torque control with
+  millimetre penetration.
+"""
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+import trimesh
+
+from lab.description import Robot
+from lab.scenes import add_scene
+from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE
+
+SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
+
+
+def _resolve(filename: str, urdf_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
+    if filename.startswith("package://"):
+        relative = filename.removeprefix("package://")
+        for root in package_dirs:
+            if (root / relative).is_file():
+                return root / relative
+        raise FileNotFoundError(f"mesh {filename} not found under {package_dirs}")
+    return urdf_dir / filename
+
+
+def _origin(element: ET.Element | None) -> tuple[np.ndarray, np.ndarray]:
+    """URDF <origin> as (position, MuJoCo quaternion w, x, y, z)."""
+    xyz = np.zeros(3)
+    rpy = np.zeros(3)
+    if element is not None:
+        xyz = np.array([float(x) for x in element.get("xyz", "0 0 0").split()])
+        rpy = np.array([float(x) for x in element.get("rpy", "0 0 0").split()])
+    x, y, z, w = pin.Quaternion(pin.rpy.rpyToMatrix(rpy)).coeffs()
+    return xyz, np.array([w, x, y, z])
+
+
+def _strip_geometry(urdf: ET.Element) -> dict[str, list[ET.Element]]:
+    """Remove visual and collision elements; return the collision elements by link name."""
+    collisions: dict[str, list[ET.Element]] = {}
+    for link in urdf.findall("link"):
+        for visual in link.findall("visual"):
+            link.remove(visual)
+        collisions[link.get("name")] = link.findall("collision")
+        for collision in collisions[link.get("name")]:
+            link.remove(collision)
+    return collisions
+
+
+def _add_collision(
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    collision: ET.Element,
+    urdf_dir: Path,
+    package_dirs: tuple[Path, ...],
+) -> None:
+    pos, quat = _origin(collision.find("origin"))
+    shape = collision.find("geometry")[0]
+    geom = body.add_geom(pos=pos, quat=quat)
+    if shape.tag == "box":
+        geom.type = mujoco.mjtGeom.mjGEOM_BOX
+        geom.size = [0.5 * float(s) for s in shape.get("size").split()]
+    elif shape.tag == "cylinder":
+        geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+        geom.size = [float(shape.get("radius")), 0.5 * float(shape.get("length")), 0.0]
+    elif shape.tag == "sphere":
+        geom.type = mujoco.mjtGeom.mjGEOM_SPHERE
+        geom.size = [float(shape.get("radius")), 0.0, 0.0]
+    elif shape.tag == "mesh":
+        path = _resolve(shape.get("filename"), urdf_dir, package_dirs)
+        scale = [float(s) for s in shape.get("scale", "1 1 1").split()]
+        name = f"{path.stem}_{len(spec.meshes)}"
+        if path.suffix.lower() == ".stl":
+            spec.add_mesh(name=name, file=str(path), scale=scale)
+        else:  # Collada (HyQ) and others MuJoCo cannot decode: convert with trimesh
+            mesh = trimesh.load(path, force="mesh")
+            spec.add_mesh(
+                name=name,
+                uservert=(np.asarray(mesh.vertices) * scale).ravel().tolist(),
+                userface=np.asarray(mesh.faces).ravel().tolist(),
+            )
+        geom.type = mujoco.mjtGeom.mjGEOM_MESH
+        geom.meshname = name
+    else:
+        raise ValueError(f"unsupported URDF collision geometry <{shape.tag}>")
+
+
+def _weld(spec: mujoco.MjSpec, joint: mujoco.MjsJoint, angle: float) -> None:
+    """Turn `joint` (a hinge) into a weld at `angle`: rotate its body and delete the joint."""
+    body = joint.parent
+    turn = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(turn, np.asarray(joint.axis, dtype=float), angle)
+    if np.linalg.norm(joint.pos) > 0.0:
+        raise ValueError(f"cannot weld joint {joint.name!r}: its axis is off the body origin")
+    quat = np.zeros(4)
+    mujoco.mju_mulQuat(quat, np.asarray(body.quat, dtype=float), turn)
+    body.quat = quat
+    spec.delete(joint)
+
+
+def _placement(body: mujoco.MjsBody) -> pin.SE3:
+    """Pose of `body` in its parent body."""
+    w, x, y, z = body.quat
+    return pin.SE3(pin.Quaternion(w, x, y, z).normalized().matrix(), np.asarray(body.pos, float))
+
+
+def _inertia(body: mujoco.MjsBody) -> pin.Inertia:
+    """Spatial inertia of `body` alone, in its frame (URDF data as parsed by MuJoCo)."""
+    if np.isnan(body.ipos[0]):  # no <inertial>
+        return pin.Inertia.Zero()
+    if np.isnan(body.fullinertia[0]):  # principal moments in the `iquat` frame
+        about_com = np.diag(body.inertia)
+    else:
+        xx, yy, zz, xy, xz, yz = body.fullinertia
+        about_com = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    w, x, y, z = body.iquat
+    rotation = pin.Quaternion(w, x, y, z).normalized().matrix()
+    rotated = rotation @ about_com @ rotation.T
+    return pin.Inertia(body.mass, np.asarray(body.ipos, float), 0.5 * (rotated + rotated.T))
+
+
+def _fold_static_inertias(spec: mujoco.MjSpec) -> None:
+    """Move the inertia of every jointless body into its nearest moving ancestor.
+
+    This is how pinocchio builds its bodies from fixed URDF links; done before compiling, it also
+    removes the degenerate inertias MuJoCo rejects on fixed links (ANYmal's cameras, Talos' wrist
+    sensors, HyQ's massless base link) without changing total mass or centre of mass.
+    """
+    totals: dict[str, tuple[mujoco.MjsBody, pin.Inertia]] = {}
+    for body in spec.bodies:
+        if body.name == "world":
+            continue
+        anchor, placement = body, pin.SE3.Identity()
+        while not anchor.joints:
+            placement = _placement(anchor) * placement
+            anchor = anchor.parent
+        moving, total = totals.get(anchor.name, (anchor, pin.Inertia.Zero()))
+        totals[anchor.name] = (moving, total + placement.act(_inertia(body)))
+        if body is not anchor:
+            body.mass = 0.0
+            body.fullinertia = [np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]  # unset: no inertial
+            body.explicitinertial = False
+    for body, total in totals.values():
+        inertia = total.inertia
+        body.mass = total.mass
+        body.ipos = total.lever
+        body.iquat = [1.0, 0.0, 0.0, 0.0]
+        body.fullinertia = [*np.diag(inertia), inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+
+
+def build_spec(robot: Robot, scene: str, timestep: float) -> mujoco.MjSpec:
+    """The MuJoCo world: robot from its URDF (see module docstring), motors and scene."""
+    desc = robot.description
+    urdf = ET.parse(desc.urdf_path).getroot()
+    collisions = _strip_geometry(urdf)
+    spec = mujoco.MjSpec.from_string(ET.tostring(urdf, encoding="unicode"))
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.balanceinertia = False
+    spec.compiler.fusestatic = True
+    spec.compiler.discardvisual = True
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+
+    for name, angle in robot.locked_positions.items():
+        _weld(spec, spec.joint(name), angle)
+    for joint in spec.joints:
+        joint.damping = [0.0, 0.0, 0.0]
+        joint.frictionloss = 0.0
+        joint.armature = 0.0
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    root = spec.worldbody.first_body()
+    root.add_freejoint(name="root_joint")
+    _fold_static_inertias(spec)
+
+    foot_links = set(robot.foot_links)
+    for link, elements in collisions.items():
+        if link in foot_links:
+            continue
+        for collision in elements:
+            _add_collision(
+                spec, spec.body(link), collision, desc.urdf_path.parent, desc.package_dirs
+            )
+    for contact, link, offset in zip(
+        robot.contacts, robot.foot_links, robot.foot_offsets, strict=True
+    ):
+        body = spec.body(link)
+        body.add_site(name=contact.name, pos=offset)
+        if contact.kind == "point":
+            body.add_geom(
+                name=contact.name,
+                type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                size=[contact.radius, 0, 0],
+                pos=offset,
+            )
+        else:
+            body.add_geom(
+                name=contact.name,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                size=[contact.half_length, contact.half_width, SOLE_HALF_THICKNESS],
+                pos=[offset[0], offset[1], offset[2] + SOLE_HALF_THICKNESS],
+            )
+    for geom in spec.geoms:
+        geom.contype = ROBOT_CONTYPE
+        geom.conaffinity = ROBOT_CONAFFINITY
+
+    for name, limit in zip(robot.joint_names, robot.torque_limits, strict=True):
+        spec.add_actuator(
+            name=name,
+            target=name,
+            trntype=mujoco.mjtTrn.mjTRN_JOINT,
+            ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            ctrlrange=[-limit, limit],
+        )
+    add_scene(spec, scene, desc.friction)
+    return spec
+
+
+class MujocoPlant:
+    """One robot in one MuJoCo scene; every argument and result in pinocchio conventions."""
+
+    def __init__(self, robot: Robot, scene: str = "flat", timestep: float = 1e-3) -> None:
+        self.robot = robot
+        self.mj_model = build_spec(robot, scene, timestep).compile()
+        self.mj_data = mujoco.MjData(self.mj_model)
+        m = self.mj_model
+        self.nq, self.nv = robot.model.nq, robot.model.nv
+        joints = [m.joint(name) for name in robot.joint_names]
+        if any(j.type[0] != mujoco.mjtJoint.mjJNT_HINGE for j in joints):
+            raise ValueError(f"robot {robot.description.name!r}: only hinge joints are supported")
+        self._qpos_index = np.array([j.qposadr[0] for j in joints])
+        self._dof_index = np.array([j.dofadr[0] for j in joints])
+        self.base_body_id = m.joint("root_joint").bodyid[0]
+        self.contact_site_ids = np.array([m.site(c.name).id for c in robot.contacts])
+        self.foot_geom_ids = np.array([m.geom(c.name).id for c in robot.contacts])
+        self._foot_of_geom = np.full(m.ngeom, -1)
+        self._foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
+        self._terrain = m.geom_bodyid == 0
+        self._body_of_link = self._pushable_bodies()
+        self.body_names = tuple(sorted(self._body_of_link))
+        self._rotation = np.zeros(9)
+        self._wrench = np.zeros(6)
+        self._forces = np.zeros((len(robot.contacts), 3))
+        self._point_pushes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.reset(robot.q_standing)
+
+    def _pushable_bodies(self) -> dict[str, int]:
+        """URDF link name -> MuJoCo body that carries it (links on fixed joints are fused)."""
+        model = self.robot.model
+        bodies = {}
+        for frame in model.frames:
+            if frame.type == pin.FrameType.BODY:
+                joint = model.names[frame.parentJoint]
+                bodies[frame.name] = self.mj_model.joint(joint).bodyid[0]
+        return bodies
+
+    @property
+    def time(self) -> float:
+        return float(self.mj_data.time)
+
+    def reset(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
+        """Put the robot at (q, v) (v = 0 if omitted), time 0, no torque, no push."""
+        q = np.asarray(q, dtype=float)
+        v = np.zeros(self.nv) if v is None else np.asarray(v, dtype=float)
+        if q.shape != (self.nq,) or v.shape != (self.nv,):
+            raise ValueError(f"reset needs q of shape ({self.nq},) and v of shape ({self.nv},)")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+            raise ValueError("reset: q and v must be finite")
+        if abs(np.linalg.norm(q[3:7]) - 1.0) > 1e-6:
+            raise ValueError("reset: the base quaternion q[3:7] must have unit norm")
+        d = self.mj_data
+        mujoco.mj_resetData(self.mj_model, d)
+        d.qpos[:3] = q[:3]
+        d.qpos[3] = q[6]
+        d.qpos[4:7] = q[3:6]
+        d.qpos[self._qpos_index] = q[7:]
+        mujoco.mju_quat2Mat(self._rotation, d.qpos[3:7])
+        d.qvel[:3] = self._rotation.reshape(3, 3) @ v[:3]
+        d.qvel[3:6] = v[3:6]
+        d.qvel[self._dof_index] = v[6:]
+        self._point_pushes.clear()
+        mujoco.mj_forward(self.mj_model, d)
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) in pinocchio conventions (new arrays)."""
+        qpos, qvel = self.mj_data.qpos, self.mj_data.qvel
+        q = np.empty(self.nq)
+        v = np.empty(self.nv)
+        q[:3] = qpos[:3]
+        q[3:6] = qpos[4:7]
+        q[6] = qpos[3]
+        q[7:] = qpos[self._qpos_index]
+        mujoco.mju_quat2Mat(self._rotation, qpos[3:7])
+        v[:3] = self._rotation.reshape(3, 3).T @ qvel[:3]
+        v[3:6] = qvel[3:6]
+        v[6:] = qvel[self._dof_index]
+        return q, v
+
+    def velocity_map(self, q: np.ndarray) -> np.ndarray:
+        """T with MuJoCo qvel = T v (pinocchio v) at configuration q; M_pin = Tᵀ M_mj T."""
+        x, y, z, w = q[3:7]
+        rotation = np.zeros(9)
+        mujoco.mju_quat2Mat(rotation, np.array([w, x, y, z]))
+        t = np.zeros((self.nv, self.nv))
+        t[:3, :3] = rotation.reshape(3, 3)
+        t[3:6, 3:6] = np.eye(3)
+        t[self._dof_index, np.arange(6, self.nv)] = 1.0
+        return t
+
+    def set_torques(self, tau: np.ndarray) -> None:
+        """Joint torques (N m) in pinocchio joint order; MuJoCo clips them to the torque limits."""
+        self.mj_data.ctrl[:] = tau  # actuators were added in pinocchio joint order
+
+    def step(self) -> None:
+        if self._point_pushes:
+            d = self.mj_data
+            for body, (force, local) in self._point_pushes.items():
+                point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
+                d.xfrc_applied[body, 3:] = np.cross(point - d.xipos[body], force)
+        mujoco.mj_step(self.mj_model, self.mj_data)
+
+    def push(
+        self, body: str, force_world: np.ndarray, point_world: np.ndarray | None = None
+    ) -> None:
+        """Apply `force_world` (N, world frame) to URDF link `body` until `clear_push`.
+
+        Without `point_world` the force acts at the centre of mass of the moving body that carries
+        the link; with it, at that point (fixed to the body from now on), i.e. force plus the torque
+        of its lever arm about that centre of mass.
+        """
+        if body not in self._body_of_link:
+            raise KeyError(f"unknown body {body!r}; known bodies: {', '.join(self.body_names)}")
+        force = np.asarray(force_world, dtype=float)
+        if force.shape != (3,) or not np.all(np.isfinite(force)):
+            raise ValueError("push: force_world must be 3 finite numbers (N)")
+        if point_world is not None:
+            point = np.asarray(point_world, dtype=float)
+            if point.shape != (3,) or not np.all(np.isfinite(point)):
+                raise ValueError("push: point_world must be 3 finite numbers (m)")
+        b = self._body_of_link[body]
+        d = self.mj_data
+        d.xfrc_applied[b, :3] = force
+        d.xfrc_applied[b, 3:] = 0.0
+        self._point_pushes.pop(b, None)
+        if point_world is not None:
+            local = d.xmat[b].reshape(3, 3).T @ (point - d.xpos[b])
+            self._point_pushes[b] = (force.copy(), local)
+            d.xfrc_applied[b, 3:] = np.cross(point - d.xipos[b], force)
+
+    def clear_push(self) -> None:
+        self.mj_data.xfrc_applied[:] = 0.0
+        self._point_pushes.clear()
+
+    def _ground_contacts(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per contact of the last step: (robot geom, is it against terrain)."""
+        geoms = self.mj_data.contact.geom[: self.mj_data.ncon]
+        terrain = self._terrain[geoms]
+        robot_geom = np.where(terrain[:, 0], geoms[:, 1], geoms[:, 0])
+        return robot_geom, terrain[:, 0] | terrain[:, 1]
+
+    def non_foot_ground_contact(self) -> bool:
+        """Does any robot geom other than the feet touch the terrain?"""
+        robot_geom, on_terrain = self._ground_contacts()
+        return bool(np.any(on_terrain & (self._foot_of_geom[robot_geom] < 0)))
+
+    def foot_forces(self) -> np.ndarray:
+        """Measured terrain force on each foot (n_contacts, 3), N, world frame."""
+        self._forces[:] = 0.0
+        d = self.mj_data
+        robot_geom, on_terrain = self._ground_contacts()
+        for i in np.flatnonzero(on_terrain & (self._foot_of_geom[robot_geom] >= 0)):
+            contact = d.contact[i]
+            mujoco.mj_contactForce(self.mj_model, d, i, self._wrench)
+            force = contact.frame.reshape(3, 3).T @ self._wrench[:3]
+            # the contact force acts from geom1 onto geom2 (along the normal, frame row 0)
+            sign = 1.0 if contact.geom[1] == robot_geom[i] else -1.0
+            self._forces[self._foot_of_geom[robot_geom[i]]] += sign * force
+        return self._forces.copy()
