@@ -31,6 +31,7 @@ class LabClient:
     """One Zenoh client session to the lab server; close it (or use `with`)."""
 
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT, connect_timeout: float = 5.0) -> None:
+        self.endpoint = endpoint
         self._session = _open(endpoint, connect_timeout)
         self._latest: dict[str, zenoh.Subscriber] = {
             key: self._session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
@@ -84,6 +85,10 @@ class LabClient:
     def subscribe_telemetry(self, callback: Callable[[dict], None]) -> None:
         """Call `callback(message)` for every telemetry message (on a Zenoh thread)."""
         self._subscribe(KEY_TELEMETRY, callback)
+
+    def subscribe_state(self, callback: Callable[[dict], None]) -> None:
+        """Call `callback(message)` for every `lab/state` message (on a Zenoh thread)."""
+        self._subscribe(KEY_STATE, callback)
 
     def subscribe_events(self, callback: Callable[[dict], None]) -> None:
         """Call `callback(event)` for every `lab/events` message (on a Zenoh thread)."""

@@ -1,0 +1,163 @@
+"""Benchmark of the realtime lab server (not a test; targets from issue 3):
+
+- command-to-applied latency over loopback: the round trip of a command whose reply the server
+  sends only after applying it between two ticks (target p99 <= 5 ms);
+- the loop's on-time fraction over `--duration` seconds (target >= 99.9 %) with two telemetry
+  subscribers attached and, with `--ui`, the browser UI process.
+
+    .venv/bin/python benchmarks/bench_server.py --duration 60 [--ui] [--json]
+"""
+
+import argparse
+import json
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+import numpy as np
+
+from lab.client import LabClient
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start_server(args: argparse.Namespace, port: int, log) -> subprocess.Popen:
+    cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(port), "--robot", args.robot]
+    if args.ui:
+        cmd += ["--ui-port", str(free_port())]
+    else:
+        cmd.append("--headless")
+    return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+
+
+def connect(endpoint: str, timeout: float = 60.0) -> LabClient:
+    end = time.monotonic() + timeout
+    while True:
+        try:
+            client = LabClient(endpoint, connect_timeout=0.5)
+        except Exception:
+            if time.monotonic() > end:
+                raise
+            time.sleep(0.2)
+            continue
+        if client.command("info", timeout=1.0).get("ok"):
+            return client
+        client.close()
+
+
+def measure(endpoint: str, duration: float, command_hz: float) -> dict[str, object]:
+    counts = [0, 0]
+    lock = threading.Lock()
+    subscribers = [LabClient(endpoint) for _ in counts]
+
+    def counter(i: int):
+        def count(_message: dict) -> None:
+            with lock:
+                counts[i] += 1
+
+        return count
+
+    for i, sub in enumerate(subscribers):
+        sub.subscribe_telemetry(counter(i))
+    client = connect(endpoint)
+    try:
+        client.wait_telemetry(timeout=5.0)
+        time.sleep(1.0)  # settle after start-up
+        first = client.wait_telemetry()["loop"]
+        with lock:
+            counts_first = list(counts)
+        latencies = []
+        failures = 0
+        end = time.monotonic() + duration
+        next_send = time.monotonic()
+        i = 0
+        while time.monotonic() < end:
+            time.sleep(max(0.0, next_send - time.monotonic()))
+            next_send += 1.0 / command_hz
+            t0 = time.perf_counter()
+            reply = client.command("velocity", vx=0.1 * (i % 2), timeout=1.0)
+            latencies.append(time.perf_counter() - t0)
+            failures += not reply.get("ok")
+            i += 1
+        last = client.wait_telemetry()["loop"]
+        with lock:
+            received = [c - c0 for c, c0 in zip(counts, counts_first, strict=True)]
+        elapsed = time.monotonic() - end + duration
+    finally:
+        client.close()
+        for sub in subscribers:
+            sub.close()
+    ticks = last["ticks"] - first["ticks"]
+    on_time = last["on_time_fraction"] * last["ticks"] - first["on_time_fraction"] * first["ticks"]
+    lat_ms = np.array(latencies) * 1e3
+    return {
+        "duration_s": duration,
+        "commands": len(latencies),
+        "command_failures": failures,
+        "latency_ms": {
+            "p50": round(float(np.percentile(lat_ms, 50)), 3),
+            "p99": round(float(np.percentile(lat_ms, 99)), 3),
+            "max": round(float(lat_ms.max()), 3),
+        },
+        "ticks": ticks,
+        "tick_rate_hz": round(ticks / elapsed, 1),
+        "on_time_fraction": round(on_time / ticks, 6),
+        "overruns": last["overruns"] - first["overruns"],
+        "fifo": last["fifo"],
+        "since_start": {"lateness_us": last["lateness_us"], "tick_us": last["tick_us"]},
+        "telemetry_hz_per_subscriber": [round(c / elapsed, 1) for c in received],
+    }
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p.add_argument("--duration", type=float, default=60.0, help="s (default: 60)")
+    p.add_argument("--robot", default="anymal")
+    p.add_argument("--command-hz", type=float, default=50.0, help="commands per second")
+    p.add_argument("--ui", action="store_true", help="also run the browser UI process")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    args = p.parse_args()
+    port = free_port()
+    with tempfile.TemporaryFile() as log:
+        server = start_server(args, port, log)
+        try:
+            result = measure(f"tcp/127.0.0.1:{port}", args.duration, args.command_hz)
+        finally:
+            server.send_signal(signal.SIGINT)
+            server.wait(10)
+        result["robot"] = args.robot
+        result["ui"] = args.ui
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    lat = result["latency_ms"]
+    print(
+        f"robot {args.robot}, {args.duration:g} s, UI {'on' if args.ui else 'off'}, 2 subscribers"
+    )
+    print(
+        f"command-to-applied latency: p50 {lat['p50']:.2f} ms, p99 {lat['p99']:.2f} ms, "
+        f"max {lat['max']:.2f} ms over {result['commands']} commands "
+        f"({result['command_failures']} failed)"
+    )
+    since = result["since_start"]
+    print(
+        f"loop: {result['tick_rate_hz']} ticks/s, on-time {result['on_time_fraction']:.4%}, "
+        f"overruns {result['overruns']}, SCHED_FIFO {result['fifo']}; since start: lateness "
+        f"p50 {since['lateness_us']['p50']} us p99 {since['lateness_us']['p99']} us "
+        f"max {since['lateness_us']['max']} us, tick p50 {since['tick_us']['p50']} us "
+        f"p99 {since['tick_us']['p99']} us"
+    )
+    print(f"telemetry per subscriber: {result['telemetry_hz_per_subscriber']} Hz")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
