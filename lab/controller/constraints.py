@@ -1,0 +1,141 @@
+"""Constraints: inequality rows `C x ≤ d` over x = [q̈, F].
+
+In a strict stack a constraint sits at a level like a task; the cascade gives it a slack there and
+keeps the slack it reached for every level below (Herzog eqs. 9–11).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.references import References
+
+
+@dataclass
+class ContactLimits:
+    """Friction and normal-force bounds shared by every contact of a robot."""
+
+    friction: float = 0.8
+    normal_min: float = 0.0
+    normal_max: float = 5000.0
+
+
+def _rows(n: int, robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    return np.zeros((n, robot.nx)), np.zeros(n)
+
+
+class Constraint:
+    """Base class: a named producer of inequality rows."""
+
+    name: str = ""
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+
+class FrictionConstraint(Constraint):
+    """Inner friction pyramid and normal-force bounds per contact (Raiola C_fc).
+
+    |f_t,i| ≤ (√2/2) μ f_n on each tangent axis, f_min ≤ f_n ≤ f_max. The normal is world z for a
+    point foot (flat ground) and the sole's z for a flat foot, whose wrench is in the sole frame.
+    A contact that is not active carries no force at all.
+    """
+
+    name = "friction"
+
+    def __init__(self, limits: ContactLimits) -> None:
+        self.limits = limits
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        mu = np.sqrt(0.5) * self.limits.friction
+        blocks_C, blocks_d = [], []
+        for contact, rows, active in zip(
+            robot.contacts, robot.force_slices, refs.contact_active, strict=True
+        ):
+            col = robot.nv + rows.start
+            if active:
+                C, d = _rows(6, robot)
+                for k, tangent in enumerate((0, 1)):
+                    C[2 * k, col + tangent], C[2 * k, col + 2] = 1.0, -mu
+                    C[2 * k + 1, col + tangent], C[2 * k + 1, col + 2] = -1.0, -mu
+                C[4, col + 2], d[4] = -1.0, -self.limits.normal_min
+                C[5, col + 2], d[5] = 1.0, self.limits.normal_max
+            else:
+                n = contact.force_dim
+                C, d = _rows(2 * n, robot)
+                C[:n, col : col + n] = np.eye(n)
+                C[n:, col : col + n] = -np.eye(n)
+            blocks_C.append(C)
+            blocks_d.append(d)
+        return np.vstack(blocks_C), np.concatenate(blocks_d)
+
+
+class CopConstraint(Constraint):
+    """Centre of pressure inside the sole rectangle, for flat feet (Herzog §4.1).
+
+    With the wrench (f, τ) in the sole frame at its centre, CoP = (−τ_y/f_z, τ_x/f_z), so
+    |τ_y| ≤ L f_z and |τ_x| ≤ W f_z for half-length L and half-width W.
+    """
+
+    name = "cop"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        blocks = []
+        for contact, rows, active in zip(
+            robot.contacts, robot.force_slices, refs.contact_active, strict=True
+        ):
+            if contact.kind != "flat" or not active:
+                continue
+            col = robot.nv + rows.start
+            C, _ = _rows(4, robot)
+            for k, (torque_axis, half) in enumerate(
+                ((3, contact.half_width), (4, contact.half_length))
+            ):
+                C[2 * k, col + torque_axis], C[2 * k, col + 2] = 1.0, -half
+                C[2 * k + 1, col + torque_axis], C[2 * k + 1, col + 2] = -1.0, -half
+            blocks.append(C)
+        if not blocks:
+            return _rows(0, robot)
+        C = np.vstack(blocks)
+        return C, np.zeros(len(C))
+
+
+class TorqueLimitConstraint(Constraint):
+    """|τ| ≤ τ_max through τ = M_a q̈ + h_a − J_aᵀ F (Herzog eqs. 14, 16)."""
+
+    name = "torque_limits"
+
+    def __init__(self, torque_limits: np.ndarray) -> None:
+        self.torque_limits = np.asarray(torque_limits, dtype=float)
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        a = slice(BASE_DOF, None)
+        T = np.hstack([robot.M[a], -robot.Jc[:, a].T])
+        h = robot.h[a]
+        return np.vstack([T, -T]), np.concatenate([self.torque_limits - h, self.torque_limits + h])
+
+
+class JointLimitConstraint(Constraint):
+    """Joint-acceleration bounds that stop each joint at its position limit.
+
+    Within the horizon T, q + q̇ T + ½ q̈ T² stays inside [q_min, q_max] (Hutter Table 6).
+    """
+
+    name = "joint_limits"
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, horizon: float = 0.05) -> None:
+        self.lower = np.asarray(lower, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+        self.horizon = horizon
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        T = self.horizon
+        q, dq = robot.q[7:], robot.v[BASE_DOF:]
+        C, _ = _rows(2 * robot.na, robot)
+        eye = np.eye(robot.na)
+        C[: robot.na, BASE_DOF : robot.nv] = eye
+        C[robot.na :, BASE_DOF : robot.nv] = -eye
+        upper = 2.0 * (self.upper - q - dq * T) / T**2
+        lower = 2.0 * (self.lower - q - dq * T) / T**2
+        return C, np.concatenate([upper, -lower])

@@ -1,0 +1,162 @@
+"""WholeBodyController: one tick from state (q, v) to joint torques.
+
+state → RobotModel.update → tasks and constraints become rows, level by level as the stack says
+→ hierarchy method → x = [q̈, F] → τ = M_a q̈ + h_a − J_aᵀ F (Herzog eq. 14).
+"""
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from lab.controller.constraints import (
+    Constraint,
+    ContactLimits,
+    CopConstraint,
+    FrictionConstraint,
+    JointLimitConstraint,
+    TorqueLimitConstraint,
+)
+from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.qp import SOLVERS
+from lab.controller.references import References
+from lab.controller.stack import Stack
+from lab.controller.tasks import TASK_TYPES, Task, TaskGains
+
+
+@dataclass
+class ControllerConfig:
+    """Everything that selects and tunes the controller; the session edits it live."""
+
+    stack: Stack
+    gains: dict[str, TaskGains] = field(default_factory=dict)
+    hierarchy: str = "cascade"
+    solver: str = "daqp"
+    limits: ContactLimits = field(default_factory=ContactLimits)
+    level_weight_ratio: float = 1e3  # `weighted` only: level r weighs ratio^-(r-1)
+
+
+@dataclass
+class ControlOutput:
+    tau: np.ndarray
+    qdd: np.ndarray
+    forces: np.ndarray
+
+
+class WholeBodyController:
+    def __init__(
+        self,
+        robot: RobotModel,
+        references: References,
+        config: ControllerConfig,
+        torque_limits: np.ndarray,
+    ) -> None:
+        self.robot = robot
+        self.references = references
+        self.config = config
+        self.tasks: dict[str, Task] = {
+            name: task_type(config.gains.get(name, TaskGains()))
+            for name, task_type in TASK_TYPES.items()
+        }
+        model = robot.model
+        self.constraints: dict[str, Constraint] = {
+            "friction": FrictionConstraint(config.limits),
+            "torque_limits": TorqueLimitConstraint(torque_limits),
+            "joint_limits": JointLimitConstraint(
+                model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
+            ),
+        }
+        if any(c.kind == "flat" for c in robot.contacts):
+            self.constraints["cop"] = CopConstraint()
+        self.set_stack(config.stack)
+        self.set_hierarchy(config.hierarchy, config.solver)
+
+    @property
+    def known_names(self) -> tuple[str, ...]:
+        return (*self.tasks, *self.constraints)
+
+    def set_stack(self, stack: Stack) -> None:
+        """Use a new stack from the next tick on; raises StackError and keeps the old one."""
+        stack.validate(self.known_names)
+        self.config.stack = stack
+
+    def set_gains(
+        self,
+        task: str,
+        kp: float | None = None,
+        kd: float | None = None,
+        weight: float | None = None,
+    ) -> TaskGains:
+        if task not in self.tasks:
+            raise KeyError(f"unknown task {task!r} (tasks: {', '.join(self.tasks)})")
+        gains = self.tasks[task].gains
+        gains.kp = gains.kp if kp is None else kp
+        gains.kd = gains.kd if kd is None else kd
+        gains.weight = gains.weight if weight is None else weight
+        return gains
+
+    def set_hierarchy(self, method: str, solver: str | None = None) -> None:
+        solver = solver or self.config.solver
+        if method not in METHODS:
+            raise KeyError(f"unknown hierarchy method {method!r} (methods: {', '.join(METHODS)})")
+        if solver not in SOLVERS:
+            raise KeyError(f"unknown solver {solver!r} (solvers: {', '.join(SOLVERS)})")
+        self.config.hierarchy, self.config.solver = method, solver
+
+    def build_problem(self) -> HierarchyProblem:
+        """Rows of the current stack at the state of the last RobotModel.update."""
+        robot, refs = self.robot, self.references
+        base = slice(0, BASE_DOF)
+        # Newton–Euler rows (Herzog eq. 13): M_u q̈ − J_uᵀ F = −h_u.
+        dynamics_A = np.hstack([robot.M[base], -robot.Jc[:, base].T])
+        levels = []
+        for depth, names in enumerate(self.config.stack.levels):
+            A_rows, b_rows, C_rows, d_rows = [], [], [], []
+            for name in names:
+                if name in self.tasks:
+                    task = self.tasks[name]
+                    A, b = task.rows(robot, refs)
+                    scale = np.sqrt(task.gains.weight)
+                    A_rows.append(scale * A)
+                    b_rows.append(scale * b)
+                else:
+                    C, d = self.constraints[name].rows(robot, refs)
+                    C_rows.append(C)
+                    d_rows.append(d)
+            levels.append(
+                Level(
+                    *_stacked(A_rows, b_rows, robot.nx),
+                    *_stacked(C_rows, d_rows, robot.nx),
+                    weight=self.config.level_weight_ratio**-depth,
+                )
+            )
+        return HierarchyProblem(dynamics_A, -robot.h[base], levels)
+
+    def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:
+        """Torques for state (q, v); raises QPFailure when the hierarchy has no solution."""
+        self.robot.update(q, v)
+        problem = self.build_problem()
+        x = METHODS[self.config.hierarchy](problem, self.config.solver)
+        nv = self.robot.nv
+        return ControlOutput(self.robot.joint_torques(x), x[:nv], x[nv:])
+
+    def task_errors(self) -> dict[str, float]:
+        """Norm of each task's tracking error at the last tick (tasks in the stack only)."""
+        in_stack = set(self.config.stack.names())
+        return {
+            name: float(np.linalg.norm(task.error))
+            for name, task in self.tasks.items()
+            if name in in_stack and task.error.size
+        }
+
+    def gains(self) -> Mapping[str, TaskGains]:
+        return {name: task.gains for name, task in self.tasks.items()}
+
+
+def _stacked(
+    rows: list[np.ndarray], rhs: list[np.ndarray], nx: int
+) -> tuple[np.ndarray, np.ndarray]:
+    if not rows:
+        return np.zeros((0, nx)), np.zeros(0)
+    return np.vstack(rows), np.concatenate(rhs)

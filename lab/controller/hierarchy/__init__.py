@@ -1,0 +1,18 @@
+"""Hierarchy methods: same input (HierarchyProblem), same output (x = [q̈, F])."""
+
+from collections.abc import Callable
+
+import numpy as np
+
+from lab.controller.hierarchy.cascade import solve_cascade
+from lab.controller.hierarchy.problem import HierarchyProblem, Level
+from lab.controller.hierarchy.weighted import solve_weighted
+
+HierarchyMethod = Callable[[HierarchyProblem, str], np.ndarray]
+
+METHODS: dict[str, HierarchyMethod] = {
+    "cascade": solve_cascade,
+    "weighted": solve_weighted,
+}
+
+__all__ = ["METHODS", "HierarchyMethod", "HierarchyProblem", "Level"]

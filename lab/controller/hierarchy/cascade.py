@@ -1,0 +1,77 @@
+"""Strict priorities as a cascade of QPs with null-space reduction (Herzog 2016, §2.2).
+
+Level 0 is the Newton–Euler rows, solved without a QP (§2.4). Level r then minimises its
+equality residual and the slacks of its inequalities over the optimal set of the levels above:
+
+    min_{u, v}  ‖A_r (x* + Z u) − b_r‖² + ‖v‖² + ε‖u‖²                    (eq. 10)
+    s.t.        C_r (x* + Z u) − d_r ≤ v                                   (eq. 11)
+                C_k (x* + Z u) − d_k ≤ v_k*   for every level k above      (eq. 9)
+
+where Z spans the null space of all equality rows above (eq. 8). Each level shrinks Z by the
+directions its equalities lock, and keeps its inequalities with the slack v* it reached.
+"""
+
+import numpy as np
+
+from lab.controller.hierarchy.linalg import (
+    least_squares,
+    null_space,
+    solution_and_null_space_of_leading_block,
+)
+from lab.controller.hierarchy.problem import HierarchyProblem
+from lab.controller.qp import solve_qp
+
+REGULARIZATION = 1e-9  # ε: keeps the level QP's Hessian positive definite
+FEASIBILITY_TOL = 1e-9  # an unconstrained step that violates no row by more is taken as is
+ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped from the QP
+
+
+def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
+    """The strict-priority solution x = [q̈, F]; raises QPFailure when a level has none."""
+    x, Z = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    kept_C = np.zeros((0, problem.nx))
+    kept_d = np.zeros(0)
+    last = len(problem.levels) - 1
+    for depth, level in enumerate(problem.levels):
+        if Z.shape[1] == 0:
+            break
+        Az, r = level.A @ Z, level.b - level.A @ x
+        Cz, s = level.C @ Z, level.d - level.C @ x
+        Kz, k = kept_C @ Z, kept_d - kept_C @ x
+        free = np.linalg.norm(Kz, axis=1) > ZERO_ROW_TOL
+        u = _solve_level(Az, r, Cz, s, Kz[free], k[free], solver)
+        x = x + Z @ u
+        if depth == last:
+            break
+        if len(level.d):
+            slack = np.maximum(level.C @ x - level.d, 0.0)
+            kept_C = np.vstack([kept_C, level.C])
+            kept_d = np.concatenate([kept_d, level.d + slack])
+        if len(level.b):
+            Z = Z @ null_space(Az)
+    return x
+
+
+def _solve_level(
+    Az: np.ndarray,
+    r: np.ndarray,
+    Cz: np.ndarray,
+    s: np.ndarray,
+    Kz: np.ndarray,
+    k: np.ndarray,
+    solver: str,
+) -> np.ndarray:
+    """The step u in the null space for one level (the slacks are implicit in the cost)."""
+    # Fast path: when the least-squares step violates no inequality, (u, v = 0) is optimal.
+    u = least_squares(Az, r)
+    if np.all(Cz @ u <= s + FEASIBILITY_TOL) and np.all(Kz @ u <= k + FEASIBILITY_TOL):
+        return u
+    nz, m = Az.shape[1], len(s)
+    g = Az.T @ r
+    P = np.zeros((nz + m, nz + m))
+    P[:nz, :nz] = Az.T @ Az + REGULARIZATION * np.eye(nz)
+    P[nz:, nz:] = np.eye(m)
+    q = np.concatenate([-g, np.zeros(m)])
+    G = np.block([[Cz, -np.eye(m)], [Kz, np.zeros((len(k), m))]])
+    h = np.concatenate([s, k])
+    return solve_qp(P, q, G, h, solver=solver)[:nz]

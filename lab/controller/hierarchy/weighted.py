@@ -1,0 +1,29 @@
+"""All levels in one weighted QP (Raiola 2020, stack S1).
+
+    min_x  Σ_r w_r ‖A_r x − b_r‖² + ε‖x‖²   s.t.  dynamics rows exact,  every C_r x ≤ d_r
+
+w_r is the level's weight, on top of the task weights already folded into its rows: weights
+that fall by a large ratio from one level to the next approach the strict cascade, equal weights
+treat every task by its own weight alone. Inequalities are hard here: none is traded off.
+"""
+
+import numpy as np
+
+from lab.controller.hierarchy.problem import HierarchyProblem
+from lab.controller.qp import solve_qp
+
+REGULARIZATION = 1e-9
+
+
+def solve_weighted(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
+    """The weighted solution x = [q̈, F]; raises QPFailure when the QP has none."""
+    nx = problem.nx
+    lightest = min((level.weight for level in problem.levels), default=1.0)
+    H = REGULARIZATION * lightest * np.eye(nx)
+    g = np.zeros(nx)
+    for level in problem.levels:
+        H += level.weight * level.A.T @ level.A
+        g -= level.weight * level.A.T @ level.b
+    C = np.vstack([np.zeros((0, nx))] + [level.C for level in problem.levels])
+    d = np.concatenate([np.zeros(0)] + [level.d for level in problem.levels])
+    return solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, solver=solver)

@@ -1,0 +1,117 @@
+"""RobotModel: the one place that talks to pinocchio and knows its frame conventions.
+
+One `update(q, v)` per tick runs a single pinocchio pass (`computeAllTerms`) and exposes what the
+tasks and constraints need: the joint-space inertia M, the bias forces h, the contact Jacobians
+with their drift J̇v, the CoM with its Jacobian and drift, and the centroidal momentum map.
+
+Conventions (pinocchio's, kept everywhere in the controller):
+- q = [base position in world, base quaternion (x, y, z, w), joint positions].
+- v = [base linear velocity, base angular velocity (both in the base frame), joint velocities].
+- x = [q̈, F], the decision variable of every hierarchy solver. F stacks one block per contact:
+  a point foot's force in world axes at the foot centre (3), a flat foot's wrench in the sole
+  frame at the sole centre (6).
+"""
+
+import itertools
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.contact import ContactSpec
+
+BASE_DOF = 6
+
+
+class RobotModel:
+    """Kinematics and dynamics of one floating-base robot at the current state."""
+
+    def __init__(self, model: pin.Model, contacts: Sequence[ContactSpec]) -> None:
+        self.model = model
+        self.data = model.createData()
+        self.contacts = tuple(contacts)
+        self.nq = model.nq
+        self.nv = model.nv
+        self.na = model.nv - BASE_DOF
+        self.mass = float(sum(inertia.mass for inertia in model.inertias))
+        self.gravity = np.array(model.gravity.linear)
+        self.joint_names = tuple(model.names[2:])  # drop 'universe' and the free-flyer
+        self.frame_ids = tuple(model.getFrameId(c.frame) for c in self.contacts)
+        for contact, fid in zip(self.contacts, self.frame_ids, strict=True):
+            if fid >= model.nframes:
+                raise KeyError(f"contact frame {contact.frame!r} is not in the model")
+
+        starts = np.cumsum([0] + [c.force_dim for c in self.contacts])
+        self.force_slices = tuple(slice(int(a), int(b)) for a, b in itertools.pairwise(starts))
+        self.nf = int(starts[-1])
+        self.nx = self.nv + self.nf
+
+        # Filled by update(); preallocated so that the tick does not allocate them again.
+        self.q = pin.neutral(model)
+        self.v = np.zeros(self.nv)
+        self.M = np.zeros((self.nv, self.nv))
+        self.h = np.zeros(self.nv)
+        self.Jc = np.zeros((self.nf, self.nv))
+        self.Jc_dot_v = np.zeros(self.nf)
+        self.com = np.zeros(3)
+        self.com_velocity = np.zeros(3)
+        self.Jcom = np.zeros((3, self.nv))
+        self.com_drift = np.zeros(3)
+        self.base_rotation = np.eye(3)
+        self.contact_positions = np.zeros((len(self.contacts), 3))
+        self.contact_rotations = np.zeros((len(self.contacts), 3, 3))
+
+    def update(self, q: np.ndarray, v: np.ndarray) -> None:
+        """Recompute everything at state (q, v) in one pinocchio pass."""
+        model, data = self.model, self.data
+        self.q[:] = q
+        self.v[:] = v
+        # computeAllTerms: M, nle, joint Jacobians, CoM (+Jacobian), centroidal map, and the
+        # drift accelerations (q̈ = 0) of every joint, which give J̇v below.
+        pin.computeAllTerms(model, data, q, v)
+        pin.updateFramePlacements(model, data)
+        self.M[:] = data.M
+        self.h[:] = data.nle
+        self.com[:] = data.com[0]
+        self.com_velocity[:] = data.vcom[0]
+        self.com_drift[:] = data.acom[0]
+        self.Jcom[:] = data.Jcom
+        self.base_rotation[:] = pin.Quaternion(q[3:7]).toRotationMatrix()
+        for i, (contact, fid, rows) in enumerate(
+            zip(self.contacts, self.frame_ids, self.force_slices, strict=True)
+        ):
+            placement = data.oMf[fid]
+            self.contact_positions[i] = placement.translation
+            self.contact_rotations[i] = placement.rotation
+            if contact.kind == "point":
+                frame = pin.LOCAL_WORLD_ALIGNED
+                self.Jc[rows] = pin.getFrameJacobian(model, data, fid, frame)[:3]
+                acc = pin.getFrameClassicalAcceleration(model, data, fid, frame)
+                self.Jc_dot_v[rows] = acc.linear
+            else:
+                frame = pin.LOCAL
+                self.Jc[rows] = pin.getFrameJacobian(model, data, fid, frame)
+                acc = pin.getFrameClassicalAcceleration(model, data, fid, frame)
+                self.Jc_dot_v[rows] = acc.vector
+
+    @property
+    def base_position(self) -> np.ndarray:
+        return self.q[:3]
+
+    @property
+    def base_angular_velocity_world(self) -> np.ndarray:
+        return self.base_rotation @ self.v[3:6]
+
+    @property
+    def base_linear_velocity_world(self) -> np.ndarray:
+        return self.base_rotation @ self.v[:3]
+
+    def centroidal_momentum(self) -> np.ndarray:
+        """[linear; angular] momentum about the CoM, world axes (valid after update)."""
+        return np.array(self.data.hg.vector)
+
+    def joint_torques(self, x: np.ndarray) -> np.ndarray:
+        """τ = M_a q̈ + h_a − J_aᵀ F, the actuated rows of the dynamics (Herzog eq. 14)."""
+        qdd, forces = x[: self.nv], x[self.nv :]
+        a = slice(BASE_DOF, None)
+        return self.M[a] @ qdd + self.h[a] - self.Jc[:, a].T @ forces

@@ -1,0 +1,37 @@
+"""The QP backend, through qpsolvers: DAQP for the loop, Clarabel as the reference."""
+
+import numpy as np
+import qpsolvers
+
+SOLVERS = ("daqp", "clarabel")
+
+# Clarabel is the reference for cross-checks, so it runs at tight tolerances; DAQP's defaults are
+# already exact to its 1e-6 primal tolerance (an active-set method).
+SOLVER_OPTIONS: dict[str, dict[str, float]] = {
+    "daqp": {},
+    "clarabel": {"tol_gap_abs": 1e-8, "tol_gap_rel": 1e-8, "tol_feas": 1e-8},
+}
+
+
+class QPFailure(RuntimeError):
+    """The backend found no solution (infeasible, or it gave up)."""
+
+
+def solve_qp(
+    P: np.ndarray,
+    q: np.ndarray,
+    G: np.ndarray | None = None,
+    h: np.ndarray | None = None,
+    A: np.ndarray | None = None,
+    b: np.ndarray | None = None,
+    solver: str = "daqp",
+) -> np.ndarray:
+    """min ½ xᵀPx + qᵀx  s.t.  Gx ≤ h, Ax = b; raise QPFailure when there is no solution."""
+    if G is not None and len(G) == 0:
+        G = h = None
+    if A is not None and len(A) == 0:
+        A = b = None
+    x = qpsolvers.solve_qp(P, q, G, h, A, b, solver=solver, **SOLVER_OPTIONS[solver])
+    if x is None or not np.all(np.isfinite(x)):
+        raise QPFailure(f"{solver} found no solution")
+    return x

@@ -1,0 +1,21 @@
+"""References: what the behaviour layer asks of the tasks this tick."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class References:
+    """Desired values the tasks track; the behaviour layer owns and updates them.
+
+    Everything is in world axes; `posture` holds actuated joint positions in pinocchio order.
+    """
+
+    com: np.ndarray
+    posture: np.ndarray
+    base_height: float
+    base_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    com_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    base_angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    contact_active: np.ndarray = field(default_factory=lambda: np.ones(0, dtype=bool))

@@ -1,0 +1,169 @@
+"""Tasks: equality rows `A x = b` over x = [q̈, F], each with PD gains and a weight.
+
+A motion task asks an operational-space acceleration `J q̈ + J̇v = a_des` with the PD law
+`a_des = a_ref + kp e + kd ė` (Raiola eqs. 7–9); a force task asks F directly. `error` holds the
+tracking error of the last `rows` call, for telemetry and tests.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.references import References
+
+
+@dataclass
+class TaskGains:
+    """PD gains and the weight of a task inside its level."""
+
+    kp: float = 0.0
+    kd: float = 0.0
+    weight: float = 1.0
+
+
+class Task:
+    """Base class: a named producer of equality rows."""
+
+    name: str = ""
+
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        self.gains = gains or TaskGains()
+        self.error = np.zeros(0)
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+
+class ContactTask(Task):
+    """Feet in contact do not accelerate: J_c q̈ = −J̇_c v − kd J_c v (Raiola eq. 7).
+
+    kd = 0 is the paper's task; a small kd damps the drift of a foot that slipped.
+    """
+
+    name = "contact"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        active = [s for s, on in zip(robot.force_slices, refs.contact_active, strict=True) if on]
+        if not active:
+            self.error = np.zeros(0)
+            return np.zeros((0, robot.nx)), np.zeros(0)
+        idx = np.r_[tuple(active)]
+        J = robot.Jc[idx]
+        velocity = J @ robot.v
+        A = np.zeros((len(idx), robot.nx))
+        A[:, : robot.nv] = J
+        b = -robot.Jc_dot_v[idx] - self.gains.kd * velocity
+        self.error = velocity
+        return A, b
+
+
+class BaseOrientationTask(Task):
+    """Base angular acceleration in world axes tracks ω̇ = kp log(R_ref Rᵀ) + kd (ω_ref − ω).
+
+    The free-flyer angular acceleration is in the base frame, so the rows are simply R.
+    """
+
+    name = "base_orientation"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        R = robot.base_rotation
+        e = pin.log3(refs.base_rotation @ R.T)
+        de = refs.base_angular_velocity - robot.base_angular_velocity_world
+        A = np.zeros((3, robot.nx))
+        A[:, 3:6] = R
+        self.error = e
+        return A, self.gains.kp * e + self.gains.kd * de
+
+
+class ComTask(Task):
+    """CoM acceleration J_com q̈ + J̇_com v = kp (c_ref − c) + kd (ċ_ref − ċ)."""
+
+    name = "com"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        e = refs.com - robot.com
+        de = refs.com_velocity - robot.com_velocity
+        A = np.zeros((3, robot.nx))
+        A[:, : robot.nv] = robot.Jcom
+        self.error = e
+        return A, self.gains.kp * e + self.gains.kd * de - robot.com_drift
+
+
+class BaseHeightTask(Task):
+    """Vertical base acceleration tracks the base-height reference.
+
+    World base acceleration is d/dt(R v_b) = R (v̇_b + ω_b × v_b); only its z row is used.
+    """
+
+    name = "base_height"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        R = robot.base_rotation
+        v_lin, w = robot.v[:3], robot.v[3:6]
+        e = refs.base_height - robot.base_position[2]
+        de = -(R @ v_lin)[2]
+        A = np.zeros((1, robot.nx))
+        A[0, :3] = R[2]
+        drift = (R @ np.cross(w, v_lin))[2]
+        self.error = np.array([e])
+        return A, np.array([self.gains.kp * e + self.gains.kd * de - drift])
+
+
+class PostureTask(Task):
+    """Joint accelerations q̈_j = kp (q_ref − q_j) − kd q̇_j (Raiola eq. 9)."""
+
+    name = "posture"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        e = refs.posture - robot.q[7:]
+        A = np.zeros((robot.na, robot.nx))
+        A[:, BASE_DOF : robot.nv] = np.eye(robot.na)
+        self.error = e
+        return A, self.gains.kp * e - self.gains.kd * robot.v[BASE_DOF:]
+
+
+class ForceTask(Task):
+    """Contact-force regularization: F → 0 (the minimum-force load distribution, W_F = I)."""
+
+    name = "forces"
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        A = np.zeros((robot.nf, robot.nx))
+        A[:, robot.nv :] = np.eye(robot.nf)
+        self.error = np.zeros(0)
+        return A, np.zeros(robot.nf)
+
+
+class FrameTask(Task):
+    """An SE3 frame tracks a target pose: J q̈ + J̇v = kp log6(oMf⁻¹ oM_ref) + kd (0 − ν).
+
+    Rows and error are in the frame's local coordinates.
+    """
+
+    name = "frame"
+
+    def __init__(self, frame: str, target: pin.SE3, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self.name = f"frame:{frame}"
+        self.frame = frame
+        self.target = target
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        model, data = robot.model, robot.data
+        fid = model.getFrameId(self.frame)
+        current = data.oMf[fid]
+        e = pin.log6(current.actInv(self.target)).vector
+        velocity = pin.getFrameVelocity(model, data, fid, pin.LOCAL).vector
+        drift = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL).vector
+        A = np.zeros((6, robot.nx))
+        A[:, : robot.nv] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+        self.error = e
+        return A, self.gains.kp * e - self.gains.kd * velocity - drift
+
+
+TASK_TYPES: dict[str, type[Task]] = {
+    t.name: t
+    for t in (ContactTask, BaseOrientationTask, ComTask, BaseHeightTask, PostureTask, ForceTask)
+}

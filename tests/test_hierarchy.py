@@ -1,0 +1,157 @@
+"""Hierarchy solvers on randomized problems: strict priority, dynamics, inequalities, backends."""
+
+import numpy as np
+import pytest
+
+from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.hierarchy.cascade import solve_cascade
+from lab.controller.hierarchy.weighted import solve_weighted
+
+NX = 24
+EQUALITY_TOL = 1e-8  # residuals of exact equalities and of equality-only strict priority
+SOLVER_TOL = 1e-6  # DAQP's primal tolerance: inequalities and priority with active inequalities
+BACKEND_TOL = 1e-5  # DAQP vs Clarabel (at 1e-8 gap and feasibility), relative to |x|
+SEEDS = range(12)
+
+
+def random_rows(rng: np.random.Generator, rows: int, rank: int) -> np.ndarray:
+    """Rows of the given rank with singular values in [0.5, 2], like a task Jacobian."""
+    U = np.linalg.qr(rng.standard_normal((rows, rank)))[0]
+    V = np.linalg.qr(rng.standard_normal((NX, rank)))[0]
+    return U @ np.diag(rng.uniform(0.5, 2.0, rank)) @ V.T
+
+
+def dynamics(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    A = rng.standard_normal((6, NX))
+    A[:, :6] += 5 * np.eye(6)  # like the base block of M: square and invertible
+    return A, rng.standard_normal(6)
+
+
+def empty_inequalities() -> tuple[np.ndarray, np.ndarray]:
+    return np.zeros((0, NX)), np.zeros(0)
+
+
+def equality_problem(rng: np.random.Generator, levels: int) -> HierarchyProblem:
+    # Level sizes over-determine the 18 free variables, so lower levels conflict with higher ones.
+    shapes = [(8, 8), (6, 5), (10, 10), (12, 12)][:levels]
+    return HierarchyProblem(
+        *dynamics(rng),
+        [
+            Level(random_rows(rng, m, r), rng.standard_normal(m), *empty_inequalities())
+            for m, r in shapes
+        ],
+    )
+
+
+def with_inequalities(rng: np.random.Generator, levels: int) -> HierarchyProblem:
+    """Hard limits above equality levels, as friction and torque limits sit above the tasks.
+
+    Level 1 holds only inequalities, feasible with the dynamics but cut through the unconstrained
+    optimum; the lowest equality level gets inequalities of its own too (soft against its tasks).
+    """
+    problem = equality_problem(rng, levels)
+    x_free = solve_cascade(problem)
+    C = rng.standard_normal((8, NX))
+    spread = np.abs(C @ x_free).mean()
+    d = C @ x_free + np.where(np.arange(8) % 2 == 0, -0.5, 0.5) * spread
+    limits = Level(np.zeros((0, NX)), np.zeros(0), C, d)
+    C_low = rng.standard_normal((4, NX))
+    problem.levels[-1].C, problem.levels[-1].d = C_low, C_low @ x_free - 0.3 * spread
+    problem.levels.insert(0, limits)
+    return problem
+
+
+def residual(level: Level, x: np.ndarray) -> float:
+    return float(np.linalg.norm(level.A @ x - level.b))
+
+
+def truncated(problem: HierarchyProblem, levels: int) -> HierarchyProblem:
+    return HierarchyProblem(problem.dynamics_A, problem.dynamics_b, problem.levels[:levels])
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_lower_levels_never_change_a_higher_residual_equalities(seed: int) -> None:
+    problem = equality_problem(np.random.default_rng(seed), 4)
+    full = solve_cascade(problem)
+    for k in range(1, 4):
+        alone = solve_cascade(truncated(problem, k))
+        for level in problem.levels[:k]:
+            assert abs(residual(level, full) - residual(level, alone)) <= EQUALITY_TOL
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_first_level_reaches_its_least_squares_optimum(seed: int) -> None:
+    problem = equality_problem(np.random.default_rng(seed), 3)
+    x = solve_cascade(problem)
+    # Independent reference: least squares of level 1 over the affine set of the dynamics.
+    A0, b0 = problem.dynamics_A, problem.dynamics_b
+    x0 = np.linalg.lstsq(A0, b0, rcond=None)[0]
+    Z = np.linalg.svd(A0)[2][6:].T
+    level = problem.levels[0]
+    u = np.linalg.lstsq(level.A @ Z, level.b - level.A @ x0, rcond=None)[0]
+    best = residual(level, x0 + Z @ u)
+    assert residual(level, x) <= best + EQUALITY_TOL
+    assert np.linalg.norm(A0 @ x - b0) <= EQUALITY_TOL
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_priority_holds_with_active_inequalities(seed: int) -> None:
+    problem = with_inequalities(np.random.default_rng(seed), 3)
+    full = solve_cascade(problem)
+    for k in (2, 3):
+        alone = solve_cascade(truncated(problem, k))
+        for level in problem.levels[1:k]:
+            assert abs(residual(level, full) - residual(level, alone)) <= SOLVER_TOL
+    # The limits of level 1 are above every task: they hold to the solver tolerance.
+    limits = problem.levels[0]
+    assert np.all(limits.C @ full - limits.d <= SOLVER_TOL)
+    assert np.linalg.norm(problem.dynamics_A @ full - problem.dynamics_b) <= EQUALITY_TOL
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_inequalities_bind_the_solution(seed: int) -> None:
+    """The inequalities of the test problems do change the answer: the checks above are not idle."""
+    problem = with_inequalities(np.random.default_rng(seed), 3)
+    limits = problem.levels[0]
+    without_limits = HierarchyProblem(problem.dynamics_A, problem.dynamics_b, problem.levels[1:])
+    free = solve_cascade(without_limits)
+    assert np.max(limits.C @ free - limits.d) > 1e-2
+
+
+@pytest.mark.parametrize("method", sorted(METHODS))
+@pytest.mark.parametrize("seed", SEEDS)
+def test_daqp_and_clarabel_agree(method: str, seed: int) -> None:
+    problem = with_inequalities(np.random.default_rng(seed), 3)
+    x_daqp = METHODS[method](problem, "daqp")
+    x_clarabel = METHODS[method](problem, "clarabel")
+    assert np.linalg.norm(x_daqp - x_clarabel) <= BACKEND_TOL * max(1.0, np.linalg.norm(x_daqp))
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_weighted_dynamics_and_inequalities_are_hard(seed: int) -> None:
+    problem = with_inequalities(np.random.default_rng(seed), 3)
+    x = solve_weighted(problem)
+    assert np.linalg.norm(problem.dynamics_A @ x - problem.dynamics_b) <= SOLVER_TOL
+    for level in problem.levels:
+        assert np.all(level.C @ x - level.d <= SOLVER_TOL)  # hard in one QP, whatever the level
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_weighted_approaches_strict_as_weight_ratio_grows(seed: int) -> None:
+    # Fully determined (6 + 8 + 10 independent directions = NX), so the strict answer is unique,
+    # and level 2 over-determines its 10 directions: the two levels conflict.
+    rng = np.random.default_rng(seed)
+    problem = HierarchyProblem(
+        *dynamics(rng),
+        [
+            Level(random_rows(rng, 8, 8), rng.standard_normal(8), *empty_inequalities()),
+            Level(random_rows(rng, 16, 16), rng.standard_normal(16), *empty_inequalities()),
+        ],
+    )
+    strict = solve_cascade(problem)
+    gaps = []
+    for ratio in (1e2, 1e4, 1e6):
+        problem.levels[1].weight = 1 / ratio
+        gaps.append(np.linalg.norm(solve_weighted(problem, "daqp") - strict))
+    assert gaps[0] > gaps[1] > gaps[2]
+    assert gaps[2] <= 1e-3 * np.linalg.norm(strict)
