@@ -1,0 +1,317 @@
+"""The per-browser control panel: ownership banner, robot/scene/solver choice, velocity joystick,
+push buttons, reset/pause and the task stack editor.
+
+Each browser gets its own panel (viser `client.gui`), so a read-only browser sees disabled
+controls and a notice while the controlling one edits. Every edit goes through `LabApp.send`,
+which enforces ownership and reports rejected commands; the widgets then show what the server
+acknowledged (the app calls `show_info` with the fresh `info` reply).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import viser
+
+from lab.ui import stack_edit
+from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
+
+if TYPE_CHECKING:
+    from lab.ui.app import LabApp
+
+PUSH_DIRECTIONS = {  # heading-frame unit vectors
+    "front": (1.0, 0.0),
+    "back": (-1.0, 0.0),
+    "left": (0.0, 1.0),
+    "right": (0.0, -1.0),
+}
+HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
+    "I": ("forward", "vx", 1),
+    "K": ("back", "vx", -1),
+    "J": ("left", "vy", 1),
+    "L": ("right", "vy", -1),
+    "U": ("turn left", "yaw_rate", 1),
+    "O": ("turn right", "yaw_rate", -1),
+}
+JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
+
+
+def _levels_markdown(levels: list[list[str]], selected: str, disabled: list[str]) -> str:
+    rows = []
+    for i, level in enumerate(levels):
+        names = ", ".join(f"**[{t}]**" if t == selected else t for t in level)
+        rows.append(f"{i}. {names}")
+    if disabled:
+        names = ", ".join(f"**[{t}]**" if t == selected else t for t in disabled)
+        rows.append(f"\noff: {names}")
+    return "Priority levels (0 = highest):\n\n" + "\n".join(rows)
+
+
+class ControlPanel:
+    def __init__(self, app: LabApp, client: viser.ClientHandle) -> None:
+        self.app = app
+        self.client = client
+        self.limits = JoystickLimits()
+        self.velocity = VelocityCommand()
+        self._yaw_from_slider = 0.0
+        self._last_level: dict[str, int] = {}
+        self._syncing = False
+        gui = client.gui
+        self._controls: list = []
+
+        self.banner = gui.add_markdown("", order=1)
+        self.take = gui.add_button("Take control", icon=viser.Icon.HAND_GRAB, order=2)
+        self.take.on_click(lambda _: app.take_control(client.client_id))
+
+        with gui.add_folder("Robot & controller", order=3):
+            self.robot = gui.add_dropdown("Robot", ("…",))
+            self.scene = gui.add_dropdown("Scene", ("…",))
+            self.method = gui.add_dropdown("Hierarchy", ("…",))
+            self.solver = gui.add_dropdown("QP solver", ("…",))
+            row = gui.add_button_group("Sim", ("Reset", "Pause", "Resume"))
+        self._controls += [self.robot, self.scene, self.method, self.solver, row]
+        self.robot.on_update(lambda e: self._switch(e, "robot", {"name": self.robot.value}))
+        self.scene.on_update(lambda e: self._switch(e, "scene", {"name": self.scene.value}))
+        self.method.on_update(self._hierarchy)
+        self.solver.on_update(self._hierarchy)
+        row.on_click(lambda e: app.send(client, e.target.value.lower(), {}))
+
+        with gui.add_folder("Velocity", order=4):
+            gui.add_markdown(
+                "Drag the pad over the robot (springs back on release). Keys: I/K forward/back, "
+                "J/L left/right, U/O turn, X stop."
+            )
+            self.yaw = gui.add_slider(
+                "Yaw rate", -self.limits.max_yaw_rate, self.limits.max_yaw_rate, 0.05, 0.0
+            )
+            self.command_text = gui.add_markdown("vx 0.00 · vy 0.00 · yaw 0.00")
+            stop = gui.add_button("Stop", color="red", icon=viser.Icon.PLAYER_STOP)
+        self._controls += [self.yaw, stop]
+        self.yaw.on_update(self._yaw_changed)
+        stop.on_click(lambda _: self.stop())
+        for key, (label, axis, direction) in HOTKEYS.items():
+            cmd = gui.add_command(f"Velocity: {label}", hotkey=key)
+            cmd.on_trigger(lambda _, a=axis, d=direction: self._tap(a, d))
+        gui.add_command("Velocity: stop", hotkey="X").on_trigger(lambda _: self.stop())
+
+        with gui.add_folder("Push", order=5):
+            self.push_force = gui.add_slider("Magnitude [N]", 10.0, 600.0, 10.0, 150.0)
+            self.push_ms = gui.add_slider("Duration [ms]", 20.0, 1000.0, 10.0, 200.0)
+            pushes = gui.add_button_group("Push", tuple(PUSH_DIRECTIONS))
+        self._controls += [self.push_force, self.push_ms, pushes]
+        pushes.on_click(lambda e: self.push(e.target.value))
+
+        with gui.add_folder("Task stack", order=6):
+            self.stack_view = gui.add_markdown("")
+            self.task = gui.add_dropdown("Task", ("…",))
+            moves = gui.add_button_group("Move", ("▲ level", "▼ level", "new ▲", "new ▼"))
+            self.enabled = gui.add_checkbox("Enabled", True)
+            self.kp = gui.add_number("kp", 0.0, min=0.0, max=1e5, step=1.0)
+            self.kd = gui.add_number("kd", 0.0, min=0.0, max=1e5, step=0.5)
+            self.weight = gui.add_number("weight", 1.0, min=1e-8, max=1e8, step=0.001)
+            apply = gui.add_button("Apply gains")
+        self._controls += [self.task, moves, self.enabled, self.kp, self.kd, self.weight, apply]
+        self.task.on_update(lambda _: self._show_task())
+        moves.on_click(lambda e: self._move(e.target.value))
+        self.enabled.on_update(self._toggle_enabled)
+        apply.on_click(lambda _: self._apply_gains())
+
+        self._follow = client.scene.add_frame("/joystick", show_axes=False)
+        self.pad = client.scene.add_transform_controls(
+            "/joystick/pad",
+            scale=0.25,
+            active_axes=(True, True, False),
+            disable_rotations=True,
+            translation_limits=((-0.4, 0.4), (-0.4, 0.4), (0.0, 0.0)),
+            depth_test=False,
+        )
+        self.pad.on_update(self._pad_moved)
+
+    # ---- ownership -------------------------------------------------------------------------
+    def show_ownership(self, owner: int | None) -> None:
+        mine = owner == self.client.client_id
+        if mine:
+            self.banner.content = "**You hold control** of the robot."
+        elif owner is None:
+            self.banner.content = "Nobody holds control: press *Take control*."
+        else:
+            self.banner.content = (
+                f"**Read-only**: browser #{owner} holds control. Press *Take control* to drive."
+            )
+        self.take.visible = not mine
+        for handle in self._controls:
+            handle.disabled = not mine
+        self.pad.visible = mine
+
+    # ---- info / telemetry -----------------------------------------------------------------------
+    def show_info(self, info: dict) -> None:
+        """Set every widget to the server's acknowledged state without re-sending it."""
+        self._syncing = True
+        try:
+            for dropdown, options, value in (
+                (self.robot, info["robots"], info["robot"]),
+                (self.scene, info["scenes"], info["scene"]),
+                (self.method, info["methods"], info["hierarchy"]["method"]),
+                (self.solver, info["solvers"], info["hierarchy"]["solver"]),
+            ):
+                dropdown.options = tuple(options)
+                dropdown.value = value
+            names = [t["name"] for t in info["tasks"]]
+            if names:
+                current = self.task.value if self.task.value in names else names[0]
+                self.task.options = tuple(names)
+                self.task.value = current
+            self._show_task()
+        finally:
+            self._syncing = False
+
+    def _show_task(self) -> None:
+        info = self.app.info
+        if info is None:
+            return
+        levels = [list(level) for level in info["stack"]]
+        tasks = {t["name"]: t for t in info["tasks"]}
+        in_stack = {t for level in levels for t in level}
+        disabled = [name for name in tasks if name not in in_stack]
+        name = self.task.value
+        self.stack_view.content = _levels_markdown(levels, name, disabled)
+        task = tasks.get(name)
+        if task is None:
+            return
+        was, self._syncing = self._syncing, True
+        try:
+            self.enabled.value = name in in_stack
+            for handle, key in ((self.kp, "kp"), (self.kd, "kd"), (self.weight, "weight")):
+                has = task[key] is not None
+                handle.visible = has
+                if has:
+                    handle.value = float(task[key])
+        finally:
+            self._syncing = was
+
+    def show_command(self, command: dict) -> None:
+        self.command_text.content = (
+            f"vx {command['vx']:+.2f} m/s · vy {command['vy']:+.2f} m/s · "
+            f"yaw {command['yaw_rate']:+.2f} rad/s"
+        )
+
+    def follow_robot(self, position: np.ndarray, yaw: float) -> None:
+        self._follow.position = position + np.array([0.0, 0.0, JOYSTICK_HEIGHT])
+        self._follow.wxyz = np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+
+    # ---- commands --------------------------------------------------------------------------
+    def _switch(self, event: viser.GuiEvent, verb: str, payload: dict) -> None:
+        if not self._syncing:
+            self.app.send(self.client, verb, payload)
+
+    def _hierarchy(self, _: viser.GuiEvent) -> None:
+        if not self._syncing:
+            payload = {"method": self.method.value, "solver": self.solver.value}
+            self.app.send(self.client, "hierarchy", payload)
+
+    def _set_velocity(self, cmd: VelocityCommand) -> None:
+        self.velocity = cmd
+        self.app.set_velocity(self.client, cmd)
+
+    def _pad_moved(self, event: viser.TransformControlsEvent) -> None:
+        if event.phase == "end":
+            self.pad.position = (0.0, 0.0, 0.0)  # spring back
+            dx = dy = 0.0
+        else:
+            dx, dy = float(self.pad.position[0]), float(self.pad.position[1])
+        self._set_velocity(from_offset(dx, dy, self._yaw_from_slider, self.limits))
+
+    def _yaw_changed(self, _: viser.GuiEvent) -> None:
+        if self._syncing:
+            return
+        self._yaw_from_slider = float(self.yaw.value)
+        v = self.velocity
+        self._set_velocity(VelocityCommand(v.vx, v.vy, self._yaw_from_slider))
+
+    def _tap(self, axis: str, direction: int) -> None:
+        cmd = tap(self.velocity, axis, direction, self.limits)
+        self._yaw_from_slider = cmd.yaw_rate
+        was, self._syncing = self._syncing, True
+        self.yaw.value = cmd.yaw_rate
+        self._syncing = was
+        self._set_velocity(cmd)
+
+    def stop(self) -> None:
+        self._yaw_from_slider = 0.0
+        was, self._syncing = self._syncing, True
+        self.yaw.value = 0.0
+        self._syncing = was
+        self.pad.position = (0.0, 0.0, 0.0)
+        self._set_velocity(VelocityCommand())
+
+    def push(self, direction: str) -> None:
+        hx, hy = PUSH_DIRECTIONS[direction]
+        yaw = self.app.base_yaw()
+        c, s = np.cos(yaw), np.sin(yaw)
+        magnitude = float(self.push_force.value)
+        force = [magnitude * (c * hx - s * hy), magnitude * (s * hx + c * hy), 0.0]
+        payload = {"body": self.app.base_body(), "force": force}
+        payload["duration"] = float(self.push_ms.value) / 1000.0
+        self.app.send(self.client, "push", payload)
+
+    def _send_stack(self, levels: list[list[str]]) -> None:
+        self.app.send(self.client, "stack", {"levels": levels})
+
+    def _move(self, which: str) -> None:
+        info = self.app.info
+        task = self.task.value
+        if info is None:
+            return
+        levels = [list(level) for level in info["stack"]]
+        ops = {
+            "▲ level": stack_edit.move_to_level_above,
+            "▼ level": stack_edit.move_to_level_below,
+            "new ▲": lambda lv, t: stack_edit.move_to_new_level(lv, t, above=True),
+            "new ▼": lambda lv, t: stack_edit.move_to_new_level(lv, t, above=False),
+        }
+        try:
+            new = ops[which](levels, task)
+        except ValueError as exc:
+            self.app.notify_error(self.client, "stack", str(exc))
+            return
+        self._send_stack(new)
+
+    def _toggle_enabled(self, _: viser.GuiEvent) -> None:
+        info = self.app.info
+        if self._syncing or info is None:
+            return
+        levels = [list(level) for level in info["stack"]]
+        task = self.task.value
+        try:
+            if self.enabled.value:
+                new = stack_edit.enable_task(levels, task, self._last_level.get(task, len(levels)))
+            else:
+                self._last_level[task] = stack_edit.find_task(levels, task)[0]
+                new = stack_edit.disable_task(levels, task)
+        except ValueError as exc:
+            self.app.notify_error(self.client, "stack", str(exc))
+            return
+        if not new:
+            self.app.notify_error(self.client, "stack", "the stack cannot be empty")
+            self._show_task()
+            return
+        self._send_stack(new)
+
+    def _apply_gains(self) -> None:
+        info = self.app.info
+        task = (
+            next((t for t in info["tasks"] if t["name"] == self.task.value), None) if info else None
+        )
+        if task is None:
+            return
+        payload: dict = {"task": task["name"], "weight": float(self.weight.value)}
+        if task["kp"] is not None:
+            payload["kp"] = float(self.kp.value)
+        if task["kd"] is not None:
+            payload["kd"] = float(self.kd.value)
+        self.app.send(self.client, "gains", payload)
+
+    def remove(self) -> None:
+        self.pad.remove()
+        self._follow.remove()

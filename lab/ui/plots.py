@@ -1,0 +1,154 @@
+"""Live uPlot charts of telemetry: rolling 10 s, redrawn at the caller's rate (20-30 Hz).
+
+Each chart is a `Chart`: a title, a function giving its series labels for the current telemetry
+layout (contacts, stack) and one giving the values of one message. When the labels change (robot
+switch, stack edit) the chart is rebuilt with fresh buffers.
+"""
+
+from collections.abc import Callable
+
+import numpy as np
+import viser
+import viser.uplot as uplot
+
+from lab.ui.plot_buffer import RollingBuffer
+from lab.ui.support import polygon_bounds, support_polygon
+
+WINDOW_S = 10.0
+MAX_POINTS = 500  # points per series sent to the browser
+TOP_LEVELS = 3  # task errors are plotted for this many highest-priority levels
+PALETTE = (
+    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#17becf", "#8c564b", "#e377c2",
+)  # fmt: skip
+
+
+def _labels_forces(tel: dict) -> tuple[str, ...]:
+    return tuple(c["name"] for c in tel["contacts"])
+
+
+def _forces(tel: dict) -> list[float]:
+    return [c["measured_force"][2] for c in tel["contacts"]]
+
+
+def _labels_cop(tel: dict) -> tuple[str, ...]:
+    return ("CoP x", "CoP y", "x min", "x max", "y min", "y max")
+
+
+def _cop(tel: dict) -> list[float]:
+    net = tel["cop"]["net"]
+    pts = np.array([c["position"] for c in tel["contacts"] if c["active"]]).reshape(-1, 3)
+    x0, x1, y0, y1 = polygon_bounds(support_polygon(pts))
+    cx, cy = (net[0], net[1]) if net is not None else (np.nan, np.nan)
+    return [cx, cy, x0, x1, y0, y1]
+
+
+def _labels_linear(tel: dict) -> tuple[str, ...]:
+    return ("px", "py", "pz")
+
+
+def _linear(tel: dict) -> list[float]:
+    return list(tel["momentum"]["linear"])
+
+
+def _labels_angular(tel: dict) -> tuple[str, ...]:
+    return ("Lx", "Ly", "Lz")
+
+
+def _angular(tel: dict) -> list[float]:
+    return list(tel["momentum"]["angular"])
+
+
+def _labels_tasks(tel: dict) -> tuple[str, ...]:
+    return tuple(t["name"] for t in tel["tasks"] if t["level"] < TOP_LEVELS)
+
+
+def _tasks(tel: dict) -> list[float]:
+    return [t["error"] for t in tel["tasks"] if t["level"] < TOP_LEVELS]
+
+
+def _labels_qp(tel: dict) -> tuple[str, ...]:
+    return ("solve µs",)
+
+
+def _qp(tel: dict) -> list[float]:
+    return [tel["qp"]["solve_us"]]
+
+
+CHARTS: tuple[tuple[str, Callable[[dict], tuple[str, ...]], Callable[[dict], list[float]]], ...] = (
+    ("Contact normal force [N]", _labels_forces, _forces),
+    ("CoP vs support polygon [m]", _labels_cop, _cop),
+    ("Linear momentum [kg m/s]", _labels_linear, _linear),
+    ("Angular momentum [kg m²/s]", _labels_angular, _angular),
+    ("Task errors, top levels", _labels_tasks, _tasks),
+    ("QP solve time [µs]", _labels_qp, _qp),
+)
+
+
+def _series(labels: tuple[str, ...], title: str) -> tuple[uplot.Series, ...]:
+    out: list[uplot.Series] = [{"label": "t [s]"}]
+    for i, label in enumerate(labels):
+        s: uplot.Series = {"label": label, "stroke": PALETTE[i % len(PALETTE)], "width": 1.5}
+        if title.startswith("CoP") and i >= 2:  # polygon bounds: thin dashed, x grey, y blue
+            s = {"label": label, "stroke": "#999" if i < 4 else "#9bd", "width": 1, "dash": [4, 4]}
+        out.append(s)
+    return tuple(out)
+
+
+class Chart:
+    def __init__(
+        self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, title: str, labels_of, values_of
+    ) -> None:
+        self._gui = gui
+        self._folder = folder
+        self.title = title
+        self._labels_of = labels_of
+        self._values_of = values_of
+        self.labels: tuple[str, ...] | None = None
+        self.buffer: RollingBuffer | None = None
+        self._handle: viser.GuiUplotHandle | None = None
+
+    def record(self, tel: dict) -> None:
+        labels = self._labels_of(tel)
+        if labels != self.labels:
+            self.labels = labels
+            self.buffer = RollingBuffer(len(labels), window=WINDOW_S)
+            if self._handle is not None:
+                self._handle.remove()
+                self._handle = None
+        if labels:
+            self.buffer.append(tel["t"], self._values_of(tel))
+
+    def draw(self) -> None:
+        if self.buffer is None or not self.labels or len(self.buffer) < 2:
+            return
+        data = self.buffer.arrays()
+        step = max(1, len(data[0]) // MAX_POINTS)
+        data = tuple(np.ascontiguousarray(a[::step]) for a in data)
+        if self._handle is None:
+            with self._folder:
+                self._handle = self._add(data)
+        else:
+            self._handle.data = data
+
+    def _add(self, data: tuple[np.ndarray, ...]) -> viser.GuiUplotHandle:
+        return self._gui.add_uplot(
+            data,
+            _series(self.labels, self.title),
+            title=self.title,
+            scales={"x": {"time": False}},
+            aspect=1.6,
+            legend={"show": True},
+        )
+
+
+class Plots:
+    def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle) -> None:
+        self.charts = [Chart(gui, folder, *chart) for chart in CHARTS]
+
+    def record(self, tel: dict) -> None:
+        for chart in self.charts:
+            chart.record(tel)
+
+    def draw(self) -> None:
+        for chart in self.charts:
+            chart.draw()
