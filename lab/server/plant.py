@@ -339,15 +339,22 @@ class MujocoPlant:
 
     def set_torques(self, tau: np.ndarray) -> None:
         """Joint torques (N m) in pinocchio joint order; MuJoCo clips them to the torque limits."""
+        tau = np.asarray(tau, dtype=float)
+        if tau.shape != self.mj_data.ctrl.shape or not np.all(np.isfinite(tau)):
+            raise ValueError(f"set_torques needs {self.mj_data.ctrl.size} finite torques (N m)")
         self.mj_data.ctrl[:] = tau  # actuators were added in pinocchio joint order
 
     def step(self) -> None:
-        if self._point_pushes:
-            d = self.mj_data
-            for body, (force, local) in self._point_pushes.items():
-                point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
-                d.xfrc_applied[body, 3:] = np.cross(point - d.xipos[body], force)
-        mujoco.mj_step(self.mj_model, self.mj_data)
+        """One timestep. A push at a point gets its lever arm from this step's kinematics."""
+        m, d = self.mj_model, self.mj_data
+        if not self._point_pushes:
+            mujoco.mj_step(m, d)
+            return
+        mujoco.mj_step1(m, d)
+        for body, (force, local) in self._point_pushes.items():
+            point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
+            d.xfrc_applied[body, 3:] = np.cross(point - d.xipos[body], force)
+        mujoco.mj_step2(m, d)
 
     def push(
         self, body: str, force_world: np.ndarray, point_world: np.ndarray | None = None
