@@ -28,10 +28,8 @@ def example_robot_data_share() -> Path:
     for file in dist.files or ():
         parts = file.parts
         if "example-robot-data" in parts and "robots" in parts:
-            share = Path(str(dist.locate_file(file))).parents[
-                len(parts) - parts.index("example-robot-data") - 1
-            ]
-            return share.resolve()
+            share = Path(*parts[: parts.index("example-robot-data")])
+            return Path(str(dist.locate_file(share))).resolve()
     raise FileNotFoundError("example-robot-data is installed but ships no robots/ folder")
 
 
