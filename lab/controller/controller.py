@@ -34,7 +34,7 @@ class ControllerConfig:
     hierarchy: str = "cascade"
     solver: str = "daqp"
     limits: ContactLimits = field(default_factory=ContactLimits)
-    level_weight_ratio: float = 1e3  # `weighted` only: level r weighs ratio^-(r-1)
+    level_weight_ratio: float = 1e3  # `weighted` only: each level with tasks weighs this much less
 
 
 @dataclass
@@ -111,7 +111,8 @@ class WholeBodyController:
         # Newton–Euler rows (Herzog eq. 13): M_u q̈ − J_uᵀ F = −h_u.
         dynamics_A = np.hstack([robot.M[base], -robot.Jc[:, base].T])
         levels = []
-        for depth, names in enumerate(self.config.stack.levels):
+        weight = 1.0  # of the next level with tasks; inequality-only levels take no weight
+        for names in self.config.stack.levels:
             A_rows, b_rows, C_rows, d_rows = [], [], [], []
             for name in names:
                 if name in self.tasks:
@@ -128,9 +129,11 @@ class WholeBodyController:
                 Level(
                     *_stacked(A_rows, b_rows, robot.nx),
                     *_stacked(C_rows, d_rows, robot.nx),
-                    weight=self.config.level_weight_ratio**-depth,
+                    weight=weight,
                 )
             )
+            if A_rows:
+                weight /= self.config.level_weight_ratio
         return HierarchyProblem(dynamics_A, -robot.h[base], levels)
 
     def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:

@@ -3,7 +3,7 @@
 Level 0 is the Newton–Euler rows, solved without a QP (§2.4). Level r then minimises its
 equality residual and the slacks of its inequalities over the optimal set of the levels above:
 
-    min_{u, v}  ‖A_r (x* + Z u) − b_r‖² + ‖v‖² + ε‖u‖²                    (eq. 10)
+    min_{u, v}  ‖A_r (x* + Z u) − b_r‖² + ‖v‖² + ε‖x* + Z u‖²              (eq. 10)
     s.t.        C_r (x* + Z u) − d_r ≤ v                                   (eq. 11)
                 C_k (x* + Z u) − d_k ≤ v_k*   for every level k above      (eq. 9)
 
@@ -21,7 +21,9 @@ from lab.controller.hierarchy.linalg import (
 from lab.controller.hierarchy.problem import HierarchyProblem
 from lab.controller.qp import solve_qp
 
-REGULARIZATION = 1e-9  # ε: keeps the level QP's Hessian positive definite
+# ε: keeps the level QP's Hessian positive definite and, among the optimal steps of a level, picks
+# the one with the smallest x, which leaves the most room to the levels below (Herzog eq. 5).
+REGULARIZATION = 1e-8
 FEASIBILITY_TOL = 1e-9  # an unconstrained step that violates no row by more is taken as is
 ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped from the QP
 
@@ -39,14 +41,15 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
         Cz, s = level.C @ Z, level.d - level.C @ x
         Kz, k = kept_C @ Z, kept_d - kept_C @ x
         free = np.linalg.norm(Kz, axis=1) > ZERO_ROW_TOL
-        u = _solve_level(Az, r, Cz, s, Kz[free], k[free], solver)
+        u = _solve_level(Az, r, Cz, s, Kz[free], k[free], Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
-        if len(level.d):
-            slack = np.maximum(level.C @ x - level.d, 0.0)
-            kept_C = np.vstack([kept_C, level.C])
-            kept_d = np.concatenate([kept_d, level.d + slack])
+        # Keep this level's inequalities with the slack they reached (eq. 9). A kept bound never
+        # falls below where x already is, so that the solver tolerance of later levels cannot
+        # make u = 0 infeasible for the levels after them.
+        kept_C = np.vstack([kept_C, level.C])
+        kept_d = np.maximum(np.concatenate([kept_d, level.d]), kept_C @ x)
         if len(level.b):
             Z = Z @ null_space(Az)
     return x
@@ -59,6 +62,8 @@ def _solve_level(
     s: np.ndarray,
     Kz: np.ndarray,
     k: np.ndarray,
+    Z: np.ndarray,
+    x: np.ndarray,
     solver: str,
 ) -> np.ndarray:
     """The step u in the null space for one level (the slacks are implicit in the cost)."""
@@ -67,11 +72,10 @@ def _solve_level(
     if np.all(Cz @ u <= s + FEASIBILITY_TOL) and np.all(Kz @ u <= k + FEASIBILITY_TOL):
         return u
     nz, m = Az.shape[1], len(s)
-    g = Az.T @ r
     P = np.zeros((nz + m, nz + m))
-    P[:nz, :nz] = Az.T @ Az + REGULARIZATION * np.eye(nz)
+    P[:nz, :nz] = Az.T @ Az + REGULARIZATION * Z.T @ Z
     P[nz:, nz:] = np.eye(m)
-    q = np.concatenate([-g, np.zeros(m)])
+    q = np.concatenate([REGULARIZATION * Z.T @ x - Az.T @ r, np.zeros(m)])
     G = np.block([[Cz, -np.eye(m)], [Kz, np.zeros((len(k), m))]])
     h = np.concatenate([s, k])
     return solve_qp(P, q, G, h, solver=solver)[:nz]

@@ -1,0 +1,61 @@
+"""`lab`: the command line. `lab run`, `lab bench`, `lab serve`, `lab teleop`."""
+
+import argparse
+import json
+import sys
+
+
+def _run(argv: list[str]) -> int:
+    from lab.server.scenario import ScenarioError, load_scenario, run_scenario
+
+    parser = argparse.ArgumentParser(prog="lab run", description="Run a headless scenario.")
+    parser.add_argument("scenario", help="path to a scenario TOML file")
+    parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    parser.add_argument("--duration", type=float, help="stop earlier than the scenario's duration")
+    args = parser.parse_args(argv)
+    try:
+        scenario = load_scenario(args.scenario)
+        report = run_scenario(scenario, args.duration)
+    except (ScenarioError, KeyError, ValueError) as error:
+        print(f"lab run: {error.args[0] if error.args else error}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(report))
+    else:
+        metrics = ", ".join(f"{k} {v:.4g}" for k, v in report["metrics"].items())
+        print(
+            f"{report['scenario']}: fell={report['fell']} sim {report['sim_time_s']:.2f} s "
+            f"in {report['wall_time_s']:.2f} s ({report['realtime_factor']:.1f}x real time), "
+            f"tick p50 {report['tick_us']['p50']:.0f} µs p99 {report['tick_us']['p99']:.0f} µs, "
+            f"QP failures {report['qp_failures']}; {metrics}"
+        )
+    return 1 if report["fell"] else 0
+
+
+def _bench(argv: list[str]) -> int:
+    from lab.server.bench import bench_main
+
+    return bench_main(argv)
+
+
+def _serve(argv: list[str]) -> int:
+    from lab.server.serve import serve_main
+
+    return serve_main(argv)
+
+
+def _teleop(argv: list[str]) -> int:
+    from lab.teleop import teleop_main
+
+    return teleop_main(argv)
+
+
+COMMANDS = {"run": _run, "bench": _bench, "serve": _serve, "teleop": _teleop}
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if not argv or argv[0] not in COMMANDS:
+        print(f"usage: lab {{{','.join(COMMANDS)}}} [args]  (lab <command> -h for help)")
+        return 0 if argv and argv[0] in ("-h", "--help") else 2
+    return COMMANDS[argv[0]](argv[1:])

@@ -1,0 +1,25 @@
+"""Balance: the standing behaviour. It holds the references of the standing posture.
+
+The CoM stays where the standing posture puts it (over the support polygon), the base level at
+the standing height with its initial heading, the joints at the reference posture, all feet in
+contact.
+"""
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.model import RobotModel
+from lab.controller.references import References
+
+
+def standing_references(robot: RobotModel, q_standing: np.ndarray) -> References:
+    """References that hold the robot still in its standing posture."""
+    robot.update(q_standing, np.zeros(robot.nv))
+    yaw = pin.rpy.matrixToRpy(robot.base_rotation)[2]
+    return References(
+        com=robot.com.copy(),
+        posture=q_standing[7:].copy(),
+        base_height=float(q_standing[2]),
+        base_rotation=pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
+        contact_active=np.ones(len(robot.contacts), dtype=bool),
+    )

@@ -1,0 +1,139 @@
+"""Headless scenarios: a TOML file → a session run as fast as the CPU allows → one JSON report.
+
+A scenario names `robot`, `scene`, `duration` (s), a `[controller]` table (`hierarchy`, `solver`,
+optional `stack` and `[controller.gains.<task>]` tables) and `[[events]]`, each with a time `t` and
+exactly one command written with the protocol's verb and fields, for example
+
+    [[events]]
+    t = 2.0
+    push = { body = "base", force = [0.0, 200.0, 0.0], duration = 0.2 }
+"""
+
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from lab.server.commands import CommandError, parse_command
+from lab.server.session import Session, SessionConfig
+
+SCENARIO_KEYS = {"name", "description", "robot", "scene", "duration", "controller", "events"}
+CONTROLLER_KEYS = {"hierarchy", "solver", "stack", "gains"}
+
+
+class ScenarioError(ValueError):
+    """A scenario file that is not well formed; the message says where."""
+
+
+@dataclass(frozen=True)
+class Event:
+    t: float
+    verb: str
+    payload: dict
+
+
+@dataclass
+class Scenario:
+    name: str
+    duration: float
+    config: SessionConfig
+    events: list[Event] = field(default_factory=list)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and check a scenario file; every event is validated as the protocol would."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise ScenarioError(f"{path}: {error}") from error
+    unknown = set(data) - SCENARIO_KEYS
+    if unknown:
+        raise ScenarioError(f"{path}: unknown keys {sorted(unknown)}")
+    controller = data.get("controller", {})
+    unknown = set(controller) - CONTROLLER_KEYS
+    if unknown:
+        raise ScenarioError(f"{path}: unknown [controller] keys {sorted(unknown)}")
+    duration = data.get("duration")
+    if not isinstance(duration, int | float) or not duration > 0:
+        raise ScenarioError(f"{path}: duration must be a positive number of seconds")
+    config = SessionConfig(
+        robot=data.get("robot", "anymal"),
+        scene=data.get("scene", "flat"),
+        hierarchy=controller.get("hierarchy", "cascade"),
+        solver=controller.get("solver", "daqp"),
+        stack=controller.get("stack"),
+        gains=controller.get("gains", {}),
+    )
+    events = [_event(path, i, raw) for i, raw in enumerate(data.get("events", []))]
+    return Scenario(
+        data.get("name", path.stem), float(duration), config, sorted(events, key=lambda e: e.t)
+    )
+
+
+def _event(path: Path, index: int, raw: dict) -> Event:
+    where = f"{path}: event {index}"
+    t = raw.get("t")
+    if not isinstance(t, int | float) or t < 0:
+        raise ScenarioError(f"{where}: t must be a time >= 0 s")
+    verbs = [key for key in raw if key != "t"]
+    if len(verbs) != 1:
+        raise ScenarioError(f"{where}: needs exactly one command besides t, got {verbs}")
+    verb = verbs[0]
+    try:
+        parse_command(verb, raw[verb])
+    except CommandError as error:
+        raise ScenarioError(f"{where}: {error}") from error
+    return Event(float(t), verb, raw[verb])
+
+
+def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
+    """Run headless and report; `duration` shortens the run (tests run short versions)."""
+    session = Session(scenario.config)
+    duration = scenario.duration if duration is None else min(duration, scenario.duration)
+    ticks = max(1, round(duration / scenario.config.timestep))
+    reference_height = session.controller.references.base_height
+    pending = list(scenario.events)
+    tick_us = np.zeros(ticks)
+    orientation_error = height_error = peak_normal = 0.0
+    rejected = []
+    wall_start = time.perf_counter()
+    for i in range(ticks):
+        while pending and pending[0].t <= session.time + 1e-9:
+            event = pending.pop(0)
+            reply = session.handle(event.verb, event.payload)
+            if not reply["ok"]:
+                rejected.append(f"t={event.t}: {event.verb}: {reply['error']}")
+        start = time.perf_counter()
+        session.tick()
+        tick_us[i] = (time.perf_counter() - start) * 1e6
+        orientation_error = max(orientation_error, session.base_orientation_error())
+        height_error = max(height_error, abs(session.model.q[2] - reference_height))
+        peak_normal = max(peak_normal, float(np.max(session.plant.foot_forces()[:, 2])))
+        if session.fell:
+            break
+    wall = time.perf_counter() - wall_start
+    return {
+        "scenario": scenario.name,
+        "robot": scenario.config.robot,
+        "hierarchy": session.controller.config.hierarchy,
+        "solver": session.controller.config.solver,
+        "fell": session.fell,
+        "sim_time_s": session.time,
+        "wall_time_s": wall,
+        "realtime_factor": session.time / wall if wall > 0 else float("inf"),
+        "tick_us": {
+            "p50": float(np.percentile(tick_us[: i + 1], 50)),
+            "p99": float(np.percentile(tick_us[: i + 1], 99)),
+            "max": float(np.max(tick_us[: i + 1])),
+        },
+        "qp_failures": session.qp_failures,
+        "rejected_events": rejected,
+        "metrics": {
+            "max_base_orientation_error_rad": orientation_error,
+            "max_base_height_error_m": height_error,
+            "peak_contact_normal_force_n": peak_normal,
+        },
+    }

@@ -1,0 +1,392 @@
+"""Session: one robot in one MuJoCo world under the whole-body controller, one tick at a time.
+
+The same object runs headless (tests, scenarios, benchmarks: as fast as the CPU allows) and
+inside the realtime sim process (which adds the schedule and Zenoh around it). Commands arrive as
+(verb, JSON payload), are validated by `parse_command`, and are applied between ticks; a rejected
+command changes nothing and the reply names the problem.
+"""
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.balance import standing_references
+from lab.controller.constraints import ContactLimits
+from lab.controller.controller import ControllerConfig, WholeBodyController
+from lab.controller.hierarchy import METHODS
+from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.qp import SOLVERS
+from lab.controller.stack import Stack, StackError
+from lab.controller.tasks import TaskGains
+from lab.description import ROBOT_NAMES, Robot, build_robot, load_description
+from lab.scenes import SCENES
+from lab.server import commands as cmd
+from lab.server.plant import MujocoPlant
+
+GAITS = ("stand",)
+FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
+FALL_TILT = 1.0  # rad: fallen when the base tilts further than this from upright
+FALL_CHECK_PERIOD = 10  # ticks between fall checks
+MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
+FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
+
+
+@dataclass
+class SessionConfig:
+    """What a session runs: robot, scene, and controller choices (None = the robot's default)."""
+
+    robot: str = "anymal"
+    scene: str = "flat"
+    hierarchy: str = "cascade"
+    solver: str = "daqp"
+    stack: list[list[str]] | None = None
+    gains: dict[str, dict[str, float]] = field(default_factory=dict)
+    timestep: float = 1e-3
+
+
+@dataclass
+class Push:
+    body: str
+    force: np.ndarray
+    point: np.ndarray | None
+    ends_at: float
+
+
+class Session:
+    def __init__(self, config: SessionConfig | None = None) -> None:
+        self.config = config or SessionConfig()
+        self._events: list[dict] = []
+        self._build(self.config)
+
+    # ----------------------------------------------------------------------------- set-up
+    def _build(self, config: SessionConfig) -> None:
+        """Create plant, model and controller for `config`; raises on bad names, keeps nothing."""
+        if config.robot not in ROBOT_NAMES:
+            raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(ROBOT_NAMES)})")
+        if config.scene not in SCENES:
+            raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
+        description = load_description(config.robot)
+        robot = build_robot(description)
+        plant = MujocoPlant(robot, config.scene, config.timestep)
+        model = RobotModel(robot.model, robot.contacts)
+        gains = {name: TaskGains(g.kp, g.kd, g.weight) for name, g in description.gains.items()}
+        for name, overrides in config.gains.items():
+            gains[name] = replace(gains.get(name, TaskGains()), **overrides)
+        controller = WholeBodyController(
+            model,
+            standing_references(model, robot.q_standing),
+            ControllerConfig(
+                stack=Stack.of(config.stack or description.stack),
+                gains=gains,
+                hierarchy=config.hierarchy,
+                solver=config.solver,
+                limits=ContactLimits(friction=description.friction),
+            ),
+            robot.torque_limits,
+        )
+        # Everything built: only now replace the running session's parts.
+        self.config = config
+        self.robot: Robot = robot
+        self.plant = plant
+        self.model = model
+        self.controller = controller
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        self.plant.reset(self.robot.q_standing)
+        self.controller.references = standing_references(self.model, self.robot.q_standing)
+        self.pushes: dict[str, Push] = {}
+        self.velocity = np.zeros(3)
+        self.paused = False
+        self.fell = False
+        self.ticks = 0
+        self.qp_failures = 0
+        self.qp_ok = True
+        self._failures_unreported = 0
+        self._last_failure_event = -FAILURE_EVENT_PERIOD
+        self.control_us = 0.0
+        self.tau = np.zeros(self.model.na)
+        self.forces = np.zeros(self.model.nf)
+        self._residuals: dict[str, float] = {}
+
+    @property
+    def time(self) -> float:
+        return self.plant.time
+
+    # ----------------------------------------------------------------------------- the tick
+    def tick(self) -> None:
+        """Advance one control period: read state, control, write torques, one MuJoCo step."""
+        if self.paused:
+            return
+        self._expire_pushes()
+        q, v = self.plant.state()
+        start = time.perf_counter()
+        try:
+            out = self.controller.compute(q, v)
+            if not np.all(np.isfinite(out.tau)):
+                raise FloatingPointError("non-finite torques")
+            self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
+        except (ArithmeticError, np.linalg.LinAlgError, RuntimeError, ValueError) as error:
+            self.tau, self.forces, self.qp_ok = self._fallback_torques(q, v), 0 * self.forces, False
+            self.qp_failures += 1
+            self._report_failure(error)
+        self.control_us = (time.perf_counter() - start) * 1e6
+        self.plant.set_torques(self.tau)
+        self.plant.step()
+        self.ticks += 1
+        if self.ticks % FALL_CHECK_PERIOD == 0 and not self.fell and self._fallen():
+            self.fell = True
+            self._event("fall", "the robot fell")
+
+    def _report_failure(self, error: Exception) -> None:
+        """One solver_failure event per FAILURE_EVENT_PERIOD at most, with the count since."""
+        self._failures_unreported += 1
+        if self.time - self._last_failure_event >= FAILURE_EVENT_PERIOD:
+            self._event(
+                "solver_failure",
+                f"{type(error).__name__}: {error}; fallback torques",
+                count=self._failures_unreported,
+            )
+            self._failures_unreported = 0
+            self._last_failure_event = self.time
+
+    def _fallback_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Joint PD to the reference posture plus the bias forces: safe for one or a few ticks."""
+        gains = self.controller.tasks["posture"].gains
+        refs = self.controller.references
+        bias = self.model.h[BASE_DOF:] if np.all(np.isfinite(self.model.h)) else 0.0
+        tau = bias + gains.kp * (refs.posture - q[7:]) - gains.kd * v[BASE_DOF:]
+        tau = np.nan_to_num(tau)
+        return np.clip(tau, -self.robot.torque_limits, self.robot.torque_limits)
+
+    def _fallen(self) -> bool:
+        q = self.plant.mj_data.qpos  # base position and (w, x, y, z): read-only here
+        height = q[2]
+        upright = 1.0 - 2.0 * (q[4] ** 2 + q[5] ** 2)  # z of the base z axis, from the quaternion
+        tilt = float(np.arccos(np.clip(upright, -1.0, 1.0)))
+        return (
+            height < FALL_HEIGHT_FRACTION * self.robot.q_standing[2]
+            or tilt > FALL_TILT
+            or self.plant.non_foot_ground_contact()
+        )
+
+    def _expire_pushes(self) -> None:
+        expired = [name for name, p in self.pushes.items() if self.time >= p.ends_at]
+        if not expired:
+            return
+        for name in expired:
+            del self.pushes[name]
+        self.plant.clear_push()
+        for p in self.pushes.values():
+            self.plant.push(p.body, p.force, p.point)
+
+    def _event(self, kind: str, message: str, **extra: object) -> None:
+        self._events.append({"type": kind, "t": self.time, "message": message, **extra})
+        del self._events[:-MAX_EVENTS]
+
+    def pop_events(self) -> list[dict]:
+        events, self._events = self._events, []
+        return events
+
+    # ----------------------------------------------------------------------------- commands
+    def handle(self, verb: str, payload: object = None) -> dict:
+        """Validate and apply one command; never raises. Rejected commands change nothing."""
+        try:
+            command = cmd.parse_command(verb, {} if payload is None else payload)
+            reply = self._apply(command)
+        except (cmd.CommandError, StackError, KeyError, ValueError) as error:
+            message = error.args[0] if isinstance(error, KeyError) and error.args else str(error)
+            self._event("rejected_command", f"{verb}: {message}", verb=verb[:64], error=message)
+            return {"ok": False, "error": str(message)}
+        return {"ok": True, **reply}
+
+    def _apply(self, command: cmd.Command) -> dict:
+        match command:
+            case cmd.InfoCommand():
+                return self.info()
+            case cmd.VelocityCommand(vx=vx, vy=vy, yaw_rate=yaw_rate):
+                self.velocity = np.array([vx, vy, yaw_rate])
+            case cmd.PushCommand(body=body, force=force, duration=duration, point=point):
+                self._push(
+                    body, np.array(force), duration, None if point is None else np.array(point)
+                )
+            case cmd.RobotCommand(name=name):
+                self._rebuild(replace(self.config, robot=name, stack=None, gains={}))
+            case cmd.SceneCommand(name=name):
+                self._rebuild(replace(self.config, scene=name))
+            case cmd.HierarchyCommand(method=method, solver=solver):
+                self.controller.set_hierarchy(method, solver)
+                self.config.hierarchy = method
+                self.config.solver = self.controller.config.solver
+                return {"hierarchy": self._hierarchy()}
+            case cmd.StackCommand(levels=levels):
+                stack = Stack.of(levels)
+                self.controller.set_stack(stack)
+                self.config.stack = stack.as_lists()
+                return {"stack": stack.as_lists()}
+            case cmd.GainsCommand(task=task, kp=kp, kd=kd, weight=weight):
+                gains = self.controller.set_gains(task, kp, kd, weight)
+                return {"task": task, "kp": gains.kp, "kd": gains.kd, "weight": gains.weight}
+            case cmd.ResetCommand():
+                self._reset_state()
+                self._event("reset", "reset to the standing posture")
+            case cmd.PauseCommand():
+                self.paused = True
+            case cmd.ResumeCommand():
+                self.paused = False
+            case cmd.GaitCommand(name=name):
+                if name not in GAITS:
+                    raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(GAITS)})")
+        return {}
+
+    def _push(
+        self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
+    ) -> None:
+        self.plant.push(body, force, point)  # raises KeyError naming the known bodies
+        self.pushes[body] = Push(body, force, point, self.time + duration)
+
+    def _rebuild(self, config: SessionConfig) -> None:
+        self._build(config)
+        self._event("session_rebuilt", f"robot {config.robot} in scene {config.scene}")
+
+    # ----------------------------------------------------------------------------- reports
+    def _hierarchy(self) -> dict:
+        return {"method": self.controller.config.hierarchy, "solver": self.controller.config.solver}
+
+    def _task_gains(self) -> list[dict]:
+        return [
+            {"name": name, "kp": g.kp, "kd": g.kd, "weight": g.weight}
+            for name, g in self.controller.gains().items()
+        ]
+
+    def info(self) -> dict:
+        return {
+            "robots": list(ROBOT_NAMES),
+            "scenes": list(SCENES),
+            "methods": list(METHODS),
+            "solvers": list(SOLVERS),
+            "gaits": list(GAITS),
+            "robot": self.config.robot,
+            "scene": self.config.scene,
+            "gait": "stand",
+            "hierarchy": self._hierarchy(),
+            "stack": self.controller.config.stack.as_lists(),
+            "known": list(self.controller.known_names),
+            "tasks": self._task_gains(),
+            "bodies": list(self.plant.body_names),
+            "contacts": [c.name for c in self.robot.contacts],
+            "paused": self.paused,
+            "t": self.time,
+        }
+
+    def telemetry(self) -> dict:
+        """Everything the UI plots and the tests check, JSON-ready (see docs/protocol.md)."""
+        model, refs = self.model, self.controller.references
+        q = self.model.q
+        rotation = model.base_rotation
+        measured = self.plant.foot_forces()
+        contacts = []
+        feet_cop: dict[str, list[float] | None] = {}
+        for i, (contact, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True)):
+            position = model.contact_positions[i]
+            entry = {
+                "name": contact.name,
+                "kind": contact.kind,
+                "active": bool(refs.contact_active[i]),
+                "position": position.tolist(),
+                "measured_force": measured[i].tolist(),
+            }
+            wrench = self.forces[rows]
+            if contact.kind == "point":
+                entry["force"] = wrench.tolist()
+            else:
+                R = model.contact_rotations[i]
+                entry["force"] = (R @ wrench[:3]).tolist()
+                entry["moment"] = (R @ wrench[3:]).tolist()
+                fz = wrench[2]
+                cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0]) if fz > 1e-6 else None
+                feet_cop[contact.name] = (
+                    None if cop_local is None else (position + R @ cop_local).tolist()
+                )
+            contacts.append(entry)
+        normal = measured[:, 2]
+        net_cop = (
+            (normal @ model.contact_positions / normal.sum()).tolist()
+            if normal.sum() > 1e-6
+            else None
+        )
+        if net_cop is not None:
+            net_cop[2] = 0.0
+        errors = self.controller.task_errors()
+        gains = self.controller.gains()
+        tasks = [
+            {
+                "name": name,
+                "level": level,
+                "error": errors.get(name, 0.0),
+                "kp": gains[name].kp if name in gains else None,
+                "kd": gains[name].kd if name in gains else None,
+                "weight": gains[name].weight if name in gains else 1.0,
+            }
+            for level, names in enumerate(self.controller.config.stack.levels)
+            for name in names
+        ]
+        momentum = model.centroidal_momentum()
+        return {
+            "t": self.time,
+            "robot": self.config.robot,
+            "scene": self.config.scene,
+            "paused": self.paused,
+            "fell": self.fell,
+            "gait": "stand",
+            "base": {
+                "position": q[:3].tolist(),
+                "quaternion": q[3:7].tolist(),
+                "linear_velocity": (rotation @ model.v[:3]).tolist(),
+                "angular_velocity": (rotation @ model.v[3:6]).tolist(),
+            },
+            "com": {"position": model.com.tolist(), "velocity": model.com_velocity.tolist()},
+            "momentum": {"linear": momentum[:3].tolist(), "angular": momentum[3:].tolist()},
+            "contacts": contacts,
+            "cop": {"feet": feet_cop, "net": net_cop},
+            "tasks": tasks,
+            "stack": self.controller.config.stack.as_lists(),
+            "hierarchy": self._hierarchy(),
+            "qp": {
+                "status": "ok" if self.qp_ok else "failed",
+                "solve_us": self.control_us,
+                "failures": self.qp_failures,
+            },
+            "command": dict(zip(("vx", "vy", "yaw_rate"), self.velocity.tolist(), strict=True)),
+            "pushes": [
+                {
+                    "body": p.body,
+                    "force": p.force.tolist(),
+                    "point": (
+                        p.point if p.point is not None else self._body_position(p.body)
+                    ).tolist(),
+                    "remaining": max(0.0, p.ends_at - self.time),
+                }
+                for p in self.pushes.values()
+            ],
+        }
+
+    def _body_position(self, body: str) -> np.ndarray:
+        frame = self.model.model.getFrameId(body)
+        return self.model.data.oMf[frame].translation.copy()
+
+    def drawing_state(self) -> dict:
+        q, _ = self.plant.state()
+        return {
+            "t": self.time,
+            "robot": self.config.robot,
+            "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
+            "joints": {"names": list(self.robot.joint_names), "positions": q[7:].tolist()},
+        }
+
+    def base_orientation_error(self) -> float:
+        """Angle (rad) between the base and its reference orientation."""
+        R_ref = self.controller.references.base_rotation
+        return float(np.linalg.norm(pin.log3(R_ref.T @ self.model.base_rotation)))

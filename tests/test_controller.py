@@ -1,0 +1,154 @@
+"""The whole-body controller on real robot models: physics of the solution it returns."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from lab.controller.balance import standing_references
+from lab.controller.constraints import ContactLimits
+from lab.controller.controller import ControllerConfig, WholeBodyController
+from lab.controller.model import RobotModel
+from lab.controller.stack import Stack, StackError
+from lab.controller.tasks import TaskGains
+from lab.description import build_robot, load_description
+
+ROBOTS = ("anymal", "hyq", "solo12", "talos")
+DYNAMICS_TOL = 1e-8  # N or N m: Newton–Euler rows and the torque identity hold to round-off
+LIMIT_TOL = 1e-6  # N: friction and force bounds, DAQP's primal tolerance
+# Relative, DAQP vs Clarabel on the same robot problem. Where a torque limit is active a level's
+# optimum is unique only through the cascade's ε = 1e-8 regularization, which is below
+# Clarabel's 1e-8 tolerance: the interior-point answer sits a little inside the limit.
+BACKEND_TOL = 1e-3
+
+
+def controller_for(name: str, method: str = "cascade", solver: str = "daqp"):
+    description = load_description(name)
+    robot = build_robot(description)
+    model = RobotModel(robot.model, robot.contacts)
+    gains = {k: TaskGains(g.kp, g.kd, g.weight) for k, g in description.gains.items()}
+    config = ControllerConfig(
+        Stack.of(description.stack),
+        gains,
+        method,
+        solver,
+        ContactLimits(friction=description.friction),
+    )
+    refs = standing_references(model, robot.q_standing)
+    return WholeBodyController(model, refs, config, robot.torque_limits), robot
+
+
+def disturbed_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The standing posture, a little off: joints by ±0.05 rad, base moving, base tilted."""
+    q = robot.q_standing.copy()
+    q[7:] += rng.uniform(-0.05, 0.05, len(q) - 7)
+    rotation = pin.rpy.rpyToMatrix(*rng.uniform(-0.05, 0.05, 3))
+    q[3:7] = pin.Quaternion(rotation).coeffs()
+    v = rng.normal(0.0, 0.1, robot.model.nv)
+    return q, v
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+@pytest.mark.parametrize("method", ["cascade", "weighted"])
+def test_solution_obeys_the_equations_of_motion(name: str, method: str) -> None:
+    controller, robot = controller_for(name, method)
+    model = controller.robot
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        q, v = disturbed_state(robot, rng)
+        out = controller.compute(q, v)
+        # Independent check with pinocchio's RNEA: M q̈ + h − Jcᵀ F = [0; τ].
+        generalized = pin.rnea(robot.model, pin.Data(robot.model), q, v, out.qdd)
+        generalized -= model.Jc.T @ out.forces
+        assert np.max(np.abs(generalized[:6])) <= DYNAMICS_TOL * max(1.0, model.mass)
+        assert np.allclose(generalized[6:], out.tau, atol=DYNAMICS_TOL * max(1.0, model.mass))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_forces_respect_friction_and_unilaterality(name: str) -> None:
+    controller, robot = controller_for(name)
+    model = controller.robot
+    mu = np.sqrt(0.5) * controller.config.limits.friction
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        out = controller.compute(*disturbed_state(robot, rng))
+        for rows in model.force_slices:
+            f = out.forces[rows]
+            assert f[2] >= -LIMIT_TOL
+            assert abs(f[0]) <= mu * f[2] + LIMIT_TOL
+            assert abs(f[1]) <= mu * f[2] + LIMIT_TOL
+        assert np.all(np.abs(out.tau) <= robot.torque_limits + LIMIT_TOL)
+
+
+def test_flat_feet_keep_the_centre_of_pressure_inside_the_sole() -> None:
+    controller, robot = controller_for("talos")
+    model = controller.robot
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        out = controller.compute(*disturbed_state(robot, rng))
+        for contact, rows in zip(model.contacts, model.force_slices, strict=True):
+            # CoP = (−τ_y, τ_x) / f_z inside the sole, written without dividing by f_z.
+            fz, tx, ty = out.forces[rows][[2, 3, 4]]
+            assert fz >= -LIMIT_TOL
+            assert abs(ty) <= contact.half_length * fz + LIMIT_TOL
+            assert abs(tx) <= contact.half_width * fz + LIMIT_TOL
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_standing_still_needs_no_acceleration_and_carries_the_weight(name: str) -> None:
+    controller, robot = controller_for(name)
+    model = controller.robot
+    out = controller.compute(robot.q_standing, np.zeros(model.nv))
+    weight = model.mass * 9.81
+    # Point feet carry world-frame forces; flat feet a wrench in the sole frame.
+    vertical = sum(
+        (model.contact_rotations[i] @ out.forces[rows][:3])[2]
+        if c.kind == "flat"
+        else out.forces[rows][2]
+        for i, (c, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True))
+    )
+    assert vertical == pytest.approx(weight, rel=1e-6)
+    # CoM and base orientation are at their references: their level asks zero acceleration and
+    # gets it exactly (the lowest level may still trade joint accelerations against forces).
+    com_acceleration = model.Jcom @ out.qdd + model.com_drift
+    assert np.max(np.abs(com_acceleration)) < 1e-8
+    assert np.max(np.abs(out.qdd[3:6])) < 1e-8
+
+
+@pytest.mark.parametrize("name", ["anymal", "talos"])
+def test_daqp_and_clarabel_agree_on_robot_problems(name: str) -> None:
+    rng = np.random.default_rng(3)
+    fast, robot = controller_for(name, solver="daqp")
+    reference, _ = controller_for(name, solver="clarabel")
+    for _ in range(3):
+        q, v = disturbed_state(robot, rng)
+        a, b = fast.compute(q, v), reference.compute(q, v)
+        assert np.linalg.norm(a.tau - b.tau) <= BACKEND_TOL * max(1.0, np.linalg.norm(b.tau))
+        assert np.linalg.norm(a.forces - b.forces) <= BACKEND_TOL * np.linalg.norm(b.forces)
+
+
+def test_a_higher_task_is_untouched_by_the_levels_below() -> None:
+    """Base orientation alone below the contacts vs. with posture and forces under it."""
+    controller, robot = controller_for("anymal")
+    q, v = disturbed_state(robot, np.random.default_rng(4))
+    controller.set_stack(
+        Stack.of([["friction", "torque_limits"], ["contact"], ["base_orientation"]])
+    )
+    alone = controller.compute(q, v)
+    A, b = controller.tasks["base_orientation"].rows(controller.robot, controller.references)
+    residual_alone = np.linalg.norm(A[:, : len(alone.qdd)] @ alone.qdd - b)
+    controller.set_stack(
+        Stack.of([["friction", "torque_limits"], ["contact"], ["base_orientation"], ["posture"]])
+    )
+    full = controller.compute(q, v)
+    residual_full = np.linalg.norm(A[:, : len(full.qdd)] @ full.qdd - b)
+    assert abs(residual_full - residual_alone) <= LIMIT_TOL
+    assert np.linalg.norm(full.qdd - alone.qdd) > 1e-3  # the posture level did change q̈
+
+
+def test_a_bad_stack_is_rejected_and_the_old_one_kept() -> None:
+    controller, _ = controller_for("anymal")
+    before = controller.config.stack
+    for levels in ([["contact"], ["no_such_task"]], [["contact", "contact"]], [[]], []):
+        with pytest.raises(StackError):
+            controller.set_stack(Stack.of(levels))
+        assert controller.config.stack == before

@@ -1,0 +1,133 @@
+"""The session: commands between ticks, pushes, fallbacks, falls, telemetry."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from lab.controller import hierarchy
+from lab.controller.qp import QPFailure
+from lab.server.session import Session, SessionConfig
+
+
+@pytest.fixture(scope="module")
+def session() -> Session:
+    return Session(SessionConfig(robot="anymal"))
+
+
+def run(session: Session, seconds: float) -> None:
+    for _ in range(round(seconds / session.config.timestep)):
+        session.tick()
+
+
+def test_a_push_moves_the_base_in_the_pushed_direction_and_it_recovers() -> None:
+    session = Session(SessionConfig(robot="anymal"))
+    run(session, 0.2)
+    y0 = session.telemetry()["base"]["position"][1]
+    reply = session.handle("push", {"body": "base", "force": [0.0, 150.0, 0.0], "duration": 0.1})
+    assert reply["ok"], reply
+    run(session, 0.1)
+    pushed = session.telemetry()
+    assert pushed["base"]["linear_velocity"][1] > 0.05  # m/s, along +y as pushed
+    assert pushed["pushes"][0]["body"] == "base"
+    run(session, 1.5)
+    after = session.telemetry()
+    assert not after["fell"] and after["pushes"] == []
+    assert abs(after["base"]["linear_velocity"][1]) < 0.02
+    assert abs(after["com"]["position"][1] - y0) < 0.01  # the CoM task brings it back
+
+
+@pytest.mark.parametrize(
+    ("verb", "payload", "needle"),
+    [
+        ("stack", {"levels": [["contact"], ["no_such_task"]]}, "no_such_task"),
+        ("stack", {"levels": [["contact", "contact"]]}, "contact"),
+        ("gains", {"task": "com", "kp": -1.0}, "kp"),
+        ("gains", {"task": "nope", "kp": 1.0}, "nope"),
+        ("gains", {"task": "com", "kp": math.nan}, "kp"),
+        ("hierarchy", {"method": "magic"}, "magic"),
+        ("hierarchy", {"method": "cascade", "solver": "osqp"}, "osqp"),
+        ("robot", {"name": "atlas"}, "atlas"),
+        ("scene", {"name": "moon"}, "moon"),
+        ("push", {"body": "no_link", "force": [1.0, 0.0, 0.0], "duration": 0.1}, "no_link"),
+        ("push", {"body": "base", "force": [1.0, 0.0], "duration": 0.1}, "force"),
+        ("velocity", {"vx": math.inf}, "vx"),
+        ("teleport", {}, "teleport"),
+        ("gait", {"name": "moonwalk"}, "moonwalk"),
+    ],
+)
+def test_bad_commands_are_rejected_by_name_and_change_nothing(
+    session: Session, verb: str, payload: dict, needle: str
+) -> None:
+    before = json.dumps(session.info(), sort_keys=True)
+    reply = session.handle(verb, payload)
+    assert reply["ok"] is False
+    assert needle in reply["error"]
+    assert json.dumps(session.info(), sort_keys=True) == before
+    session.tick()  # and the loop goes on
+
+
+def test_stack_gains_and_hierarchy_changes_show_in_telemetry(session: Session) -> None:
+    levels = [["friction", "torque_limits"], ["contact"], ["base_orientation", "com"], ["posture"]]
+    assert session.handle("stack", {"levels": levels})["ok"]
+    assert session.handle("gains", {"task": "com", "kp": 50.0})["ok"]
+    assert session.handle("hierarchy", {"method": "weighted", "solver": "clarabel"})["ok"]
+    session.tick()
+    telemetry = session.telemetry()
+    assert telemetry["stack"] == levels
+    assert telemetry["hierarchy"] == {"method": "weighted", "solver": "clarabel"}
+    assert next(t for t in telemetry["tasks"] if t["name"] == "com")["kp"] == 50.0
+    assert telemetry["qp"]["status"] == "ok"
+
+
+def test_a_solver_failure_falls_back_counts_and_carries_on(monkeypatch) -> None:
+    session = Session(SessionConfig(robot="anymal"))
+    run(session, 0.1)
+
+    def failing(problem, solver):
+        raise QPFailure("injected failure")
+
+    monkeypatch.setitem(hierarchy.METHODS, "cascade", failing)
+    run(session, 0.02)
+    assert session.qp_failures == 20
+    assert any(e["type"] == "solver_failure" for e in session.pop_events())
+    monkeypatch.undo()
+    run(session, 0.5)
+    assert session.qp_failures == 20
+    assert not session.fell
+    assert abs(session.telemetry()["base"]["position"][2] - session.robot.q_standing[2]) < 0.02
+
+
+def test_a_robot_switch_and_a_reset(session: Session) -> None:
+    assert session.handle("robot", {"name": "solo12"})["ok"]
+    assert session.telemetry()["robot"] == "solo12"
+    assert len(session.telemetry()["contacts"]) == 4
+    run(session, 0.05)
+    assert session.handle("reset")["ok"]
+    assert session.time == 0.0
+    assert session.handle("robot", {"name": "anymal"})["ok"]
+
+
+def test_a_fall_is_detected() -> None:
+    session = Session(SessionConfig(robot="solo12"))
+    # Far more than the robot can resist, sideways and long: it tips over.
+    session.handle("push", {"body": "base_link", "force": [0.0, 80.0, 0.0], "duration": 2.0})
+    run(session, 2.0)
+    assert session.fell
+    assert any(e["type"] == "fall" for e in session.pop_events())
+
+
+def test_telemetry_is_json_and_physical(session: Session) -> None:
+    session.handle("reset")
+    run(session, 0.3)
+    telemetry = json.loads(json.dumps(session.telemetry()))
+    weight = session.model.mass * 9.81
+    measured = sum(c["measured_force"][2] for c in telemetry["contacts"])
+    planned = sum(c["force"][2] for c in telemetry["contacts"])
+    assert measured == pytest.approx(weight, rel=0.02)
+    assert planned == pytest.approx(weight, rel=0.02)
+    feet = np.array([c["position"][:2] for c in telemetry["contacts"]])
+    cop = np.array(telemetry["cop"]["net"][:2])
+    assert np.all(cop > feet.min(axis=0)) and np.all(cop < feet.max(axis=0))
+    assert np.linalg.norm(telemetry["momentum"]["linear"]) < 0.05 * session.model.mass
