@@ -7,6 +7,7 @@ apply them through `Session.handle` and reply, run the velocity deadman, `Sessio
 every few ticks publish telemetry, drawing state and events.
 """
 
+import contextlib
 import ctypes
 import math
 import os
@@ -26,6 +27,7 @@ DEADMAN_TIMEOUT_S = 0.5  # a velocity command expires this long after its last r
 DEADMAN_RAMP_S = 0.5  # ...and then ramps linearly to zero over this long
 DEADMAN_UPDATE_S = 0.01  # how often the ramp sends a new velocity to the session
 EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per second each
+COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
 STATS_INTERVAL_TICKS = 100  # recompute the percentiles of the loop statistics this often
 FIFO_PRIORITY = 50
 _PR_SET_TIMERSLACK = 29
@@ -55,6 +57,7 @@ class Transport(Protocol):
 class LoopConfig:
     rate_hz: float = 1000.0
     fast: bool = False  # no sleeping: run as fast as the CPU allows
+    fifo: bool = True  # ask for SCHED_FIFO (never in fast mode: it would starve the machine)
     telemetry_hz: float = 100.0
     state_hz: float = 60.0
     max_commands_per_tick: int = 4
@@ -110,6 +113,8 @@ class DeadlineStats:
         self.skipped = 0
         self.lateness = LogHistogram()
         self.work = LogHistogram()
+        self._percentiles: dict[str, dict[str, float]] = {}
+        self.refresh_percentiles()
 
     def record(self, lateness: float, work: float, overrun: bool) -> None:
         self.ticks += 1
@@ -118,7 +123,9 @@ class DeadlineStats:
         self.lateness.record(lateness)
         self.work.record(work)
 
-    def snapshot(self) -> dict[str, object]:
+    def refresh_percentiles(self) -> None:
+        """Recompute lateness and work percentiles (a pass over the bins: not every tick)."""
+
         def us(h: LogHistogram) -> dict[str, float]:
             return {
                 "p50": round(h.percentile(50) * 1e6, 2),
@@ -126,14 +133,17 @@ class DeadlineStats:
                 "max": round(h.max * 1e6, 2),
             }
 
+        self._percentiles = {"lateness_us": us(self.lateness), "tick_us": us(self.work)}
+
+    def snapshot(self) -> dict[str, object]:
+        """Counters as of now, percentiles as of the last `refresh_percentiles`."""
         return {
             "rate_hz": 1.0 / self.period,
             "realtime": self.realtime,
             "fifo": self.fifo,
             "ticks": self.ticks,
             "on_time_fraction": self.on_time / self.ticks if self.ticks else 1.0,
-            "lateness_us": us(self.lateness),
-            "tick_us": us(self.work),
+            **self._percentiles,
             "overruns": self.overruns,
             "skipped": self.skipped,
         }
@@ -186,14 +196,15 @@ class EventThrottle:
         return count
 
 
-def request_realtime() -> bool:
-    """Ask for SCHED_FIFO and 1 ns timer slack for the calling thread; True if FIFO was granted.
-    Refusals are expected without privileges and ignored."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_TIMERSLACK, ctypes.c_ulong(1), 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
+def lower_timer_slack() -> None:
+    """Ask for 1 ns timer slack for the calling thread (default 50 µs); ignore refusal."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_TIMERSLACK, ctypes.c_ulong(1), 0, 0, 0)
+
+
+def request_fifo() -> bool:
+    """Ask for SCHED_FIFO for the calling thread; True if granted. Refusal (no privileges) is
+    expected and ignored."""
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(FIFO_PRIORITY))
     except (OSError, AttributeError):
@@ -225,13 +236,14 @@ class SimLoop:
         self._rejected_events = EventThrottle()
         self._last_rejection: tuple[str, str] = ("", "")
         self._worst_lateness = 0.0
-        self._loop_stats = self.stats.snapshot()
+        self._last_sim_time = 0.0
 
     def run(self, stop: threading.Event) -> None:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
         try:
             if not self.config.fast:
-                self.stats.fifo = request_realtime()
+                lower_timer_slack()
+                self.stats.fifo = self.config.fifo and request_fifo()
             self._run(stop)
         except BaseException as exc:
             self.error = exc
@@ -268,10 +280,11 @@ class SimLoop:
         self.session.tick()
         ticks = self.stats.ticks
         if ticks % STATS_INTERVAL_TICKS == 0:
-            self._loop_stats = self.stats.snapshot()
+            self.stats.refresh_percentiles()
         if ticks % self._telemetry_every == 0:
             telemetry = self.session.telemetry()
-            telemetry["loop"] = self._loop_stats
+            telemetry["loop"] = self.stats.snapshot()
+            self._last_sim_time = float(telemetry["t"])
             self.transport.publish_telemetry(telemetry)
             self._publish_events(now)
         if ticks % self._state_every == self._state_every // 2:
@@ -280,6 +293,8 @@ class SimLoop:
     def _apply_commands(self, now: float) -> None:
         velocity: list[Request] = []
         for _ in range(self.config.max_commands_per_tick):
+            if self.clock() - now > COMMAND_BUDGET_S:
+                break
             request = self.transport.receive()
             if request is None:
                 break
@@ -309,16 +324,7 @@ class SimLoop:
                 self._deadman.refresh(velocity, now)
             elif request.verb == "info":
                 reply = {**reply, "limits": LIMITS, "loop": self.stats.snapshot()}
-            elif request.verb in ("robot", "scene"):
-                self._deadman.refresh(VelocityCommand(), now)
-                self.transport.publish_event(
-                    {
-                        "type": "session_rebuilt",
-                        "t": self._sim_time(),
-                        "message": f"{request.verb} switched to {request.payload!r}"[:200],
-                    }
-                )
-            elif request.verb == "reset":
+            elif request.verb in ("robot", "scene", "reset"):
                 self._deadman.refresh(VelocityCommand(), now)
         self._answer(request, reply)
 
@@ -330,7 +336,8 @@ class SimLoop:
 
     def _publish_events(self, now: float) -> None:
         for event in self.session.pop_events():
-            self.transport.publish_event(event)
+            if event.get("type") != "rejected_command":  # folded below, with transport errors
+                self.transport.publish_event(event)
         overruns = self._overrun_events.take(now)
         if overruns:
             worst = self._worst_lateness * 1e6
@@ -338,7 +345,7 @@ class SimLoop:
             self.transport.publish_event(
                 {
                     "type": "overrun",
-                    "t": self._sim_time(),
+                    "t": self._last_sim_time,
                     "message": f"{overruns} tick(s) overran the {self.period * 1e3:g} ms period",
                     "count": overruns,
                     "total": self.stats.overruns,
@@ -351,16 +358,13 @@ class SimLoop:
             self.transport.publish_event(
                 {
                     "type": "rejected_command",
-                    "t": self._sim_time(),
+                    "t": self._last_sim_time,
                     "message": f"{rejected} command(s) rejected; last: {error}",
                     "verb": verb,
                     "error": error,
                     "count": rejected,
                 }
             )
-
-    def _sim_time(self) -> float:
-        return float(self.session.telemetry().get("t", 0.0))
 
 
 def _velocity_payload(command: VelocityCommand) -> dict[str, float]:

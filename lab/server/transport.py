@@ -68,9 +68,12 @@ def decode_query(query: zenoh.Query) -> Request:
     if not raw.strip():
         return Request(verb, {}, None, query)
     try:
-        return Request(verb, json.loads(raw), None, query)
+        payload = json.loads(raw)
     except (ValueError, RecursionError) as exc:  # bad UTF-8 / JSON, or nesting too deep
         return Request(verb, None, f"{verb}: payload is not valid JSON ({exc})"[:300], query)
+    if payload is None:
+        return Request(verb, None, f"{verb}: payload must be a JSON object, got null", query)
+    return Request(verb, payload, None, query)
 
 
 class ServerTransport:

@@ -1,0 +1,112 @@
+"""`lab serve`: the sim process (session + realtime loop + Zenoh) and, unless --headless, the UI
+process (`python -m lab.ui`). SIGINT/SIGTERM stop both cleanly."""
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import threading
+
+from lab.server.loop import LoopConfig, SimLoop
+from lab.server.transport import DEFAULT_PORT, ServerTransport, server_config
+
+UI_STOP_TIMEOUT_S = 2.0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="lab serve", description=__doc__)
+    p.add_argument("--robot", default="anymal", help="robot to start with (default: anymal)")
+    p.add_argument("--scene", default="flat", help="scene to start with (default: flat)")
+    p.add_argument("--port", type=int, default=DEFAULT_PORT, help="TCP port on 127.0.0.1")
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="listen on this Zenoh endpoint instead of 127.0.0.1 (opt-in, e.g. tcp/0.0.0.0:7447)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="also connect to this Zenoh endpoint (opt-in, e.g. a router)",
+    )
+    p.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default: 1000)")
+    p.add_argument("--fast", action="store_true", help="no sleeping: run as fast as possible")
+    p.add_argument(
+        "--no-fifo",
+        action="store_true",
+        help="do not ask for SCHED_FIFO (be nice to a shared machine)",
+    )
+    p.add_argument("--telemetry-hz", type=float, default=100.0)
+    p.add_argument("--state-hz", type=float, default=60.0)
+    p.add_argument("--headless", action="store_true", help="do not start the browser UI")
+    p.add_argument("--ui-port", type=int, default=8080, help="HTTP port of the browser UI")
+    return p
+
+
+def serve_main(argv: list[str]) -> int:
+    args = build_parser().parse_args(argv)
+    if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
+        print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
+        return 2
+    # One BLAS thread (set before numpy loads): the loop's matrices are small, idle OpenBLAS
+    # workers spin on the cores the loop needs, and joining them at exit took seconds here.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
+
+    session = Session(SessionConfig(robot=args.robot, scene=args.scene))
+    transport = ServerTransport(server_config(args.port, args.listen, args.connect))
+    loop = SimLoop(
+        session,
+        transport,
+        LoopConfig(
+            rate_hz=args.rate,
+            fast=args.fast,
+            fifo=not args.no_fifo,
+            telemetry_hz=args.telemetry_hz,
+            state_hz=args.state_hz,
+        ),
+    )
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    thread = threading.Thread(target=loop.run, args=(stop,), name="sim-loop")
+    thread.start()
+    ui = None
+    try:
+        endpoint = (args.listen or [f"tcp/127.0.0.1:{args.port}"])[0]
+        endpoint = endpoint.replace("/0.0.0.0:", "/127.0.0.1:")  # the UI runs on this host
+        if not args.headless:
+            ui = subprocess.Popen(
+                [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--port", str(args.ui_port)]
+            )
+        mode = "fast" if args.fast else f"{args.rate:g} Hz"
+        print(f"lab serve: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}", flush=True)
+        while not stop.wait(0.5):
+            pass
+    finally:
+        stop.set()
+        thread.join()
+        transport.close()
+        if ui is not None:
+            _stop_process(ui)
+    if loop.error is not None:
+        print(f"lab serve: the sim loop stopped: {loop.error!r}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _stop_process(process: subprocess.Popen) -> None:
+    process.terminate()
+    try:
+        process.wait(UI_STOP_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+if __name__ == "__main__":
+    sys.exit(serve_main(sys.argv[1:]))
