@@ -4,7 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from lab.controller.balance import standing_references
+from lab.controller.behaviours.balance import standing_references
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel

@@ -37,7 +37,8 @@ class Constraint:
 class FrictionConstraint(Constraint):
     """Inner friction pyramid and normal-force bounds per contact (Raiola C_fc).
 
-    |f_t,i| ≤ (√2/2) μ f_n on each tangent axis, f_min ≤ f_n ≤ f_max. The normal is world z for a
+    |f_t,i| ≤ (√2/2) μ f_n on each tangent axis, f_min ≤ f_n ≤ f_max,i (the per-contact bound of
+    the references when a behaviour sets one). The normal is world z for a
     point foot (flat ground) and the sole's z for a flat foot, whose wrench is in the sole frame.
     A contact that is not active carries no force at all.
     """
@@ -49,9 +50,12 @@ class FrictionConstraint(Constraint):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         mu = np.sqrt(0.5) * self.limits.friction
+        upper = refs.normal_force_max
+        if upper.size == 0:
+            upper = np.full(len(robot.contacts), self.limits.normal_max)
         blocks_C, blocks_d = [], []
-        for contact, rows, active in zip(
-            robot.contacts, robot.force_slices, refs.contact_active, strict=True
+        for contact, rows, active, normal_max in zip(
+            robot.contacts, robot.force_slices, refs.contact_active, upper, strict=True
         ):
             col = robot.nv + rows.start
             if active:
@@ -60,7 +64,7 @@ class FrictionConstraint(Constraint):
                     C[2 * k, col + tangent], C[2 * k, col + 2] = 1.0, -mu
                     C[2 * k + 1, col + tangent], C[2 * k + 1, col + 2] = -1.0, -mu
                 C[4, col + 2], d[4] = -1.0, -self.limits.normal_min
-                C[5, col + 2], d[5] = 1.0, self.limits.normal_max
+                C[5, col + 2], d[5] = 1.0, normal_max
             else:
                 n = contact.force_dim
                 C, d = _rows(2 * n, robot)

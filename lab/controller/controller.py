@@ -139,6 +139,11 @@ class WholeBodyController:
     def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:
         """Torques for state (q, v); raises QPFailure when the hierarchy has no solution."""
         self.robot.update(q, v)
+        return self.solve()
+
+    def solve(self) -> ControlOutput:
+        """Torques at the state of the last RobotModel.update (a behaviour may update the
+        references in between)."""
         problem = self.build_problem()
         x = METHODS[self.config.hierarchy](problem, self.config.solver)
         nv = self.robot.nv

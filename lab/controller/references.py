@@ -19,3 +19,6 @@ class References:
     com_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     base_angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     contact_active: np.ndarray = field(default_factory=lambda: np.ones(0, dtype=bool))
+    # Per-contact upper bound on the normal force (N); a behaviour ramps it down before lift-off
+    # and up after touchdown so that torques do not jump. Empty: the robot-wide bound applies.
+    normal_force_max: np.ndarray = field(default_factory=lambda: np.zeros(0))

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.balance import standing_references
+from lab.controller.behaviours import BEHAVIOURS, Balance
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy import METHODS
@@ -25,7 +25,6 @@ from lab.scenes import SCENES
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant
 
-GAITS = ("stand",)
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
 FALL_TILT = 1.0  # rad: fallen when the base tilts further than this from upright
 FALL_CHECK_PERIOD = 10  # ticks between fall checks
@@ -76,7 +75,7 @@ class Session:
             gains[name] = replace(gains.get(name, TaskGains()), **overrides)
         controller = WholeBodyController(
             model,
-            standing_references(model, robot.q_standing),
+            Balance(model, robot.q_standing).references,
             ControllerConfig(
                 stack=Stack.of(config.stack or description.stack),
                 gains=gains,
@@ -96,7 +95,7 @@ class Session:
 
     def _reset_state(self) -> None:
         self.plant.reset(self.robot.q_standing)
-        self.controller.references = standing_references(self.model, self.robot.q_standing)
+        self._set_behaviour(Balance.name)
         self.pushes: dict[str, Push] = {}
         self.velocity = np.zeros(3)
         self.paused = False
@@ -111,6 +110,14 @@ class Session:
         self.forces = np.zeros(self.model.nf)
         self._residuals: dict[str, float] = {}
 
+    def _set_behaviour(self, name: str) -> None:
+        """Start behaviour `name` from the current state; raises KeyError for an unknown one."""
+        if name not in BEHAVIOURS:
+            raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(BEHAVIOURS)})")
+        self.model.update(*self.plant.state())
+        self.behaviour = BEHAVIOURS[name](self.model, self.robot.q_standing)
+        self.controller.references = self.behaviour.references
+
     @property
     def time(self) -> float:
         return self.plant.time
@@ -124,7 +131,9 @@ class Session:
         q, v = self.plant.state()
         start = time.perf_counter()
         try:
-            out = self.controller.compute(q, v)
+            self.model.update(q, v)
+            self.behaviour.update(self.time, self.model, self.velocity)
+            out = self.controller.solve()
             if not np.all(np.isfinite(out.tau)):
                 raise FloatingPointError("non-finite torques")
             self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
@@ -237,8 +246,7 @@ class Session:
             case cmd.ResumeCommand():
                 self.paused = False
             case cmd.GaitCommand(name=name):
-                if name not in GAITS:
-                    raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(GAITS)})")
+                self._set_behaviour(name)
         return {}
 
     def _push(
@@ -267,10 +275,10 @@ class Session:
             "scenes": list(SCENES),
             "methods": list(METHODS),
             "solvers": list(SOLVERS),
-            "gaits": list(GAITS),
+            "gaits": list(BEHAVIOURS),
             "robot": self.config.robot,
             "scene": self.config.scene,
-            "gait": "stand",
+            "gait": self.behaviour.name,
             "hierarchy": self._hierarchy(),
             "stack": self.controller.config.stack.as_lists(),
             "known": list(self.controller.known_names),
@@ -340,7 +348,7 @@ class Session:
             "scene": self.config.scene,
             "paused": self.paused,
             "fell": self.fell,
-            "gait": "stand",
+            "gait": self.behaviour.name,
             "base": {
                 "position": q[:3].tolist(),
                 "quaternion": q[3:7].tolist(),

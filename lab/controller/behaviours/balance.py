@@ -2,7 +2,7 @@
 
 The CoM stays where the standing posture puts it (over the support polygon), the base level at
 the standing height with its initial heading, the joints at the reference posture, all feet in
-contact.
+contact. The velocity command is ignored: a standing robot does not walk.
 """
 
 import numpy as np
@@ -23,3 +23,15 @@ def standing_references(robot: RobotModel, q_standing: np.ndarray) -> References
         base_rotation=pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
         contact_active=np.ones(len(robot.contacts), dtype=bool),
     )
+
+
+class Balance:
+    """Stand still on every foot."""
+
+    name = "stand"
+
+    def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
+        self.references = standing_references(robot, q_standing)
+
+    def update(self, t: float, robot: RobotModel, command: np.ndarray) -> None:
+        """Nothing changes while standing."""

@@ -1,0 +1,31 @@
+"""Behaviours own the references and the contact schedule; the controller owns the math.
+
+A behaviour is built from the robot model and its standing posture, exposes the `References` the
+tasks track, and updates them once per tick from the time, the robot's current state (after
+`RobotModel.update`) and the velocity command [vx, vy, yaw_rate] (heading frame).
+"""
+
+from collections.abc import Callable
+from typing import Protocol
+
+import numpy as np
+
+from lab.controller.behaviours.balance import Balance
+from lab.controller.model import RobotModel
+from lab.controller.references import References
+
+
+class Behaviour(Protocol):
+    name: str
+    references: References
+
+    def update(self, t: float, robot: RobotModel, command: np.ndarray) -> None: ...
+
+
+BehaviourFactory = Callable[[RobotModel, np.ndarray], Behaviour]
+
+BEHAVIOURS: dict[str, BehaviourFactory] = {
+    Balance.name: Balance,
+}
+
+__all__ = ["BEHAVIOURS", "Balance", "Behaviour", "BehaviourFactory"]
