@@ -29,6 +29,7 @@ PUSH_DURATION_S = 0.2
 REFRESH_S = 0.1  # resend a non-zero velocity this often
 PUSH_DIRECTIONS = {"i": (1.0, 0.0), "k": (-1.0, 0.0), "j": (0.0, 1.0), "l": (0.0, -1.0)}
 QUIT_KEYS = ("x", "\x03", "\x04")
+BASE_LINK_NAMES = ("base", "base_link", "trunk", "pelvis")  # the usual names of a floating base
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,11 @@ def key_to_commands(
     return state, []
 
 
+def default_push_body(bodies: list[str]) -> str:
+    """The floating base among `info`'s bodies, by its usual names; else the first body."""
+    return next((name for name in BASE_LINK_NAMES if name in bodies), bodies[0])
+
+
 def status_line(telemetry: dict | None, state: TeleopState) -> str:
     """One line: sim time, base height and world velocity, command, QP and loop health."""
     cmd = f"cmd vx {state.vx:+.1f} vy {state.vy:+.1f} wz {state.yaw_rate:+.1f}"
@@ -103,7 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--connect", default=DEFAULT_ENDPOINT, help="Zenoh endpoint of the server")
     p.add_argument("--push-force", type=float, default=150.0, help="N (default: 150)")
-    p.add_argument("--body", help="link to push (default: the first of info's bodies)")
+    p.add_argument("--body", help="link to push (default: the robot's base link)")
     return p
 
 
@@ -114,7 +120,7 @@ def teleop_main(argv: list[str]) -> int:
         if not info.get("ok"):
             print(f"lab teleop: info failed: {info.get('error')}", file=sys.stderr)
             return 1
-        body = args.body or info["bodies"][0]
+        body = args.body or default_push_body(info["bodies"])
         print(__doc__.split("\n\n")[1])
         state = TeleopState(paused=bool(info.get("paused", False)))
         fd = sys.stdin.fileno()

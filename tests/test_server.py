@@ -305,6 +305,31 @@ def test_rejections_are_reported_on_events(lab: LabClient, server: Server) -> No
     assert rejected and rejected[-1]["verb"] == "velocity" and "vx" in rejected[-1]["error"]
 
 
+def test_teleop_keys_reach_the_server(lab: LabClient, server: Server) -> None:
+    teleop = subprocess.Popen(
+        [sys.executable, "-m", "lab", "teleop", "--connect", server.endpoint],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        teleop.stdin.write(b"ww")  # forward twice: vx 0.2, resent while held
+        teleop.stdin.flush()
+        lab.wait_telemetry(lambda m: m["command"]["vx"] == pytest.approx(0.2), timeout=10.0)
+        time.sleep(0.8)  # longer than the deadman: the teleop's refreshes keep it alive
+        assert lab.wait_telemetry()["command"]["vx"] == pytest.approx(0.2)
+        teleop.stdin.write(b" x")  # stop, quit
+        teleop.stdin.flush()
+        output = teleop.communicate(timeout=5.0)[0].decode()
+    finally:
+        if teleop.poll() is None:
+            teleop.kill()
+            teleop.wait()
+    assert teleop.returncode == 0, output
+    assert "velocity {'vx': 0.2, 'vy': 0.0, 'yaw_rate': 0.0} -> {'ok': True}" in output
+    lab.wait_telemetry(lambda m: m["command"]["vx"] == 0.0, timeout=1.0)
+
+
 def test_robot_switch_brings_up_the_new_robot(lab: LabClient, server: Server) -> None:
     reply = lab.command("robot", name="solo12")
     assert reply["ok"], reply

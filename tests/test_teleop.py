@@ -3,7 +3,13 @@
 import pytest
 
 from lab.server.commands import VX_MAX, parse_command
-from lab.teleop import PUSH_DURATION_S, TeleopState, key_to_commands, status_line
+from lab.teleop import (
+    PUSH_DURATION_S,
+    TeleopState,
+    default_push_body,
+    key_to_commands,
+    status_line,
+)
 
 
 def press(keys: str, state: TeleopState | None = None) -> tuple[TeleopState, list]:
@@ -70,3 +76,9 @@ def test_status_line_without_and_with_telemetry() -> None:
     line = status_line(telemetry, TeleopState(vx=0.3))
     assert "z 0.450m" in line and "v [+0.30 -0.10]" in line and "FELL" in line
     assert "0.9995" in line
+
+
+def test_default_push_body_is_the_base_link() -> None:
+    assert default_push_body(["LF_FOOT", "LF_HAA", "base", "base_inertia"]) == "base"
+    assert default_push_body(["arm_left_1_link", "base_link", "torso_1_link"]) == "base_link"
+    assert default_push_body(["link_a", "link_b"]) == "link_a"
