@@ -28,6 +28,7 @@ from lab.server.plant import MujocoPlant
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
 FALL_TILT = 1.0  # rad: fallen when the base tilts further than this from upright
 FALL_CHECK_PERIOD = 10  # ticks between fall checks
+TOUCH_FORCE = 1.0  # N: a foot whose measured normal force exceeds this touches the ground
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
 
@@ -132,7 +133,8 @@ class Session:
         start = time.perf_counter()
         try:
             self.model.update(q, v)
-            self.behaviour.update(self.time, self.model, self.velocity)
+            touching = self.plant.foot_forces()[:, 2] > TOUCH_FORCE
+            self.behaviour.update(self.time, self.model, self.velocity, touching)
             out = self.controller.solve()
             if not np.all(np.isfinite(out.tau)):
                 raise FloatingPointError("non-finite torques")

@@ -2,7 +2,8 @@
 
 A behaviour is built from the robot model and its standing posture, exposes the `References` the
 tasks track, and updates them once per tick from the time, the robot's current state (after
-`RobotModel.update`) and the velocity command [vx, vy, yaw_rate] (heading frame).
+`RobotModel.update`), the velocity command [vx, vy, yaw_rate] (heading frame) and which feet
+touch the ground (measured by the plant: the haptic signal of a blind robot).
 """
 
 from collections.abc import Callable
@@ -19,7 +20,9 @@ class Behaviour(Protocol):
     name: str
     references: References
 
-    def update(self, t: float, robot: RobotModel, command: np.ndarray) -> None: ...
+    def update(
+        self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
+    ) -> None: ...
 
 
 BehaviourFactory = Callable[[RobotModel, np.ndarray], Behaviour]

@@ -33,5 +33,7 @@ class Balance:
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         self.references = standing_references(robot, q_standing)
 
-    def update(self, t: float, robot: RobotModel, command: np.ndarray) -> None:
+    def update(
+        self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
+    ) -> None:
         """Nothing changes while standing."""
