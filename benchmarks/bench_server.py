@@ -31,6 +31,7 @@ def free_port() -> int:
 
 def start_server(args: argparse.Namespace, port: int, log) -> subprocess.Popen:
     cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(port), "--robot", args.robot]
+    cmd += ["--rate", str(args.rate)]
     if args.ui:
         cmd += ["--ui-port", str(free_port())]
     else:
@@ -121,6 +122,7 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--duration", type=float, default=60.0, help="s (default: 60)")
     p.add_argument("--robot", default="anymal")
+    p.add_argument("--rate", type=float, default=1000.0, help="loop rate, Hz (default: 1000)")
     p.add_argument("--command-hz", type=float, default=50.0, help="commands per second")
     p.add_argument("--ui", action="store_true", help="also run the browser UI process")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -134,14 +136,14 @@ def main() -> int:
             server.send_signal(signal.SIGINT)
             server.wait(10)
         result["robot"] = args.robot
+        result["rate_hz"] = args.rate
         result["ui"] = args.ui
     if args.json:
         print(json.dumps(result))
         return 0
     lat = result["latency_ms"]
-    print(
-        f"robot {args.robot}, {args.duration:g} s, UI {'on' if args.ui else 'off'}, 2 subscribers"
-    )
+    ui = "on" if args.ui else "off"
+    print(f"robot {args.robot} at {args.rate:g} Hz, {args.duration:g} s, UI {ui}, 2 subscribers")
     print(
         f"command-to-applied latency: p50 {lat['p50']:.2f} ms, p99 {lat['p99']:.2f} ms, "
         f"max {lat['max']:.2f} ms over {result['commands']} commands "
