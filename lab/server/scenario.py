@@ -17,9 +17,19 @@ from pathlib import Path
 import numpy as np
 
 from lab.server.commands import CommandError, parse_command
+from lab.server.metrics import METRICS
 from lab.server.session import Session, SessionConfig
 
-SCENARIO_KEYS = {"name", "description", "robot", "scene", "duration", "controller", "events"}
+SCENARIO_KEYS = {
+    "name",
+    "description",
+    "robot",
+    "scene",
+    "duration",
+    "controller",
+    "events",
+    "metrics",
+}
 CONTROLLER_KEYS = {"hierarchy", "solver", "stack", "gains"}
 
 
@@ -40,6 +50,7 @@ class Scenario:
     duration: float
     config: SessionConfig
     events: list[Event] = field(default_factory=list)
+    metrics: tuple[str, ...] = ("standing",)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -94,10 +105,9 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
     session = Session(scenario.config)
     duration = scenario.duration if duration is None else min(duration, scenario.duration)
     ticks = max(1, round(duration / scenario.config.timestep))
-    reference_height = session.controller.references.base_height
     pending = list(scenario.events)
     tick_us = np.zeros(ticks)
-    orientation_error = height_error = peak_normal = 0.0
+    metrics = [METRICS[name](session) for name in scenario.metrics]
     rejected = []
     wall_start = time.perf_counter()
     for i in range(ticks):
@@ -109,9 +119,8 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
         start = time.perf_counter()
         session.tick()
         tick_us[i] = (time.perf_counter() - start) * 1e6
-        orientation_error = max(orientation_error, session.base_orientation_error())
-        height_error = max(height_error, abs(session.model.q[2] - reference_height))
-        peak_normal = max(peak_normal, float(np.max(session.plant.foot_forces()[:, 2])))
+        for metric in metrics:
+            metric.update(session)
         if session.fell:
             break
     wall = time.perf_counter() - wall_start
@@ -131,9 +140,5 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
         },
         "qp_failures": session.qp_failures,
         "rejected_events": rejected,
-        "metrics": {
-            "max_base_orientation_error_rad": orientation_error,
-            "max_base_height_error_m": height_error,
-            "peak_contact_normal_force_n": peak_normal,
-        },
+        "metrics": {key: value for m in metrics for key, value in m.result().items()},
     }
