@@ -50,14 +50,18 @@ class LabClient:
         {"ok": false, "error": "no reply ..."} so callers handle one shape."""
         if timeout is None:
             timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
+        no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
         for reply in self._session.get(CMD_PREFIX + verb, payload=payload, timeout=timeout):
-            if reply.ok is None:
-                return {"ok": False, "error": f"{verb}: Zenoh error reply"}
+            if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
+                error = reply.err.payload.to_string()
+                return (
+                    no_reply if error == "Timeout" else {"ok": False, "error": f"{verb}: {error}"}
+                )
             try:
                 return json.loads(reply.ok.payload.to_bytes())
             except ValueError:
                 return {"ok": False, "error": f"{verb}: the reply is not JSON"}
-        return {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
+        return no_reply
 
     def latest_telemetry(self) -> dict | None:
         """The newest telemetry message received so far (None before the first)."""

@@ -1,0 +1,78 @@
+"""LabClient failure paths: nothing listening, a server that never answers, reply decoding."""
+
+import json
+import socket
+import time
+
+import pytest
+import zenoh
+
+from lab.client import LabClient
+from lab.server.transport import ServerTransport, server_config
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_connecting_to_nothing_fails_within_the_timeout() -> None:
+    start = time.monotonic()
+    with pytest.raises(zenoh.ZError):
+        LabClient(f"tcp/127.0.0.1:{free_port()}", connect_timeout=0.3)
+    assert time.monotonic() - start < 2.0
+
+
+def test_unanswered_command_becomes_an_error_reply_and_telemetry_wait_times_out() -> None:
+    port = free_port()
+    transport = ServerTransport(server_config(port))  # nobody drains its queries
+    try:
+        with LabClient(f"tcp/127.0.0.1:{port}") as lab:
+            start = time.monotonic()
+            reply = lab.command("info", timeout=0.3)
+            assert reply == {"ok": False, "error": "info: no reply within 0.3 s"}
+            assert 0.25 < time.monotonic() - start < 2.0
+            assert lab.latest_telemetry() is None
+            with pytest.raises(TimeoutError):
+                lab.wait_telemetry(timeout=0.2)
+            transport.publish_telemetry({"t": 1.5})
+            assert lab.wait_telemetry(lambda m: m["t"] == 1.5, timeout=2.0) == {"t": 1.5}
+            assert lab.latest_telemetry() == {"t": 1.5}
+    finally:
+        transport.close()
+
+
+def test_queries_are_decoded_and_answered_on_their_key() -> None:
+    port = free_port()
+    transport = ServerTransport(server_config(port))
+    try:
+        with LabClient(f"tcp/127.0.0.1:{port}") as lab:
+            session = lab._session
+            handler = session.get("lab/cmd/push", payload=b'{"body": "base"}', timeout=2.0)
+            request = _receive(transport)
+            assert (request.verb, request.payload, request.error) == (
+                "push",
+                {"body": "base"},
+                None,
+            )
+            transport.reply(request, {"ok": True, "echo": request.payload})
+            reply = next(iter(handler))
+            assert str(reply.ok.key_expr) == "lab/cmd/push"
+            assert json.loads(reply.ok.payload.to_bytes()) == {"ok": True, "echo": {"body": "base"}}
+            for payload, error in [(b"", None), (b"null", "got null"), (b"[1,", "not valid JSON")]:
+                session.get("lab/cmd/reset", payload=payload, timeout=0.5)
+                request = _receive(transport)
+                assert request.error is None if error is None else error in request.error
+                transport.reply(request, {"ok": error is None})
+    finally:
+        transport.close()
+
+
+def _receive(transport: ServerTransport):
+    end = time.monotonic() + 2.0
+    while time.monotonic() < end:
+        if (request := transport.receive()) is not None:
+            return request
+        time.sleep(0.001)
+    raise TimeoutError("no query arrived")
