@@ -57,7 +57,11 @@ def serve_main(argv: list[str]) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
-    session = Session(SessionConfig(robot=args.robot, scene=args.scene))
+    try:
+        session = Session(SessionConfig(robot=args.robot, scene=args.scene))
+    except KeyError as error:
+        print(f"lab serve: {error.args[0]}", file=sys.stderr)
+        return 2
     transport = ServerTransport(server_config(args.port, args.listen, args.connect))
     loop = SimLoop(
         session,
