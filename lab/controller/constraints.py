@@ -47,15 +47,27 @@ class FrictionConstraint(Constraint):
 
     def __init__(self, limits: ContactLimits) -> None:
         self.limits = limits
+        self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        mu = np.sqrt(0.5) * self.limits.friction
         upper = refs.normal_force_max
         if upper.size == 0:
             upper = np.full(len(robot.contacts), self.limits.normal_max)
+        # The rows depend only on which feet are active and on the bounds: reuse them.
+        key = (refs.contact_active.tobytes(), upper.tobytes(), self.limits.friction)
+        if key not in self._cache:
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = self._build(robot, refs.contact_active, upper)
+        return self._cache[key]
+
+    def _build(
+        self, robot: RobotModel, contact_active: np.ndarray, upper: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        mu = np.sqrt(0.5) * self.limits.friction
         blocks_C, blocks_d = [], []
         for contact, rows, active, normal_max in zip(
-            robot.contacts, robot.force_slices, refs.contact_active, upper, strict=True
+            robot.contacts, robot.force_slices, contact_active, upper, strict=True
         ):
             col = robot.nv + rows.start
             if active:
@@ -72,7 +84,9 @@ class FrictionConstraint(Constraint):
                 C[n:, col : col + n] = -np.eye(n)
             blocks_C.append(C)
             blocks_d.append(d)
-        return np.vstack(blocks_C), np.concatenate(blocks_d)
+        C, d = np.vstack(blocks_C), np.concatenate(blocks_d)
+        C.flags.writeable = d.flags.writeable = False
+        return C, d
 
 
 class CopConstraint(Constraint):

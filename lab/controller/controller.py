@@ -118,9 +118,11 @@ class WholeBodyController:
                 if name in self.tasks:
                     task = self.tasks[name]
                     A, b = task.rows(robot, refs)
-                    scale = np.sqrt(task.gains.weight)
-                    A_rows.append(scale * A)
-                    b_rows.append(scale * b)
+                    if task.gains.weight != 1.0:
+                        scale = np.sqrt(task.gains.weight)
+                        A, b = scale * A, scale * b
+                    A_rows.append(A)
+                    b_rows.append(b)
                 else:
                     C, d = self.constraints[name].rows(robot, refs)
                     C_rows.append(C)
@@ -167,4 +169,6 @@ def _stacked(
 ) -> tuple[np.ndarray, np.ndarray]:
     if not rows:
         return np.zeros((0, nx)), np.zeros(0)
+    if len(rows) == 1:
+        return rows[0], rhs[0]
     return np.vstack(rows), np.concatenate(rhs)

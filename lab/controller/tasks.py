@@ -6,6 +6,7 @@ tracking error of the last `rows` call, for telemetry and tests.
 """
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 import pinocchio as pin
@@ -21,6 +22,20 @@ class TaskGains:
     kp: float = 0.0
     kd: float = 0.0
     weight: float = 1.0
+
+
+@cache
+def _selection(nx: int, start: int, stop: int) -> np.ndarray:
+    """Rows selecting x[start:stop] (read-only: shared by every tick)."""
+    A = np.zeros((stop - start, nx))
+    A[:, start:stop] = np.eye(stop - start)
+    A.flags.writeable = False
+    return A
+
+
+@cache
+def _indices(ranges: tuple[tuple[int, int], ...]) -> np.ndarray:
+    return np.concatenate([np.arange(start, stop) for start, stop in ranges])
 
 
 class Task:
@@ -49,7 +64,7 @@ class ContactTask(Task):
         if not active:
             self.error = np.zeros(0)
             return np.zeros((0, robot.nx)), np.zeros(0)
-        idx = np.r_[tuple(active)]
+        idx = _indices(tuple((s.start, s.stop) for s in active))
         J = robot.Jc[idx]
         velocity = J @ robot.v
         A = np.zeros((len(idx), robot.nx))
@@ -118,10 +133,9 @@ class PostureTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         e = refs.posture - robot.q[7:]
-        A = np.zeros((robot.na, robot.nx))
-        A[:, BASE_DOF : robot.nv] = np.eye(robot.na)
         self.error = e
-        return A, self.gains.kp * e - self.gains.kd * robot.v[BASE_DOF:]
+        b = self.gains.kp * e - self.gains.kd * robot.v[BASE_DOF:]
+        return _selection(robot.nx, BASE_DOF, robot.nv), b
 
 
 class ForceTask(Task):
@@ -130,10 +144,8 @@ class ForceTask(Task):
     name = "forces"
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        A = np.zeros((robot.nf, robot.nx))
-        A[:, robot.nv :] = np.eye(robot.nf)
         self.error = np.zeros(0)
-        return A, np.zeros(robot.nf)
+        return _selection(robot.nx, robot.nv, robot.nx), np.zeros(robot.nf)
 
 
 class FrameTask(Task):

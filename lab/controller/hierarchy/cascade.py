@@ -31,27 +31,27 @@ ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped f
 def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
     """The strict-priority solution x = [q̈, F]; raises QPFailure when a level has none."""
     x, Z = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
-    kept_C = np.zeros((0, problem.nx))
-    kept_d = np.zeros(0)
+    # Inequalities of the levels above, in the current null-space coordinates: K u ≤ k keeps
+    # each of them within the slack its level reached (eq. 9). k ≥ 0 always holds, so u = 0 is
+    # feasible for every level whatever the solver tolerance of the levels before.
+    K = np.zeros((0, Z.shape[1]))
+    k = np.zeros(0)
     last = len(problem.levels) - 1
     for depth, level in enumerate(problem.levels):
         if Z.shape[1] == 0:
             break
         Az, r = level.A @ Z, level.b - level.A @ x
         Cz, s = level.C @ Z, level.d - level.C @ x
-        Kz, k = kept_C @ Z, kept_d - kept_C @ x
-        free = np.linalg.norm(Kz, axis=1) > ZERO_ROW_TOL
-        u = _solve_level(Az, r, Cz, s, Kz[free], k[free], Z, x, solver)
+        free = np.einsum("ij,ij->i", K, K) > ZERO_ROW_TOL**2
+        u = _solve_level(Az, r, Cz, s, K[free], k[free], Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
-        # Keep this level's inequalities with the slack they reached (eq. 9). A kept bound never
-        # falls below where x already is, so that the solver tolerance of later levels cannot
-        # make u = 0 infeasible for the levels after them.
-        kept_C = np.vstack([kept_C, level.C])
-        kept_d = np.maximum(np.concatenate([kept_d, level.d]), kept_C @ x)
+        K = np.vstack([K, Cz])
+        k = np.maximum(np.concatenate([k, s]) - K @ u, 0.0)
         if len(level.b):
-            Z = Z @ null_space(Az)
+            N = null_space(Az)  # lock the directions this level's equalities used (eq. 8)
+            Z, K = Z @ N, K @ N
     return x
 
 

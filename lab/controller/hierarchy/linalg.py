@@ -3,6 +3,8 @@
 At these sizes (tens of rows) numpy's wrappers cost more than the factorizations themselves.
 """
 
+from functools import cache
+
 import numpy as np
 from scipy.linalg import lapack
 
@@ -56,8 +58,14 @@ def least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.zeros(n)
     rhs = np.zeros(max(m, n))
     rhs[:m] = b
-    lwork = lapack.dgelsy_lwork(m, n, 1, RANK_RTOL)[0]
-    _, u, _, _, info = lapack.dgelsy(A, rhs, np.zeros(n, dtype=np.int32), RANK_RTOL, lwork=lwork)
+    _, u, _, _, info = lapack.dgelsy(
+        A, rhs, np.zeros(n, dtype=np.int32), RANK_RTOL, lwork=_least_squares_work(m, n)
+    )
     if info != 0:
         raise SingularSystem("least squares did not converge")
     return u[:n]
+
+
+@cache
+def _least_squares_work(m: int, n: int) -> int:
+    return int(lapack.dgelsy_lwork(m, n, 1, RANK_RTOL)[0])
