@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.contact import ContactSpec
+from lab.controller.tasks import TaskGains
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
 ROBOT_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in ROBOTS_DIR.glob("*.toml")))
@@ -31,15 +32,6 @@ def example_robot_data_share() -> Path:
             share = Path(*parts[: parts.index("example-robot-data")])
             return Path(str(dist.locate_file(share))).resolve()
     raise FileNotFoundError("example-robot-data is installed but ships no robots/ folder")
-
-
-@dataclass(frozen=True)
-class Gains:
-    """PD gains and weight of one task (unused fields stay at their defaults)."""
-
-    kp: float = 0.0
-    kd: float = 0.0
-    weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -64,7 +56,7 @@ class RobotDescription:
     locked_joints: tuple[str, ...]
     torque_limit: float | None
     stack: tuple[tuple[str, ...], ...]
-    gains: dict[str, Gains]
+    gains: dict[str, TaskGains]
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -103,7 +95,7 @@ def load_description(name: str) -> RobotDescription:
     share = example_robot_data_share()
     robots = share / "example-robot-data" / "robots"
     pairs = [_contact(name, c) for c in data["contacts"]]
-    gains = {task: Gains(**values) for task, values in data.get("gains", {}).items()}
+    gains = {task: TaskGains(**values) for task, values in data.get("gains", {}).items()}
     torque_limit = data.get("torque_limit")
     return RobotDescription(
         name=name,

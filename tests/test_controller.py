@@ -9,7 +9,6 @@ from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack, StackError
-from lab.controller.tasks import TaskGains
 from lab.description import build_robot, load_description
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos")
@@ -25,10 +24,9 @@ def controller_for(name: str, method: str = "cascade", solver: str = "daqp"):
     description = load_description(name)
     robot = build_robot(description)
     model = RobotModel(robot.model, robot.contacts)
-    gains = {k: TaskGains(g.kp, g.kd, g.weight) for k, g in description.gains.items()}
     config = ControllerConfig(
         Stack.of(description.stack),
-        gains,
+        dict(description.gains),
         method,
         solver,
         ContactLimits(friction=description.friction),

@@ -34,8 +34,10 @@ def test_model_sizes_and_torque_limits(robot) -> None:
     assert robot.torque_limits.shape == (model.nv - 6,)
     assert np.all(np.isfinite(robot.torque_limits)) and np.all(robot.torque_limits > 0.0)
     assert len(robot.joint_names) == model.nv - 6
-    assert robot.description.stack[0][0] == "contact"
-    assert ("cop" in robot.description.stack[0]) == any(c.kind == "flat" for c in robot.contacts)
+    # Physical limits sit strictly above the contacts (docs/controller.md, The stack).
+    limits, contacts = robot.description.stack[0], robot.description.stack[1]
+    assert {"friction", "torque_limits"} <= set(limits) and contacts == ("contact",)
+    assert ("cop" in limits) == any(c.kind == "flat" for c in robot.contacts)
 
 
 def test_standing_posture_puts_every_contact_on_the_ground(robot) -> None:

@@ -5,7 +5,7 @@ state → RobotModel.update → tasks and constraints become rows, level by leve
 """
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -18,6 +18,8 @@ from lab.controller.constraints import (
     TorqueLimitConstraint,
 )
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.hierarchy.formulations import FORMULATIONS
+from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.qp import SOLVERS
 from lab.controller.references import References
@@ -35,6 +37,7 @@ class ControllerConfig:
     solver: str = "daqp"
     limits: ContactLimits = field(default_factory=ContactLimits)
     level_weight_ratio: float = 1e3  # `weighted` only: each level with tasks weighs this much less
+    formulation: str = "qdd_force"  # `nullspace` only: optimization vector (Hutter 2014 §4)
 
 
 @dataclass
@@ -70,7 +73,7 @@ class WholeBodyController:
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
         self.set_stack(config.stack)
-        self.set_hierarchy(config.hierarchy, config.solver)
+        self.set_hierarchy(config.hierarchy, config.solver, config.formulation)
 
     @property
     def known_names(self) -> tuple[str, ...]:
@@ -90,19 +93,28 @@ class WholeBodyController:
     ) -> TaskGains:
         if task not in self.tasks:
             raise KeyError(f"unknown task {task!r} (tasks: {', '.join(self.tasks)})")
-        gains = self.tasks[task].gains
-        gains.kp = gains.kp if kp is None else kp
-        gains.kd = gains.kd if kd is None else kd
-        gains.weight = gains.weight if weight is None else weight
+        changes = {"kp": kp, "kd": kd, "weight": weight}
+        gains = replace(
+            self.tasks[task].gains, **{k: v for k, v in changes.items() if v is not None}
+        )
+        self.tasks[task].gains = gains
         return gains
 
-    def set_hierarchy(self, method: str, solver: str | None = None) -> None:
+    def set_hierarchy(
+        self, method: str, solver: str | None = None, formulation: str | None = None
+    ) -> None:
         solver = solver or self.config.solver
+        formulation = formulation or self.config.formulation
         if method not in METHODS:
             raise KeyError(f"unknown hierarchy method {method!r} (methods: {', '.join(METHODS)})")
         if solver not in SOLVERS:
             raise KeyError(f"unknown solver {solver!r} (solvers: {', '.join(SOLVERS)})")
+        if formulation not in FORMULATIONS:
+            raise KeyError(
+                f"unknown formulation {formulation!r} (formulations: {', '.join(FORMULATIONS)})"
+            )
         self.config.hierarchy, self.config.solver = method, solver
+        self.config.formulation = formulation
 
     def build_problem(self) -> HierarchyProblem:
         """Rows of the current stack at the state of the last RobotModel.update."""
@@ -136,7 +148,14 @@ class WholeBodyController:
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
-        return HierarchyProblem(dynamics_A, -robot.h[base], levels)
+        support = np.concatenate(
+            [
+                np.full(c.force_dim, on)
+                for c, on in zip(robot.contacts, refs.contact_active, strict=True)
+            ]
+        )
+        terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
+        return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
 
     def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:
         """Torques for state (q, v); raises QPFailure when the hierarchy has no solution."""

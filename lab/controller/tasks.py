@@ -15,9 +15,9 @@ from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
 
 
-@dataclass
+@dataclass(frozen=True)
 class TaskGains:
-    """PD gains and the weight of a task inside its level."""
+    """PD gains and the weight of a task inside its level (unused fields keep their defaults)."""
 
     kp: float = 0.0
     kd: float = 0.0
@@ -179,3 +179,8 @@ TASK_TYPES: dict[str, type[Task]] = {
     t.name: t
     for t in (ContactTask, BaseOrientationTask, ComTask, BaseHeightTask, PostureTask, ForceTask)
 }
+
+import lab.controller.locomotion_tasks  # noqa: E402, F401  (registers the walking tasks above)
+
+# Tasks defined in other modules register themselves in TASK_TYPES (after it exists above).
+from lab.controller import objectives, walk_tasks  # noqa: E402, F401

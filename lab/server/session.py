@@ -71,7 +71,7 @@ class Session:
         robot = build_robot(description)
         plant = MujocoPlant(robot, config.scene, config.timestep)
         model = RobotModel(robot.model, robot.contacts)
-        gains = {name: TaskGains(g.kp, g.kd, g.weight) for name, g in description.gains.items()}
+        gains = dict(description.gains)
         for name, overrides in config.gains.items():
             gains[name] = replace(gains.get(name, TaskGains()), **overrides)
         controller = WholeBodyController(
