@@ -21,12 +21,32 @@ class Level:
 
 
 @dataclass
+class DynamicsTerms:
+    """The model terms behind the Newton–Euler rows, for methods that change variables.
+
+    M q̈ + h − J_cᵀ F = Sᵀ τ with S = [0 I] selecting the actuated joints; `support` marks the rows
+    of F that belong to contacts in support (the others carry no force).
+    """
+
+    M: np.ndarray
+    h: np.ndarray
+    Jc: np.ndarray
+    support: np.ndarray
+
+
+@dataclass
 class HierarchyProblem:
-    """Find x = [q̈, F] with `dynamics_A x = dynamics_b` exactly, then each level in turn."""
+    """Find x = [q̈, F] with `dynamics_A x = dynamics_b` exactly, then each level in turn.
+
+    `terms` and `formulation` are optional: only `nullspace` reads them, to solve the same
+    hierarchy over the variables of Hutter 2014 Tables 1–4 (see hierarchy/formulations.py).
+    """
 
     dynamics_A: np.ndarray
     dynamics_b: np.ndarray
     levels: list[Level] = field(default_factory=list)
+    terms: DynamicsTerms | None = None
+    formulation: str = "qdd_force"
 
     @property
     def nx(self) -> int:

@@ -1,0 +1,105 @@
+"""Hierarchical least squares by iterative null-space projection (Hutter 2014, §3).
+
+Each priority i solves its rows as well as it can in the null space of all rows above (eqs. 8–11):
+
+    x ← x + N_i (A_i N_i)⁺ (b_i − A_i x),     N_{i+1} = N_i ∩ null(A_i N_i)
+
+with N_i kept as an orthonormal basis Z (so (A_i Z Zᵀ)⁺ = Z (A_i Z)⁺) and the pseudo-inverse and
+the next null space taken from one SVD of A_i Z (§3.1 uses the SVD for its robustness near
+singular tasks). No QP is solved.
+
+Inequality rows C x ≤ d (§3.2, §5.1.3) are off until violated: a violated row becomes the
+equality C_j x = d_j at its own level, stacked with the other active rows of that level just above
+that level's equalities, and the whole hierarchy is solved again until no inactive row is
+violated. The active set only grows, so this ends after at most one pass per inequality row.
+
+The hierarchy can be solved over any vector of §4 (`problem.formulation`, formulations.py).
+`sequential` (Table 4) splits it: rows without force terms (motion, joint limits) solve q̈ first
+without the dynamics, then the rows with force terms (torque and force objectives, torque
+limits, friction) solve τ under the projected dynamics (eq. 49). The x returned is what that τ
+does (constrained forward dynamics): when the support set cannot realize the kinematic q̈
+(truly under-actuated, Definition 1), q̈ differs from it and the dynamics still hold exactly.
+"""
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg
+
+from lab.controller.hierarchy.formulations import (
+    constrained_forward_dynamics,
+    reparametrize,
+    torque_step,
+)
+from lab.controller.hierarchy.problem import HierarchyProblem, Level
+
+RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
+RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
+ACTIVATION_TOL = 1e-9  # an inequality violated by more than this is activated
+
+
+def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
+    """x = [q̈, F] by iterative null-space projection; `solver` is unused (no QP here)."""
+    if problem.formulation == "sequential":
+        return _solve_sequential(problem)
+    change = reparametrize(problem, problem.formulation)
+    levels = [change.eom] + [change.level(level) for level in problem.levels]
+    z = hierarchical_least_squares(levels, change.T.shape[1])
+    return change.T @ z + change.t
+
+
+def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
+    """Strict priorities over z ∈ Rⁿ with inequalities activated when violated (§3.1–3.2)."""
+    active = [np.zeros(len(level.d), dtype=bool) for level in levels]
+    for _ in range(sum(len(level.d) for level in levels) + 1):
+        z = _project(levels, active, n)
+        grew = False
+        for level, on in zip(levels, active, strict=True):
+            violated = level.C @ z - level.d > ACTIVATION_TOL
+            if np.any(violated & ~on):
+                on |= violated
+                grew = True
+        if not grew:
+            break
+    return z
+
+
+def _project(levels: Sequence[Level], active: Sequence[np.ndarray], n: int) -> np.ndarray:
+    z = np.zeros(n)
+    Z = np.eye(n)
+    for level, on in zip(levels, active, strict=True):
+        for A, b in ((level.C[on], level.d[on]), (level.A, level.b)):
+            if len(b) == 0:
+                continue
+            if Z.shape[1] == 0:
+                return z
+            AZ = A @ Z
+            U, s, Vt = scipy.linalg.svd(AZ, check_finite=False)
+            rank = int(np.sum(s > max(RANK_ATOL, RANK_RTOL * s[0]))) if len(s) else 0
+            u = Vt[:rank].T @ ((U[:, :rank].T @ (b - A @ z)) / s[:rank])
+            z = z + Z @ u
+            Z = Z @ Vt[rank:].T
+    return z
+
+
+def _solve_sequential(problem: HierarchyProblem) -> np.ndarray:
+    terms = problem.terms
+    if terms is None:
+        raise ValueError("formulation 'sequential' needs the model terms of the problem")
+    nv = terms.M.shape[0]
+    motion_levels, dynamic_levels = [], []
+    for level in problem.levels:
+        moving = ~np.any(level.A[:, nv:] != 0.0, axis=1)
+        limiting = ~np.any(level.C[:, nv:] != 0.0, axis=1)
+        motion_levels.append(
+            Level(level.A[moving, :nv], level.b[moving], level.C[limiting, :nv], level.d[limiting])
+        )
+        dynamic_levels.append(
+            Level(level.A[~moving], level.b[~moving], level.C[~limiting], level.d[~limiting])
+        )
+    qdd = hierarchical_least_squares(motion_levels, nv)  # step 1 (eq. 48)
+    change = torque_step(terms, qdd)
+    levels = [change.eom] + [change.level(level) for level in dynamic_levels]
+    tau = hierarchical_least_squares(levels, change.T.shape[1])  # step 2 (eqs. 49–51)
+    support = terms.Jc[np.flatnonzero(terms.support)]
+    return constrained_forward_dynamics(terms, tau, support @ qdd)
