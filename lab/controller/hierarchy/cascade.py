@@ -40,19 +40,30 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
     for depth, level in enumerate(problem.levels):
         if Z.shape[1] == 0:
             break
-        Az, r = level.A @ Z, level.b - level.A @ x
-        Cz, s = level.C @ Z, level.d - level.C @ x
+        Az, r = _projected(level.A, level.b, Z, x)
+        Cz, s = _projected(level.C, level.d, Z, x)
         free = np.einsum("ij,ij->i", K, K) > ZERO_ROW_TOL**2
         u = _solve_level(Az, r, Cz, s, K[free], k[free], Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
-        K = np.vstack([K, Cz])
-        k = np.maximum(np.concatenate([k, s]) - K @ u, 0.0)
-        if len(level.b):
+        if len(s):
+            K = np.vstack([K, Cz])
+            k = np.concatenate([k, s])
+        k = np.maximum(k - K @ u, 0.0)
+        if len(r):
             N = null_space(Az)  # lock the directions this level's equalities used (eq. 8)
             Z, K = Z @ N, K @ N
     return x
+
+
+def _projected(
+    A: np.ndarray, b: np.ndarray, Z: np.ndarray, x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows A x = b (or ≤ b) in null-space coordinates: A Z u against b − A x."""
+    if not len(b):
+        return np.zeros((0, Z.shape[1])), b
+    return A @ Z, b - A @ x
 
 
 def _solve_level(
@@ -68,8 +79,16 @@ def _solve_level(
 ) -> np.ndarray:
     """The step u in the null space for one level (the slacks are implicit in the cost)."""
     # Fast path: when the least-squares step violates no inequality, (u, v = 0) is optimal.
-    u = least_squares(Az, r)
-    if np.all(Cz @ u <= s + FEASIBILITY_TOL) and np.all(Kz @ u <= k + FEASIBILITY_TOL):
+    # Without equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
+    if len(r):
+        u = least_squares(Az, r)
+        fits = (not len(s) or np.all(Cz @ u <= s + FEASIBILITY_TOL)) and (
+            not len(k) or np.all(Kz @ u <= k + FEASIBILITY_TOL)
+        )
+    else:
+        u = np.zeros(Az.shape[1])
+        fits = np.all(s >= -FEASIBILITY_TOL)
+    if fits:
         return u
     nz, m = Az.shape[1], len(s)
     P = np.zeros((nz + m, nz + m))
