@@ -2,7 +2,6 @@
 process (`python -m lab.ui`). SIGINT/SIGTERM stop both cleanly."""
 
 import argparse
-import os
 import signal
 import subprocess
 import sys
@@ -52,9 +51,6 @@ def serve_main(argv: list[str]) -> int:
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
         return 2
-    # One BLAS thread (set before numpy loads): the loop's matrices are small, idle OpenBLAS
-    # workers spin on the cores the loop needs, and joining them at exit took seconds here.
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
     try:
