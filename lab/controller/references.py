@@ -22,3 +22,5 @@ class References:
     # Per-contact upper bound on the normal force (N); a behaviour ramps it down before lift-off
     # and up after touchdown so that torques do not jump. Empty: the robot-wide bound applies.
     normal_force_max: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # Desired base linear velocity (world axes), for velocity tasks (Hutter Table 7).
+    base_linear_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))

@@ -180,7 +180,5 @@ TASK_TYPES: dict[str, type[Task]] = {
     for t in (ContactTask, BaseOrientationTask, ComTask, BaseHeightTask, PostureTask, ForceTask)
 }
 
-import lab.controller.locomotion_tasks  # noqa: E402, F401  (registers the walking tasks above)
-
 # Tasks defined in other modules register themselves in TASK_TYPES (after it exists above).
-from lab.controller import objectives, walk_tasks  # noqa: E402, F401
+from lab.controller import objectives, trunk_tasks, walk_tasks  # noqa: E402, F401
