@@ -22,6 +22,8 @@ WEIGHT_MAX = 1e8  # 0 < weight <= max
 NAME_MAX_LEN = 128  # characters in a robot / scene / task / link / method / gait name
 STACK_MAX_LEVELS = 16
 STACK_MAX_TASKS = 64  # task names over all levels
+STEP_HEIGHT_MAX = 0.5  # m, 0 < step_height <= max (the behaviour checks it against the legs)
+CYCLE_TIME_MAX = 5.0  # s, 0 < cycle_time <= max
 
 LIMITS: dict[str, float] = {
     "vx": VX_MAX,
@@ -121,9 +123,13 @@ class ResumeCommand:
 
 @dataclass(frozen=True)
 class GaitCommand:
-    """Switch behaviour / gait (e.g. stand, trot, crawl)."""
+    """Switch behaviour / gait (e.g. stand, trot, crawl); a walking gait also takes its step
+    height (m), cycle time (s) and foothold planner (None = keep or default)."""
 
     name: str
+    step_height: float | None = None
+    cycle_time: float | None = None
+    footholds: str | None = None
 
 
 Command = (
@@ -252,8 +258,21 @@ def _scene(f: _Fields) -> SceneCommand:
 
 
 def _gait(f: _Fields) -> GaitCommand:
-    f.only("name")
-    return GaitCommand(name=f.name("name"))
+    f.only("name", "step_height", "cycle_time", "footholds")
+    return GaitCommand(
+        name=f.name("name"),
+        step_height=(
+            f.number("step_height", 0.0, STEP_HEIGHT_MAX, lo_open=True)
+            if f.has("step_height")
+            else None
+        ),
+        cycle_time=(
+            f.number("cycle_time", 0.0, CYCLE_TIME_MAX, lo_open=True)
+            if f.has("cycle_time")
+            else None
+        ),
+        footholds=f.name("footholds") if f.has("footholds") else None,
+    )
 
 
 def _hierarchy(f: _Fields) -> HierarchyCommand:

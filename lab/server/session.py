@@ -111,13 +111,22 @@ class Session:
         self.forces = np.zeros(self.model.nf)
         self._residuals: dict[str, float] = {}
 
-    def _set_behaviour(self, name: str) -> None:
-        """Start behaviour `name` from the current state; raises KeyError for an unknown one."""
+    def _set_behaviour(self, name: str, options: dict | None = None) -> None:
+        """Start behaviour `name` from the current state, with walking `options` (step_height,
+        cycle_time, footholds) if any; a walking behaviour continues the previous one in stride.
+        Raises KeyError or ValueError for an unknown name or a bad option, changing nothing."""
         if name not in BEHAVIOURS:
             raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(BEHAVIOURS)})")
         self.model.update(*self.plant.state())
-        self.behaviour = BEHAVIOURS[name](self.model, self.robot.q_standing)
-        self.controller.references = self.behaviour.references
+        behaviour = BEHAVIOURS[name](self.model, self.robot.q_standing)
+        if options:
+            if not hasattr(behaviour, "configure"):
+                raise ValueError(f"gait {name!r} takes no {', '.join(options)}")
+            behaviour.configure(**options)
+        if hasattr(behaviour, "continue_from") and hasattr(self, "behaviour"):
+            behaviour.continue_from(self.behaviour)
+        self.behaviour = behaviour
+        self.controller.references = behaviour.references
 
     @property
     def time(self) -> float:
@@ -247,8 +256,13 @@ class Session:
                 self.paused = True
             case cmd.ResumeCommand():
                 self.paused = False
-            case cmd.GaitCommand(name=name):
-                self._set_behaviour(name)
+            case cmd.GaitCommand(name=name) as gait:
+                options = {
+                    key: getattr(gait, key)
+                    for key in ("step_height", "cycle_time", "footholds")
+                    if getattr(gait, key) is not None
+                }
+                self._set_behaviour(name, options)
         return {}
 
     def _push(

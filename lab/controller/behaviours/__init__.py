@@ -12,6 +12,7 @@ from typing import Protocol
 import numpy as np
 
 from lab.controller.behaviours.balance import Balance
+from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 
@@ -29,6 +30,7 @@ BehaviourFactory = Callable[[RobotModel, np.ndarray], Behaviour]
 
 BEHAVIOURS: dict[str, BehaviourFactory] = {
     Balance.name: Balance,
+    **WALKING_BEHAVIOURS,
 }
 
 __all__ = ["BEHAVIOURS", "Balance", "Behaviour", "BehaviourFactory"]

@@ -1,0 +1,75 @@
+"""Foothold planners: where a swinging foot should land, in world x, y, replanned every tick.
+
+Both work in the horizontal frame H (the base frame turned about z by the base yaw only, origin
+at the base), so the base's roll and pitch do not move the footholds (Raiola §3.2):
+
+- `robocentric` (Raiola eqs. 19–25): the virtual foothold x_f⁰ (where the foot stands in the
+  nominal posture) plus the displacement the commanded twist asks over one swing,
+  ΔL = v_d / f_sw + (ψ̇_d ẑ / f_sw) × x_hip. It is measured from the actual base, so errors do not
+  accumulate and the legs stay near their preferred configuration.
+- `raibert` (Hutter eq. 62): the hip's predicted position at touchdown, plus half the stance
+  travel at the desired velocity (feed-forward), plus k_fb (v_hip − v_hip,d) sqrt(h / g)
+  (feedback: a robot moving faster than asked, or pushed, steps further that way).
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+GRAVITY = 9.81
+RAIBERT_GAIN = 1.0  # k_fb of Hutter eq. 62
+
+
+@dataclass(frozen=True)
+class FootholdQuery:
+    """What a planner needs for one swinging leg, every vector in H axes except `base_xy`.
+
+    `hip` is the nominal foot position under the hip (the virtual foothold x_f⁰), relative to
+    the base; `velocity` is the commanded base velocity [vx, vy] and `yaw_rate` the commanded
+    turning rate; `hip_velocity` the measured velocity of the hip point; `height` the base height
+    above the feet; `swing_left` the time until the planned touchdown; `stance_time` and
+    `swing_time` the gait's durations.
+    """
+
+    base_xy: np.ndarray
+    yaw: float
+    hip: np.ndarray
+    velocity: np.ndarray
+    yaw_rate: float
+    hip_velocity: np.ndarray
+    height: float
+    swing_left: float
+    stance_time: float
+    swing_time: float
+
+
+def _to_world(query: FootholdQuery, xy_h: np.ndarray) -> np.ndarray:
+    c, s = np.cos(query.yaw), np.sin(query.yaw)
+    return query.base_xy + np.array([c * xy_h[0] - s * xy_h[1], s * xy_h[0] + c * xy_h[1]])
+
+
+def _turn(yaw_rate: float, point: np.ndarray) -> np.ndarray:
+    """(ψ̇ ẑ) × point, in the plane."""
+    return yaw_rate * np.array([-point[1], point[0]])
+
+
+def robocentric(query: FootholdQuery) -> np.ndarray:
+    """Raiola eqs. 19–23: x_f⁰ + ΔL_xy0 + ΔL_h0, with 1 / f_sw = the swing time."""
+    step = query.swing_time * (query.velocity + _turn(query.yaw_rate, query.hip))
+    return _to_world(query, query.hip + step)
+
+
+def raibert(query: FootholdQuery) -> np.ndarray:
+    """Hutter eq. 62 about the hip's position at touchdown."""
+    desired = query.velocity + _turn(query.yaw_rate, query.hip)
+    hip_at_touchdown = query.hip + query.swing_left * desired
+    feedforward = 0.5 * query.stance_time * desired
+    feedback = RAIBERT_GAIN * (query.hip_velocity - desired) * np.sqrt(query.height / GRAVITY)
+    return _to_world(query, hip_at_touchdown + feedforward + feedback)
+
+
+FOOTHOLD_PLANNERS: dict[str, Callable[[FootholdQuery], np.ndarray]] = {
+    "robocentric": robocentric,
+    "raibert": raibert,
+}

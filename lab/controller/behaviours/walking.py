@@ -1,0 +1,220 @@
+"""Walking: the walking pattern generator of Raiola §3 as a behaviour (trot, crawl).
+
+Every tick it turns the velocity command [vx, vy, yaw_rate] (heading frame) and the measured
+foot contacts into references: the gait scheduler decides which legs stand and which swing
+(`gait.py`), the foothold planner where each swinging foot lands (`footholds.py`), the swing
+ellipse how it gets there (`swing.py`). Stance legs carry a normal-force bound that ramps at
+both ends of the stance; swinging feet get position, velocity and acceleration references for the
+`swing_feet` task (`WalkReferences`). The trunk keeps level with the commanded heading (yaw
+integrated from the command, never further than YAW_LEAD_MAX from the measured yaw), its height
+above the mean of the stance feet (Raiola eq. 17: blind, the height follows the ground), and the
+commanded velocity for the tasks that track one (Hutter Table 7); the CoM reference moves with
+the base for stacks that have a CoM task. The posture reference stays the standing posture.
+
+Gait, step height, cycle time and foothold planner can change while walking: a new Walking
+continues from the previous one (`continue_from`), legs in the air finish their step.
+"""
+
+from collections.abc import Callable
+from dataclasses import fields
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.behaviours.balance import standing_references
+from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
+from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
+from lab.controller.behaviours.swing import swing_reference
+from lab.controller.model import RobotModel
+from lab.controller.references import References
+from lab.controller.walk_references import WalkReferences
+
+STEP_HEIGHT_FRACTION = 0.15  # default step height, of the base height above the feet
+ACCELERATION_LIMIT = 1.0  # m/s², commanded linear velocity is rate-limited to this
+YAW_ACCELERATION_LIMIT = 2.0  # rad/s², commanded yaw rate likewise
+YAW_LEAD_MAX = 0.2  # rad, the yaw reference never leads the measured yaw by more
+HIP_VELOCITY_TIME_CONSTANT = 0.1  # s, low-pass on the measured hip velocity (Raibert feedback)
+UNBOUNDED_LOADS = 5.0  # a fully loaded stance leg may carry this many body weights
+CYCLE_TIME_RANGE = (0.2, 5.0)  # s
+
+
+def _roles(hips: np.ndarray) -> tuple[str, ...]:
+    """LF/RF/LH/RH of each foot from where it stands relative to the base (x fore, y left)."""
+    roles = tuple(("L" if y > 0 else "R") + ("F" if x > 0 else "H") for x, y in hips)
+    if sorted(roles) != sorted(("LF", "RF", "LH", "RH")):
+        raise ValueError(f"walking needs one foot per quadrant, got {roles}")
+    return roles
+
+
+def _rate_limit(current: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndarray:
+    return current + np.clip(target - current, -step, step)
+
+
+class Walking:
+    """Walk with `gait` on four point feet, steered by the velocity command."""
+
+    def __init__(self, robot: RobotModel, q_standing: np.ndarray, gait: GaitPattern) -> None:
+        standing = standing_references(robot, q_standing)  # the model is now at q_standing
+        self.references = WalkReferences(
+            **{f.name: getattr(standing, f.name) for f in fields(References)}
+        )
+        n = len(robot.contacts)
+        base = q_standing[:3]
+        feet = robot.contact_positions.copy()
+        self.hips = (feet - base)[:, :2]
+        self.roles = _roles(self.hips)
+        self.height = float(base[2] - feet[:, 2].mean())
+        self.com_offset = robot.com - base
+        self.full_load = robot.mass * GRAVITY
+        self.gait = gait
+        self.name = gait.name
+        self.cycle_time = gait.cycle_periods * np.sqrt(self.height / GRAVITY)
+        self.step_height = STEP_HEIGHT_FRACTION * self.height
+        self.footholds = "robocentric"
+        self._configured: set[str] = set()
+        self.scheduler: GaitScheduler | None = None
+        self.t = 0.0
+        self.command = np.zeros(3)
+        self.yaw_ref = 0.0
+        self.hip_velocity = np.zeros((n, 2))
+        self.liftoff = feet
+        refs = self.references
+        refs.normal_force_max = np.full(n, UNBOUNDED_LOADS * self.full_load)
+        refs.foot_position = feet.copy()
+        refs.foot_velocity = np.zeros((n, 3))
+        refs.foot_acceleration = np.zeros((n, 3))
+
+    # ------------------------------------------------------------------------ parameters
+    def configure(
+        self,
+        step_height: float | None = None,
+        cycle_time: float | None = None,
+        footholds: str | None = None,
+    ) -> None:
+        """Set the step height (m), cycle time (s) or foothold planner; raises ValueError or
+        KeyError naming the bad value and changes nothing then."""
+        if step_height is not None and not 0.0 < step_height <= 0.5 * self.height:
+            raise ValueError(
+                f"step_height must be in (0, {0.5 * self.height:.3f}] m for this robot, "
+                f"got {step_height}"
+            )
+        lo, hi = CYCLE_TIME_RANGE
+        if cycle_time is not None and not lo <= cycle_time <= hi:
+            raise ValueError(f"cycle_time must be in [{lo}, {hi}] s, got {cycle_time}")
+        if footholds is not None and footholds not in FOOTHOLD_PLANNERS:
+            raise KeyError(
+                f"unknown foothold planner {footholds!r} (planners: {', '.join(FOOTHOLD_PLANNERS)})"
+            )
+        for name, value in (
+            ("step_height", step_height),
+            ("cycle_time", cycle_time),
+            ("footholds", footholds),
+        ):
+            if value is not None:
+                setattr(self, name, value)
+                self._configured.add(name)
+        if self.scheduler is not None:
+            self.scheduler.set_gait(self.gait, self.cycle_time)
+
+    def continue_from(self, previous: object) -> None:
+        """Take over a walking behaviour in stride: its legs, clock and steering state, and the
+        step height and planner unless this one was configured with its own."""
+        if not isinstance(previous, Walking) or previous.scheduler is None:
+            return
+        self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, previous.t)
+        self.scheduler.take_state(previous.scheduler)
+        self.t, self.command, self.yaw_ref = previous.t, previous.command.copy(), previous.yaw_ref
+        self.hip_velocity = previous.hip_velocity.copy()
+        self.liftoff = previous.liftoff.copy()
+        for name in ("step_height", "footholds"):
+            if name not in self._configured:
+                setattr(self, name, getattr(previous, name))
+
+    # ------------------------------------------------------------------------ the tick
+    def update(
+        self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
+    ) -> None:
+        R = robot.base_rotation
+        yaw = float(np.arctan2(R[1, 0], R[0, 0]))
+        if self.scheduler is None:
+            self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, t)
+            self.t, self.yaw_ref = t, yaw
+        dt = t - self.t
+        self.t = t
+        limits = dt * np.array([ACCELERATION_LIMIT, ACCELERATION_LIMIT, YAW_ACCELERATION_LIMIT])
+        self.command = _rate_limit(self.command, np.asarray(command, dtype=float), limits)
+        vx, vy, yaw_rate = self.command
+        lead = np.angle(np.exp(1j * (self.yaw_ref + yaw_rate * dt - yaw)))
+        self.yaw_ref = yaw + float(np.clip(lead, -YAW_LEAD_MAX, YAW_LEAD_MAX))
+        c, s = np.cos(yaw), np.sin(yaw)
+        to_world = np.array([[c, -s], [s, c]])
+        velocity_world = to_world @ np.array([vx, vy])
+
+        for event in self.scheduler.advance(t, touching.tolist()):
+            if event.kind == "liftoff":
+                self.liftoff[event.leg] = robot.contact_positions[event.leg]
+        self._filter_hip_velocity(robot, to_world, dt)
+
+        refs = self.references
+        legs = self.scheduler.legs
+        stance = [i for i, leg in enumerate(legs) if leg.state is LegState.STANCE]
+        if stance:
+            refs.base_height = float(robot.contact_positions[stance, 2].mean() + self.height)
+        planner = FOOTHOLD_PLANNERS[self.footholds]
+        swing_time = self.scheduler.swing_time
+        for i, leg in enumerate(legs):
+            standing = leg.state is LegState.STANCE
+            refs.contact_active[i] = standing
+            if standing:
+                load = self.scheduler.load(i, t)
+                refs.normal_force_max[i] = (
+                    load * self.full_load if load < 1.0 else UNBOUNDED_LOADS * self.full_load
+                )
+                continue
+            elapsed = t - leg.since
+            query = FootholdQuery(
+                base_xy=robot.base_position[:2].copy(),
+                yaw=yaw,
+                hip=self.hips[i],
+                velocity=np.array([vx, vy]),
+                yaw_rate=yaw_rate,
+                hip_velocity=self.hip_velocity[i],
+                height=self.height,
+                swing_left=max(leg.swing_duration - elapsed, 0.0),
+                stance_time=self.cycle_time - swing_time,
+                swing_time=swing_time,
+            )
+            p, v, a = swing_reference(
+                self.liftoff[i], planner(query), self.step_height, elapsed, leg.swing_duration
+            )
+            refs.foot_position[i], refs.foot_velocity[i], refs.foot_acceleration[i] = p, v, a
+
+        refs.base_rotation = pin.rpy.rpyToMatrix(0.0, 0.0, self.yaw_ref)
+        refs.base_angular_velocity = np.array([0.0, 0.0, yaw_rate])
+        refs.base_linear_velocity = np.array([*velocity_world, 0.0])
+        offset = to_world @ self.com_offset[:2]
+        refs.com = np.array([*(robot.base_position[:2] + offset), refs.base_height])
+        refs.com[2] += self.com_offset[2]
+        refs.com_velocity = refs.base_linear_velocity.copy()
+
+    def _filter_hip_velocity(self, robot: RobotModel, to_world: np.ndarray, dt: float) -> None:
+        """Measured velocity of each hip point (H axes), low-passed for the Raibert feedback."""
+        omega = robot.base_angular_velocity_world
+        v_base = robot.base_linear_velocity_world
+        alpha = dt / (HIP_VELOCITY_TIME_CONSTANT + dt)
+        for i, hip in enumerate(self.hips):
+            r = np.array([*(to_world @ hip), 0.0])
+            measured = to_world.T @ (v_base + np.cross(omega, r))[:2]
+            self.hip_velocity[i] += alpha * (measured - self.hip_velocity[i])
+
+
+def _factory(gait: GaitPattern) -> Callable[[RobotModel, np.ndarray], Walking]:
+    def make(robot: RobotModel, q_standing: np.ndarray) -> Walking:
+        return Walking(robot, q_standing, gait)
+
+    return make
+
+
+WALKING_BEHAVIOURS: dict[str, Callable[[RobotModel, np.ndarray], Walking]] = {
+    name: _factory(gait) for name, gait in GAITS.items()
+}
