@@ -122,3 +122,20 @@ def test_control_ownership():
     assert c.claim_if_free(1) and not c.claim_if_free(2)
     assert c.take(2) == 1 and c.is_owner(2) and not c.is_owner(1)
     assert not c.release(1) and c.release(2) and c.owner is None
+
+
+def test_support_polygon_hull_and_degenerate_cases():
+    from lab.ui.support import polygon_bounds, sole_corners, support_polygon
+
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0]], float)
+    hull = support_polygon(square)
+    assert len(hull) == 4 and [0.5, 0.5, 0] not in hull.tolist()
+    x = hull[:, 0] - 0.5
+    y = hull[:, 1] - 0.5
+    assert np.all(np.diff(np.unwrap(np.arctan2(y, x))) > 0)  # counter-clockwise
+    line = support_polygon(np.array([[0, 0, 0], [2, 0, 0], [1, 0, 0]], float))
+    assert sorted(line[:, 0].tolist()) == [0.0, 2.0]
+    assert polygon_bounds(hull) == (0.0, 1.0, 0.0, 1.0)
+    yaw90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    corners = sole_corners(np.array([1.0, 0.0, 0.0]), yaw90, 0.1, 0.05)
+    assert polygon_bounds(corners) == pytest.approx((0.95, 1.05, -0.1, 0.1))

@@ -25,6 +25,7 @@ from lab.ui.terrain_view import TerrainView
 
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
 PLOT_S = 1.0 / 20.0  # plot redraw period
+OVERLAY_S = 1.0 / 30.0  # overlay redraw period
 STATUS_S = 0.2
 REFRESH_S = 0.2  # resend a non-zero velocity (deadman 0.5 s) and an active drag push
 DRAG_PUSH_S = 0.25  # duration of each drag push; refreshed every REFRESH_S while dragging
@@ -58,6 +59,7 @@ class LabApp:
         self._spring = Spring()
         self._rtf_window: list[tuple[float, float]] = []
         self.frames_drawn = 0
+        self._draw_fps = 0.0
         self._last_error = ""
 
         gui = self.server.gui
@@ -158,6 +160,9 @@ class LabApp:
         return 0.0 if self.telemetry is None else _yaw(self.telemetry["base"]["quaternion"])
 
     def base_body(self) -> str:
+        """The floating base link, the body the push buttons push."""
+        if self.robot_view is not None:
+            return self.robot_view.root_link
         return self.info["bodies"][0] if self.info and self.info["bodies"] else "base"
 
     # ---- drag push ---------------------------------------------------------------------------
@@ -226,6 +231,7 @@ class LabApp:
             self.refresh_info()
         joints = dict(zip(state["joints"]["names"], state["joints"]["positions"], strict=True))
         self.robot_view.set_state(state["base"]["position"], state["base"]["quaternion"], joints)
+        self.server.flush()  # send this pose now rather than at viser's next 60 Hz window
         self.frames_drawn += 1
 
     def _take_telemetry(self) -> dict | None:
@@ -260,7 +266,8 @@ class LabApp:
             f"{tel['hierarchy']['solver']}{flags}  \n"
             f"t {tel['t']:.2f} s · RTF {self._realtime_factor():.2f} · on-time "
             f"{100.0 * loop.get('on_time_fraction', float('nan')):.2f} % · QP "
-            f"{qp['solve_us']:.0f} µs ({qp['status']}) · failures {qp['failures']}"
+            f"{qp['solve_us']:.0f} µs ({qp['status']}) · failures {qp['failures']} · view "
+            f"{self._draw_fps:.0f} fps"
         )
         if self._last_error:
             text += f"  \nLast error: {self._last_error}"
@@ -280,7 +287,8 @@ class LabApp:
         while not stop.is_set() and not self.refresh_info():
             self.status.content = "Waiting for the lab server (no reply to `info`)…"
             stop.wait(0.5)
-        last_plot = last_status = last_refresh = 0.0
+        last_plot = last_refresh = last_overlay = 0.0
+        last_status, frames_at_status = time.monotonic(), 0
         next_frame = time.monotonic()
         while not stop.is_set():
             now = time.monotonic()
@@ -288,7 +296,8 @@ class LabApp:
             state = self.link.latest_state()
             if state is not None:
                 self._draw_state(state)
-            if tel is not None and self.overlays is not None:
+            if tel is not None and self.overlays is not None and now - last_overlay >= OVERLAY_S:
+                last_overlay = now
                 if (tel["scene"], tel["robot"]) != (self._scene_name, self._robot_name) and (
                     tel["robot"] == self._robot_name
                 ):
@@ -313,7 +322,8 @@ class LabApp:
                 last_plot = now
                 self.plots.draw()
             if now - last_status >= STATUS_S:
-                last_status = now
+                self._draw_fps = (self.frames_drawn - frames_at_status) / (now - last_status)
+                frames_at_status, last_status = self.frames_drawn, now
                 self.status.content = self._status_text()
             next_frame += FRAME_S
             delay = next_frame - time.monotonic()

@@ -18,7 +18,12 @@ def _mesh_file(path: str) -> trimesh.Trimesh:
     if isinstance(mesh.visual, trimesh.visual.TextureVisuals):
         # Per-vertex colours sampled from the texture: a textured GLB costs seconds of PNG encoding
         # per mesh on every load, vertex colours cost nothing.
-        mesh.visual = mesh.visual.to_color()
+        coloured = mesh.visual.to_color()
+        if len(coloured.vertex_colors) == len(mesh.vertices):
+            mesh.visual = coloured
+        else:  # no usable texture coordinates: the material's main colour
+            colour = mesh.visual.material.main_color
+            mesh.visual = trimesh.visual.ColorVisuals(mesh, face_colors=colour)
     return mesh
 
 

@@ -141,7 +141,10 @@ class ControlPanel:
             )
         self.take.visible = not mine
         for handle in self._controls:
-            handle.disabled = not mine
+            if isinstance(handle, viser.GuiButtonGroupHandle):
+                handle.visible = mine  # viser cannot disable a button group: hide it instead
+            else:
+                handle.disabled = not mine
         self.pad.visible = mine
 
     # ---- info / telemetry -----------------------------------------------------------------------

@@ -12,10 +12,10 @@ import viser
 import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
-from lab.ui.support import polygon_bounds, support_polygon
+from lab.ui.support import polygon_bounds
 
 WINDOW_S = 10.0
-MAX_POINTS = 500  # points per series sent to the browser
+MAX_POINTS = 250  # points per series sent to the browser (25 per second of window)
 TOP_LEVELS = 3  # task errors are plotted for this many highest-priority levels
 PALETTE = (
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#17becf", "#8c564b", "#e377c2",
@@ -36,8 +36,9 @@ def _labels_cop(tel: dict) -> tuple[str, ...]:
 
 def _cop(tel: dict) -> list[float]:
     net = tel["cop"]["net"]
+    # the bounds of the support polygon are those of its vertices: no hull needed
     pts = np.array([c["position"] for c in tel["contacts"] if c["active"]]).reshape(-1, 3)
-    x0, x1, y0, y1 = polygon_bounds(support_polygon(pts))
+    x0, x1, y0, y1 = polygon_bounds(pts)
     cx, cy = (net[0], net[1]) if net is not None else (np.nan, np.nan)
     return [cx, cy, x0, x1, y0, y1]
 

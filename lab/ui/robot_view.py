@@ -84,6 +84,13 @@ class RobotView:
             self._meshes.append(handle)
 
     @property
+    def root_link(self) -> str:
+        """The URDF root link (the floating base)."""
+        return next(
+            f.name for f in self.model.frames if f.type == pin.FrameType.BODY and f.parentJoint == 1
+        )
+
+    @property
     def joint_names(self) -> list[str]:
         return list(self._joint_q_index)
 

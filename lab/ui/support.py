@@ -34,7 +34,7 @@ def support_polygon(points: np.ndarray) -> np.ndarray:
 
 
 def polygon_bounds(polygon: np.ndarray) -> tuple[float, float, float, float]:
-    """(x_min, x_max, y_min, y_max) of a polygon; NaNs when it is empty."""
+    """(x_min, x_max, y_min, y_max) of a polygon or point set; NaNs when it is empty."""
     if len(polygon) == 0:
         return (float("nan"),) * 4
     return (

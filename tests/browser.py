@@ -1,0 +1,85 @@
+"""Helpers for the browser tests: a `lab serve` process with its UI on free loopback ports, and
+Debian's headless Chromium driven by playwright (never a downloaded browser)."""
+
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from lab.client import LabClient
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+STARTUP_TIMEOUT_S = 60.0
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class LabServe:
+    """`lab serve` (sim process + UI process) on free ports, output to `log`."""
+
+    def __init__(self, log: Path, *args: str) -> None:
+        self.port = free_port()
+        self.ui_port = free_port()
+        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.url = f"http://127.0.0.1:{self.ui_port}"
+        self.log = log
+        cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(self.port)]
+        cmd += ["--ui-port", str(self.ui_port), *args]
+        with log.open("wb") as out:
+            self.process = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
+
+    def output(self) -> str:
+        return self.log.read_text(errors="replace")[-4000:]
+
+    def client(self) -> LabClient:
+        end = time.monotonic() + STARTUP_TIMEOUT_S
+        while time.monotonic() < end:
+            assert self.process.poll() is None, f"lab serve exited:\n{self.output()}"
+            try:
+                client = LabClient(self.endpoint, connect_timeout=1.0)
+            except Exception:  # not listening yet
+                time.sleep(0.3)
+                continue
+            if client.command("info").get("ok"):
+                return client
+            client.close()
+            time.sleep(0.3)
+        raise TimeoutError(
+            f"lab serve did not answer within {STARTUP_TIMEOUT_S} s:\n{self.output()}"
+        )
+
+    def wait_ui(self) -> None:
+        """Wait until the UI process serves HTTP."""
+        end = time.monotonic() + STARTUP_TIMEOUT_S
+        while time.monotonic() < end:
+            assert self.process.poll() is None, f"lab serve exited:\n{self.output()}"
+            try:
+                socket.create_connection(("127.0.0.1", self.ui_port), timeout=0.5).close()
+                return
+            except OSError:
+                time.sleep(0.3)
+        raise TimeoutError(f"the UI did not serve HTTP within {STARTUP_TIMEOUT_S} s")
+
+    def stop(self) -> None:
+        self.process.terminate()
+        try:
+            self.process.wait(10.0)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
