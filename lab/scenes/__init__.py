@@ -10,10 +10,11 @@ from collections.abc import Callable
 import mujoco
 
 from lab.scenes.flat import flat
+from lab.scenes.half_cylinder import half_cylinder
 
 Scene = Callable[[mujoco.MjSpec, float], None]
 
-SCENES: dict[str, Scene] = {"flat": flat}
+SCENES: dict[str, Scene] = {"flat": flat, "half_cylinder": half_cylinder}
 
 
 def add_scene(spec: mujoco.MjSpec, name: str, friction: float) -> None:

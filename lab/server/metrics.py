@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from lab.server.load_metrics import LOAD_METRICS
+
 if TYPE_CHECKING:
     from lab.server.session import Session
 
@@ -41,4 +43,5 @@ class StandingMetrics:
 
 METRICS: dict[str, type] = {
     "standing": StandingMetrics,
+    **LOAD_METRICS,
 }

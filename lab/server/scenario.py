@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from lab.server.commands import CommandError, parse_command
+from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
 from lab.server.session import Session, SessionConfig
 
@@ -29,6 +30,7 @@ SCENARIO_KEYS = {
     "controller",
     "events",
     "metrics",
+    "limits",
 }
 CONTROLLER_KEYS = {"hierarchy", "solver", "stack", "gains"}
 
@@ -51,6 +53,7 @@ class Scenario:
     config: SessionConfig
     events: list[Event] = field(default_factory=list)
     metrics: tuple[str, ...] = ("standing",)
+    limits: dict[str, dict[str, object]] = field(default_factory=dict)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -80,8 +83,19 @@ def load_scenario(path: str | Path) -> Scenario:
     )
     events = [_event(path, i, raw) for i, raw in enumerate(data.get("events", []))]
     return Scenario(
-        data.get("name", path.stem), float(duration), config, sorted(events, key=lambda e: e.t)
+        data.get("name", path.stem),
+        float(duration),
+        config,
+        sorted(events, key=lambda e: e.t),
+        limits=_limits(path, data),
     )
+
+
+def _limits(path: Path, data: dict) -> dict[str, dict[str, object]]:
+    try:
+        return check_limits(data.get("limits", {}))
+    except LimitsError as error:
+        raise ScenarioError(f"{path}: {error}") from error
 
 
 def _event(path: Path, index: int, raw: dict) -> Event:
@@ -103,6 +117,7 @@ def _event(path: Path, index: int, raw: dict) -> Event:
 def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
     """Run headless and report; `duration` shortens the run (tests run short versions)."""
     session = Session(scenario.config)
+    apply_limits(session.controller, scenario.limits)
     duration = scenario.duration if duration is None else min(duration, scenario.duration)
     ticks = max(1, round(duration / scenario.config.timestep))
     pending = list(scenario.events)

@@ -12,6 +12,7 @@ from typing import Protocol
 import numpy as np
 
 from lab.controller.behaviours.balance import Balance
+from lab.controller.behaviours.hutter import HUTTER_BEHAVIOURS
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.model import RobotModel
 from lab.controller.references import References
@@ -30,6 +31,7 @@ BehaviourFactory = Callable[[RobotModel, np.ndarray], Behaviour]
 
 BEHAVIOURS: dict[str, BehaviourFactory] = {
     Balance.name: Balance,
+    **HUTTER_BEHAVIOURS,
     **WALKING_BEHAVIOURS,
 }
 
