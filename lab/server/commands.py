@@ -83,10 +83,11 @@ class SceneCommand:
 
 @dataclass(frozen=True)
 class HierarchyCommand:
-    """Switch hierarchy method (and QP solver when given)."""
+    """Switch hierarchy method (and QP solver, `nullspace` formulation when given)."""
 
     method: str
     solver: str | None = None
+    formulation: str | None = None
 
 
 @dataclass(frozen=True)
@@ -276,9 +277,10 @@ def _gait(f: _Fields) -> GaitCommand:
 
 
 def _hierarchy(f: _Fields) -> HierarchyCommand:
-    f.only("method", "solver")
+    f.only("method", "solver", "formulation")
     solver = f.name("solver") if f.has("solver") else None
-    return HierarchyCommand(method=f.name("method"), solver=solver)
+    formulation = f.name("formulation") if f.has("formulation") else None
+    return HierarchyCommand(method=f.name("method"), solver=solver, formulation=formulation)
 
 
 def _stack(f: _Fields) -> StackCommand:

@@ -236,8 +236,8 @@ class Session:
                 self._rebuild(replace(self.config, robot=name, stack=None, gains={}))
             case cmd.SceneCommand(name=name):
                 self._rebuild(replace(self.config, scene=name))
-            case cmd.HierarchyCommand(method=method, solver=solver):
-                self.controller.set_hierarchy(method, solver)
+            case cmd.HierarchyCommand(method=method, solver=solver, formulation=formulation):
+                self.controller.set_hierarchy(method, solver, formulation)
                 self.config.hierarchy = method
                 self.config.solver = self.controller.config.solver
                 return {"hierarchy": self._hierarchy()}
