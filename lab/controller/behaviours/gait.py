@@ -122,10 +122,10 @@ class GaitScheduler:
         self.phase += (t - self.t) / self.cycle_time
         self.t = t
         events = []
+        stance = [leg.state is LegState.STANCE for leg in self.legs]
+        # Touchdowns first, so that every lift-off this tick sees the same legs on the ground.
         for i, (leg, touch) in enumerate(zip(self.legs, touching, strict=True)):
-            if leg.state is LegState.STANCE:
-                if self._liftoff(i, t):
-                    events.append(LegEvent(i, "liftoff", t))
+            if stance[i]:
                 continue
             elapsed = t - leg.since
             landed = touch and elapsed >= 0.5 * leg.swing_duration
@@ -135,6 +135,9 @@ class GaitScheduler:
                 events.append(LegEvent(i, "touchdown", t))
             elif elapsed >= leg.swing_duration:
                 leg.state = LegState.REACHING
+        for i in range(len(self.legs)):
+            if stance[i] and self._liftoff(i, t):
+                events.append(LegEvent(i, "liftoff", t))
         return events
 
     def _liftoff(self, i: int, t: float) -> bool:

@@ -8,6 +8,13 @@ so the terrain is taken as level) the foot follows, for t in [0, T_sw] with f_sw
 and is mapped to the world by the rotation ψ_s about z (eq. 27). L_s and ψ_s come from the
 foothold, replanned every tick. Past T_sw without a touchdown the foot keeps descending at its
 touchdown speed (reaching motion, §3.3) until the ground is felt.
+
+The ellipse is walked with the time t' = T_sw (6u³ − 8u⁴ + 3u⁵), u = t / T_sw, instead of t: the
+same path and the same touchdown velocity (t' and dt'/dt are 0 and 1 at the ends, d²t'/dt² = 0
+at both), but the foot leaves the ground at rest, without a step in velocity or acceleration.
+With t itself the reference would jump to the lift-off velocity H_s π f_sw (about 1 m/s)
+and the swing task would jerk the stance legs (measured on ANYmal: a 460 N step in their normal
+forces at lift-off; with this time warp no tick changes a normal force by more than 50 N).
 """
 
 import numpy as np
@@ -22,9 +29,15 @@ def swing_reference(
     heading = step / length if length > 1e-9 else np.zeros(2)
     w = np.pi / duration
     if t <= duration:
-        s, c = np.sin(w * t), np.cos(w * t)
+        u = t / duration
+        warped = duration * u**3 * (6.0 - 8.0 * u + 3.0 * u**2)  # t'
+        rate = u**2 * (18.0 - 32.0 * u + 15.0 * u**2)  # dt'/dt
+        rate_dot = u * (36.0 - 96.0 * u + 60.0 * u**2) / duration  # d²t'/dt²
+        s, c = np.sin(w * warped), np.cos(w * warped)
         x, dx, ddx = 0.5 * length * (1.0 - c), 0.5 * length * w * s, 0.5 * length * w * w * c
         z, dz, ddz = height * s, height * w * c, -height * w * w * s
+        ddx, ddz = ddx * rate**2 + dx * rate_dot, ddz * rate**2 + dz * rate_dot
+        dx, dz = dx * rate, dz * rate
     else:
         x, dx, ddx = length, 0.0, 0.0
         z, dz, ddz = -height * w * (t - duration), -height * w, 0.0
