@@ -10,13 +10,18 @@ from collections.abc import Callable
 import mujoco
 
 from lab.scenes.flat import flat
+from lab.scenes.half_cylinder import half_cylinder
 from lab.scenes.rough import rough
 from lab.scenes.slope import slope
-from lab.scenes.half_cylinder import half_cylinder
 
 Scene = Callable[[mujoco.MjSpec, float], None]
 
-SCENES: dict[str, Scene] = {"flat": flat, "half_cylinder": half_cylinder, "rough": rough, "slope": slope}
+SCENES: dict[str, Scene] = {
+    "flat": flat,
+    "half_cylinder": half_cylinder,
+    "rough": rough,
+    "slope": slope,
+}
 
 
 def add_scene(spec: mujoco.MjSpec, name: str, friction: float) -> None:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from lab.server.load_metrics import LOAD_METRICS
+from lab.server.locomotion_metrics import LocomotionMetrics
 
 if TYPE_CHECKING:
     from lab.server.session import Session
@@ -43,5 +44,6 @@ class StandingMetrics:
 
 METRICS: dict[str, type] = {
     "standing": StandingMetrics,
+    "locomotion": LocomotionMetrics,
     **LOAD_METRICS,
 }

@@ -1,8 +1,10 @@
 """Headless scenarios: a TOML file → a session run as fast as the CPU allows → one JSON report.
 
 A scenario names `robot`, `scene`, `duration` (s), a `[controller]` table (`hierarchy`, `solver`,
-optional `stack` and `[controller.gains.<task>]` tables) and `[[events]]`, each with a time `t` and
-exactly one command written with the protocol's verb and fields, for example
+optional `stack` — a list of levels or the name of a preset in `stacks/` — and
+`[controller.gains.<task>]` tables), `metrics` to report besides the standing ones, and
+`[[events]]`, each with a time `t` and exactly one command written with the protocol's verb and
+fields, for example
 
     [[events]]
     t = 2.0
@@ -20,6 +22,7 @@ from lab.server.commands import CommandError, parse_command
 from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
 from lab.server.session import Session, SessionConfig
+from lab.stack_presets import load_stack_preset
 
 SCENARIO_KEYS = {
     "name",
@@ -73,22 +76,43 @@ def load_scenario(path: str | Path) -> Scenario:
     duration = data.get("duration")
     if not isinstance(duration, int | float) or not duration > 0:
         raise ScenarioError(f"{path}: duration must be a positive number of seconds")
+    stack, hierarchy, gains = _stack(path, controller)
     config = SessionConfig(
         robot=data.get("robot", "anymal"),
         scene=data.get("scene", "flat"),
-        hierarchy=controller.get("hierarchy", "cascade"),
+        hierarchy=hierarchy,
         solver=controller.get("solver", "daqp"),
-        stack=controller.get("stack"),
-        gains=controller.get("gains", {}),
+        stack=stack,
+        gains=gains,
     )
+    metrics = data.get("metrics", [])
+    unknown = [name for name in metrics if name not in METRICS]
+    if unknown:
+        raise ScenarioError(f"{path}: unknown metrics {unknown} (known: {', '.join(METRICS)})")
     events = [_event(path, i, raw) for i, raw in enumerate(data.get("events", []))]
     return Scenario(
         data.get("name", path.stem),
         float(duration),
         config,
         sorted(events, key=lambda e: e.t),
+        ("standing", *(name for name in metrics if name != "standing")),
         limits=_limits(path, data),
     )
+
+
+def _stack(path: Path, controller: dict) -> tuple[list | None, str, dict]:
+    """Levels, hierarchy and gains of `[controller]`, where `stack` may name a preset."""
+    stack = controller.get("stack")
+    hierarchy = controller.get("hierarchy", "cascade")
+    gains = controller.get("gains", {})
+    if not isinstance(stack, str):
+        return stack, hierarchy, gains
+    try:
+        preset = load_stack_preset(stack)
+    except (KeyError, ValueError) as error:
+        raise ScenarioError(f"{path}: {error.args[0]}") from error
+    merged = {task: {**values, **gains.get(task, {})} for task, values in preset.gains.items()}
+    return preset.levels, controller.get("hierarchy", preset.hierarchy), {**gains, **merged}
 
 
 def _limits(path: Path, data: dict) -> dict[str, dict[str, object]]:

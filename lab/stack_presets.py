@@ -1,0 +1,49 @@
+"""Named stacks from the papers, as data: `stacks/<name>.toml`.
+
+A preset holds the priority levels (highest first), the hierarchy method it is meant for, and the
+gains of its tasks. A scenario names one with `stack = "<name>"` in its `[controller]` table; its
+own `hierarchy` and `[controller.gains.<task>]` entries override the preset's. The levels are an
+ordinary stack afterwards, reorderable with the `stack` command.
+"""
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+STACKS_DIR = Path(__file__).resolve().parent.parent / "stacks"
+PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
+PRESET_KEYS = {"description", "hierarchy", "levels", "gains"}
+
+
+@dataclass(frozen=True)
+class StackPreset:
+    name: str
+    description: str
+    hierarchy: str
+    levels: list[list[str]]
+    gains: dict[str, dict[str, float]]
+
+
+def load_stack_preset(name: str) -> StackPreset:
+    """Read `stacks/<name>.toml`; an unknown name raises KeyError naming the known presets, a
+    malformed file ValueError naming the problem."""
+    if name not in PRESET_NAMES:
+        raise KeyError(f"unknown stack preset {name!r} (presets: {', '.join(PRESET_NAMES)})")
+    path = STACKS_DIR / f"{name}.toml"
+    data = tomllib.loads(path.read_text())
+    unknown = set(data) - PRESET_KEYS
+    if unknown:
+        raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
+    levels = data.get("levels")
+    if not isinstance(levels, list) or not all(
+        isinstance(level, list) and level and all(isinstance(n, str) for n in level)
+        for level in levels
+    ):
+        raise ValueError(f"{path}: levels must be a list of non-empty lists of task names")
+    return StackPreset(
+        name=name,
+        description=str(data.get("description", "")),
+        hierarchy=str(data.get("hierarchy", "cascade")),
+        levels=levels,
+        gains={task: dict(values) for task, values in data.get("gains", {}).items()},
+    )
