@@ -128,10 +128,10 @@ def _query(**changes: object) -> FootholdQuery:
 def test_robocentric_foothold_is_the_virtual_foothold_plus_the_commanded_step() -> None:
     assert robocentric(_query()) == pytest.approx([1.35, 2.25])
     moving = robocentric(_query(velocity=np.array([0.5, -0.2])))
-    assert moving == pytest.approx([1.35 + 0.5 * 0.27, 2.25 - 0.2 * 0.27])
+    assert moving == pytest.approx([1.35 + 0.5 * 0.165, 2.25 - 0.2 * 0.165])
     # Turning left moves a left-front foot forward-left... along ẑ × hip = (-0.25, 0.35).
     turning = robocentric(_query(yaw_rate=1.0))
-    assert turning == pytest.approx([1.35 - 0.25 * 0.27, 2.25 + 0.35 * 0.27])
+    assert turning == pytest.approx([1.35 - 0.25 * 0.165, 2.25 + 0.35 * 0.165])
     # The horizontal frame turns with the base yaw.
     turned = robocentric(_query(yaw=np.pi / 2))
     assert turned == pytest.approx([1.0 - 0.25, 2.0 + 0.35])

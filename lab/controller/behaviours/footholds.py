@@ -4,9 +4,13 @@ Both work in the horizontal frame H (the base frame turned about z by the base y
 at the base), so the base's roll and pitch do not move the footholds (Raiola §3.2):
 
 - `robocentric` (Raiola eqs. 19–25): the virtual foothold x_f⁰ (where the foot stands in the
-  nominal posture) plus the displacement the commanded twist asks over one swing,
-  ΔL = v_d / f_sw + (ψ̇_d ẑ / f_sw) × x_hip. It is measured from the actual base, so errors do not
-  accumulate and the legs stay near their preferred configuration.
+  nominal posture) plus the displacement the commanded twist asks, ΔL = (v_d + ψ̇_d ẑ × x_hip) T,
+  measured from the actual base, so errors do not accumulate and the legs stay near their
+  preferred configuration. Eq. 19 takes T = 1 / f_sw; here T = T_st / 2, which centres the stance
+  on the virtual foothold. Under S3 (no velocity task: the posture pulls the base over the feet)
+  the base then settles at the commanded velocity; with T = T_sw (0.27 s for ANYmal's trot
+  against T_st / 2 = 0.17 s) it settled near 2 T_sw / T_st = 1.6 times the command and ANYmal's
+  0.5 m/s trot ran away to 1.9 m/s and fell after 7 s.
 - `raibert` (Hutter eq. 62): the hip's predicted position at touchdown, plus half the stance
   travel at the desired velocity (feed-forward), plus k_fb (v_hip − v_hip,d) sqrt(h / g)
   (feedback: a robot moving faster than asked, or pushed, steps further that way).
@@ -55,8 +59,8 @@ def _turn(yaw_rate: float, point: np.ndarray) -> np.ndarray:
 
 
 def robocentric(query: FootholdQuery) -> np.ndarray:
-    """Raiola eqs. 19–23: x_f⁰ + ΔL_xy0 + ΔL_h0, with 1 / f_sw = the swing time."""
-    step = query.swing_time * (query.velocity + _turn(query.yaw_rate, query.hip))
+    """Raiola eqs. 19–23: x_f⁰ + ΔL_xy0 + ΔL_h0, over half the stance time (see above)."""
+    step = 0.5 * query.stance_time * (query.velocity + _turn(query.yaw_rate, query.hip))
     return _to_world(query, query.hip + step)
 
 
