@@ -4,6 +4,7 @@ import json
 import math
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from lab.controller import hierarchy
@@ -131,3 +132,19 @@ def test_telemetry_is_json_and_physical(session: Session) -> None:
     cop = np.array(telemetry["cop"]["net"][:2])
     assert np.all(cop > feet.min(axis=0)) and np.all(cop < feet.max(axis=0))
     assert np.linalg.norm(telemetry["momentum"]["linear"]) < 0.05 * session.model.mass
+
+
+def test_standing_starts_where_the_robot_is_and_faces() -> None:
+    """Switching to `stand` holds the current place and heading, not the world origin."""
+    session = Session(SessionConfig(robot="anymal"))
+    q = session.robot.q_standing.copy()
+    q[:2] = [0.5, -0.3]
+    q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, 0.4)).coeffs()
+    session.plant.reset(q)
+    assert session.handle("gait", {"name": "stand"})["ok"]
+    run(session, 1.0)
+    base = session.telemetry()["base"]
+    assert not session.fell
+    assert np.linalg.norm(np.array(base["position"][:2]) - q[:2]) < 0.01
+    yaw = pin.rpy.matrixToRpy(pin.Quaternion(np.array(base["quaternion"])).toRotationMatrix())[2]
+    assert abs(yaw - 0.4) < 0.01

@@ -1,8 +1,9 @@
 """Balance: the standing behaviour. It holds the references of the standing posture.
 
-The CoM stays where the standing posture puts it (over the support polygon), the base level at
-the standing height with its initial heading, the joints at the reference posture, all feet in
-contact. The velocity command is ignored: a standing robot does not walk.
+The CoM stays where the standing posture puts it over the feet, the base level at the standing
+height, the joints at the reference posture, all feet in contact — wherever the robot stands and
+whichever way it faces when the behaviour starts (after walking, say). The velocity command is
+ignored: a standing robot does not walk.
 """
 
 import numpy as np
@@ -31,7 +32,12 @@ class Balance:
     name = "stand"
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
-        self.references = standing_references(robot, q_standing)
+        """Start from the robot's current state (the model is up to date)."""
+        here = q_standing.copy()
+        here[:2] = robot.q[:2]
+        yaw = pin.rpy.matrixToRpy(robot.base_rotation)[2]
+        here[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
+        self.references = standing_references(robot, here)
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
