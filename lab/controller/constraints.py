@@ -50,14 +50,14 @@ class FrictionConstraint(Constraint):
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        upper = refs.normal_force_max
-        if upper.size == 0:
-            upper = np.full(len(robot.contacts), self.limits.normal_max)
         # The rows depend only on which feet are active and on the bounds: reuse them.
+        upper = refs.normal_force_max
         key = (refs.contact_active.tobytes(), upper.tobytes(), self.limits.friction)
         if key not in self._cache:
             if len(self._cache) > 64:
                 self._cache.clear()
+            if upper.size == 0:
+                upper = np.full(len(robot.contacts), self.limits.normal_max)
             self._cache[key] = self._build(robot, refs.contact_active, upper)
         return self._cache[key]
 
@@ -84,7 +84,7 @@ class FrictionConstraint(Constraint):
                 C[n:, col : col + n] = -np.eye(n)
             blocks_C.append(C)
             blocks_d.append(d)
-        C, d = np.vstack(blocks_C), np.concatenate(blocks_d)
+        C, d = np.concatenate(blocks_C), np.concatenate(blocks_d)
         C.flags.writeable = d.flags.writeable = False
         return C, d
 
@@ -115,7 +115,7 @@ class CopConstraint(Constraint):
             blocks.append(C)
         if not blocks:
             return _rows(0, robot)
-        C = np.vstack(blocks)
+        C = np.concatenate(blocks)
         return C, np.zeros(len(C))
 
 
@@ -129,9 +129,11 @@ class TorqueLimitConstraint(Constraint):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         a = slice(BASE_DOF, None)
-        T = np.hstack([robot.M[a], -robot.Jc[:, a].T])
+        T = np.concatenate((robot.M[a], -robot.Jc[:, a].T), axis=1)
         h = robot.h[a]
-        return np.vstack([T, -T]), np.concatenate([self.torque_limits - h, self.torque_limits + h])
+        return np.concatenate((T, -T)), np.concatenate(
+            (self.torque_limits - h, self.torque_limits + h)
+        )
 
 
 class JointLimitConstraint(Constraint):

@@ -121,7 +121,7 @@ class WholeBodyController:
         robot, refs = self.robot, self.references
         base = slice(0, BASE_DOF)
         # Newton–Euler rows (Herzog eq. 13): M_u q̈ − J_uᵀ F = −h_u.
-        dynamics_A = np.hstack([robot.M[base], -robot.Jc[:, base].T])
+        dynamics_A = np.concatenate((robot.M[base], -robot.Jc[:, base].T), axis=1)
         levels = []
         weight = 1.0  # of the next level with tasks; inequality-only levels take no weight
         for names in self.config.stack.levels:
@@ -190,4 +190,4 @@ def _stacked(
         return np.zeros((0, nx)), np.zeros(0)
     if len(rows) == 1:
         return rows[0], rhs[0]
-    return np.vstack(rows), np.concatenate(rhs)
+    return np.concatenate(rows), np.concatenate(rhs)

@@ -42,13 +42,13 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
             break
         Az, r = _projected(level.A, level.b, Z, x)
         Cz, s = _projected(level.C, level.d, Z, x)
-        free = np.einsum("ij,ij->i", K, K) > ZERO_ROW_TOL**2
+        free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
         u = _solve_level(Az, r, Cz, s, K[free], k[free], Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
         if len(s):
-            K = np.vstack([K, Cz])
+            K = np.concatenate((K, Cz))
             k = np.concatenate([k, s])
         k = np.maximum(k - K @ u, 0.0)
         if len(r):
@@ -82,12 +82,12 @@ def _solve_level(
     # Without equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
     if len(r):
         u = least_squares(Az, r)
-        fits = (not len(s) or np.all(Cz @ u <= s + FEASIBILITY_TOL)) and (
-            not len(k) or np.all(Kz @ u <= k + FEASIBILITY_TOL)
+        fits = (not len(s) or (Cz @ u <= s + FEASIBILITY_TOL).all()) and (
+            not len(k) or (Kz @ u <= k + FEASIBILITY_TOL).all()
         )
     else:
         u = np.zeros(Az.shape[1])
-        fits = np.all(s >= -FEASIBILITY_TOL)
+        fits = (s >= -FEASIBILITY_TOL).all()
     if fits:
         return u
     nz, m = Az.shape[1], len(s)
