@@ -24,13 +24,14 @@ does (constrained forward dynamics): when the support set cannot realize the kin
 from collections.abc import Sequence
 
 import numpy as np
-import scipy.linalg
+from scipy.linalg import lapack
 
 from lab.controller.hierarchy.formulations import (
     constrained_forward_dynamics,
     reparametrize,
     torque_step,
 )
+from lab.controller.hierarchy.linalg import SingularSystem
 from lab.controller.hierarchy.problem import HierarchyProblem, Level
 
 RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
@@ -74,7 +75,9 @@ def _project(levels: Sequence[Level], active: Sequence[np.ndarray], n: int) -> n
             if Z.shape[1] == 0:
                 return z
             AZ = A @ Z
-            U, s, Vt = scipy.linalg.svd(AZ, check_finite=False)
+            U, s, Vt, info = lapack.dgesdd(AZ, compute_uv=1, full_matrices=1)
+            if info != 0:
+                raise SingularSystem("the SVD of a level did not converge")
             rank = int(np.sum(s > max(RANK_ATOL, RANK_RTOL * s[0]))) if len(s) else 0
             u = Vt[:rank].T @ ((U[:, :rank].T @ (b - A @ z)) / s[:rank])
             z = z + Z @ u
