@@ -150,3 +150,24 @@ def test_a_bad_stack_is_rejected_and_the_old_one_kept() -> None:
         with pytest.raises(StackError):
             controller.set_stack(Stack.of(levels))
         assert controller.config.stack == before
+
+
+@pytest.mark.parametrize("name", ["anymal", "solo12"])
+def test_a_level_with_no_freedom_left_changes_nothing(name: str) -> None:
+    """Posture alone below contact, CoM and orientation: four feet leave q̈ no freedom (only the
+    internal forces are free), so the posture level must not move x. Its projected rows are
+    round-off; dividing by them once gave torques of 1e17 N m."""
+    controller, robot = controller_for(name)
+    rng = np.random.default_rng(5)
+    for upper in (
+        [["contact"], ["com", "base_orientation"]],
+        [["friction", "torque_limits"], ["contact"], ["com", "base_orientation"]],
+    ):
+        for _ in range(10):
+            q, v = disturbed_state(robot, rng)
+            controller.set_stack(Stack.of(upper))
+            without = controller.compute(q, v)
+            controller.set_stack(Stack.of([*upper, ["posture"]]))
+            with_posture = controller.compute(q, v)
+            assert np.max(np.abs(with_posture.qdd - without.qdd)) <= LIMIT_TOL
+            assert np.max(np.abs(with_posture.tau - without.tau)) <= LIMIT_TOL

@@ -52,14 +52,21 @@ def null_space(A: np.ndarray) -> np.ndarray:
 
 
 def least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The minimum-norm minimiser of ‖A u − b‖ (rank-revealing QR, no regularization bias)."""
+    """The minimum-norm minimiser of ‖A u − b‖ (rank-revealing QR, no regularization bias).
+
+    Directions whose singular value is below RANK_RTOL · max(1, σ_max) count as locked, as in
+    `null_space`: rows that are zero up to round-off (a level with no freedom left) give u = 0,
+    not a step divided by round-off.
+    """
     m, n = A.shape
-    if m == 0:
+    scale = float(np.sqrt((A * A).sum()))  # ≥ σ_max, within √rank of it
+    if m == 0 or scale <= RANK_RTOL:
         return np.zeros(n)
+    rcond = RANK_RTOL * max(1.0, scale) / scale
     rhs = np.zeros(max(m, n))
     rhs[:m] = b
     _, u, _, _, info = lapack.dgelsy(
-        A, rhs, np.zeros(n, dtype=np.int32), RANK_RTOL, lwork=_least_squares_work(m, n)
+        A, rhs, np.zeros(n, dtype=np.int32), rcond, lwork=_least_squares_work(m, n)
     )
     if info != 0:
         raise SingularSystem("least squares did not converge")
