@@ -135,6 +135,13 @@ class Robot:
     foot_offsets: tuple[tuple[float, float, float], ...]
 
     @property
+    def base_link(self) -> str:
+        """The URDF link of the floating base (the body the free flyer moves)."""
+        return next(
+            f.name for f in self.model.frames if f.type == pin.FrameType.BODY and f.parentJoint == 1
+        )
+
+    @property
     def joint_names(self) -> tuple[str, ...]:
         """Actuated joints in pinocchio order (the order of τ and of q[7:], v[6:])."""
         return tuple(self.model.names[2:])

@@ -15,7 +15,7 @@ from lab.server.session import Session, SessionConfig
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos")
 METHODS = ("cascade", "weighted")
-PUSH_FRACTION_OF_WEIGHT = 0.3  # lateral push, as a fraction of the robot's weight
+PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fraction of the weight
 
 
 def bench_one(robot: str, method: str, seconds: float) -> dict:
@@ -27,9 +27,8 @@ def bench_one(robot: str, method: str, seconds: float) -> dict:
     for i in range(ticks):
         if i == ticks // 2:
             force = [0.0, PUSH_FRACTION_OF_WEIGHT * weight, 0.0]
-            session.handle(
-                "push", {"body": session.plant.body_names[0], "force": force, "duration": 0.1}
-            )
+            push = {"body": session.robot.base_link, "force": force, "duration": 0.1}
+            session.handle("push", push)
         session.tick()
         control_us[i] = session.control_us
     wall = time.perf_counter() - wall_start

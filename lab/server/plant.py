@@ -271,6 +271,8 @@ class MujocoPlant:
         self._rotation = np.zeros(9)
         self._wrench = np.zeros(6)
         self._forces = np.zeros((len(robot.contacts), 3))
+        self._steps = 0  # MuJoCo steps and resets so far: the key of the measured-force cache
+        self._forces_step = -1
         self._point_pushes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.reset(robot.q_standing)
 
@@ -310,6 +312,7 @@ class MujocoPlant:
         d.qvel[self._dof_index] = v[6:]
         self._point_pushes.clear()
         mujoco.mj_forward(self.mj_model, d)
+        self._steps += 1  # a new state: measured forces are stale
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in pinocchio conventions (new arrays)."""
@@ -347,6 +350,7 @@ class MujocoPlant:
     def step(self) -> None:
         """One timestep. A push at a point gets its lever arm from this step's kinematics."""
         m, d = self.mj_model, self.mj_data
+        self._steps += 1
         if not self._point_pushes:
             mujoco.mj_step(m, d)
             return
@@ -401,7 +405,13 @@ class MujocoPlant:
         return bool(np.any(on_terrain & (self._foot_of_geom[robot_geom] < 0)))
 
     def foot_forces(self) -> np.ndarray:
-        """Measured terrain force on each foot (n_contacts, 3), N, world frame."""
+        """Measured terrain force on each foot (n_contacts, 3), N, world frame.
+
+        Computed once per step: the session, the metrics and the telemetry all ask for it.
+        """
+        if self._forces_step == self._steps:
+            return self._forces.copy()
+        self._forces_step = self._steps
         self._forces[:] = 0.0
         d = self.mj_data
         robot_geom, on_terrain = self._ground_contacts()

@@ -139,10 +139,10 @@ class Session:
             return
         self._expire_pushes()
         q, v = self.plant.state()
+        touching = self.plant.foot_forces()[:, 2] > TOUCH_FORCE  # sensing, not control
         start = time.perf_counter()
         try:
             self.model.update(q, v)
-            touching = self.plant.foot_forces()[:, 2] > TOUCH_FORCE
             self.behaviour.update(self.time, self.model, self.velocity, touching)
             out = self.controller.solve()
             if not np.all(np.isfinite(out.tau)):
@@ -300,6 +300,7 @@ class Session:
             "known": list(self.controller.known_names),
             "tasks": self._task_gains(),
             "bodies": list(self.plant.body_names),
+            "base": self.robot.base_link,
             "contacts": [c.name for c in self.robot.contacts],
             "paused": self.paused,
             "t": self.time,
