@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+from ports import free_port
+
 from lab.client import LabClient
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -22,12 +24,6 @@ CHROMIUM_ARGS = [
     "--no-first-run",
 ]
 STARTUP_TIMEOUT_S = 60.0
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class LabServe:

@@ -11,7 +11,6 @@ whether 1 kHz is met is measured by benchmarks/bench_server.py, not by a timed t
 import json
 import math
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -19,6 +18,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from ports import free_port
 
 from lab.client import LabClient
 from lab.server.transport import MAX_PAYLOAD_BYTES
@@ -28,12 +28,6 @@ SHUTDOWN_TIMEOUT_S = 2.0
 RATE_HZ = 250.0
 TIMESTEP_S = 1e-3
 SLOWDOWN = 1.0 / (RATE_HZ * TIMESTEP_S)  # wall seconds per simulated second
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Server:
