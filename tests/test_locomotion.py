@@ -53,7 +53,7 @@ def test_crawl_trot_crawl_switches_while_walking(stack: str) -> None:
     assert metrics["mean_abs_pitch_rad"] < 2 * MAX_MEAN_ATTITUDE
 
 
-@pytest.mark.parametrize("robot", ["anymal"])  # HyQ: see docs/locomotion.md, unfinished
+@pytest.mark.parametrize("robot", ["anymal", "hyq"])
 def test_blind_trot_over_rough_ground(robot: str) -> None:
     metrics = _walked(run_scenario(_load(f"{robot}_trot_rough"), 3.0))
     assert metrics["distance_m"] > 0.6  # onto the tiles, which start 0.6 m ahead

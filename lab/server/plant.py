@@ -246,6 +246,36 @@ def build_spec(robot: Robot, scene: str, timestep: float) -> mujoco.MjSpec:
     return spec
 
 
+ROUND_SHANKS = (int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_CAPSULE))
+
+
+def _shorten_shanks(m: mujoco.MjModel, foot_geoms: np.ndarray) -> None:
+    """End each cylinder or capsule of a foot's body one foot radius before the foot centre.
+
+    HyQ's shank cylinder runs exactly to the foot-sphere centre: with the few millimetres a soft
+    contact sinks, its rim touched the floor in stance and counted as a fall. Only geometry that
+    overlaps the foot sphere is trimmed; the robot's mass and inertia do not come from geoms.
+    """
+    for foot in foot_geoms:
+        body, centre, radius = m.geom_bodyid[foot], m.geom_pos[foot], m.geom_size[foot][0]
+        for g in np.flatnonzero(m.geom_bodyid == body):
+            if g == foot or m.geom_type[g] not in ROUND_SHANKS:
+                continue
+            axis = np.zeros(9)
+            mujoco.mju_quat2Mat(axis, m.geom_quat[g])
+            axis = axis.reshape(3, 3)[:, 2]
+            half = m.geom_size[g][1]
+            offset = centre - m.geom_pos[g]
+            along = float(axis @ offset)  # foot centre along the axis
+            across = float(np.linalg.norm(offset - along * axis))  # and away from it
+            end = np.sign(along) * half
+            reach = radius - (abs(along) - half)  # how far the end pokes into the sphere
+            if reach > 0.0 and across < m.geom_size[g][0] + radius:
+                cut = min(reach, half)
+                m.geom_size[g][1] = half - cut / 2
+                m.geom_pos[g] -= np.sign(end) * axis * cut / 2
+
+
 class MujocoPlant:
     """One robot in one MuJoCo scene; every argument and result in pinocchio conventions."""
 
@@ -265,6 +295,7 @@ class MujocoPlant:
         self.foot_geom_ids = np.array([m.geom(c.name).id for c in robot.contacts])
         self._foot_of_geom = np.full(m.ngeom, -1)
         self._foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
+        _shorten_shanks(m, self.foot_geom_ids)
         self._terrain = m.geom_bodyid == 0
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
