@@ -2,8 +2,10 @@
 
 import numpy as np
 import qpsolvers
+from scipy import sparse
 
 SOLVERS = ("daqp", "clarabel")
+SPARSE_SOLVERS = ("clarabel",)  # take CSC matrices (interior point on a sparse KKT system)
 
 # Clarabel is the reference for cross-checks, so it runs at tight tolerances; DAQP's defaults are
 # already exact to its 1e-6 primal tolerance (an active-set method).
@@ -31,6 +33,8 @@ def solve_qp(
         G = h = None
     if A is not None and len(A) == 0:
         A = b = None
+    if solver in SPARSE_SOLVERS:
+        P, G, A = (None if M is None else sparse.csc_matrix(M) for M in (P, G, A))
     x = qpsolvers.solve_qp(P, q, G, h, A, b, solver=solver, **SOLVER_OPTIONS[solver])
     if x is None or not np.all(np.isfinite(x)):
         raise QPFailure(f"{solver} found no solution")
