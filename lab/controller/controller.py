@@ -148,12 +148,7 @@ class WholeBodyController:
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
-        support = np.concatenate(
-            [
-                np.full(c.force_dim, on)
-                for c, on in zip(robot.contacts, refs.contact_active, strict=True)
-            ]
-        )
+        support = np.repeat(refs.contact_active, robot.force_dims)  # per force component
         terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
 

@@ -43,6 +43,7 @@ class RobotModel:
 
         starts = np.cumsum([0] + [c.force_dim for c in self.contacts])
         self.force_slices = tuple(slice(int(a), int(b)) for a, b in itertools.pairwise(starts))
+        self.force_dims = np.array([c.force_dim for c in self.contacts])
         self.nf = int(starts[-1])
         self.nx = self.nv + self.nf
 
