@@ -109,7 +109,6 @@ class Session:
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
         self.forces = np.zeros(self.model.nf)
-        self._residuals: dict[str, float] = {}
 
     def _set_behaviour(self, name: str, options: dict | None = None) -> None:
         """Start behaviour `name` from the current state, with walking `options` (step_height,
@@ -182,9 +181,9 @@ class Session:
         return np.clip(tau, -self.robot.torque_limits, self.robot.torque_limits)
 
     def _fallen(self) -> bool:
-        q = self.plant.mj_data.qpos  # base position and (w, x, y, z): read-only here
+        q = self.model.q  # this tick's state, pinocchio conventions: quaternion (x, y, z, w)
         height = q[2]
-        upright = 1.0 - 2.0 * (q[4] ** 2 + q[5] ** 2)  # z of the base z axis, from the quaternion
+        upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
         tilt = float(np.arccos(np.clip(upright, -1.0, 1.0)))
         return (
             height < FALL_HEIGHT_FRACTION * self.robot.q_standing[2]
