@@ -111,6 +111,17 @@ class RobotModel:
         """[linear; angular] momentum about the CoM, world axes (valid after update)."""
         return np.array(self.data.hg.vector)
 
+    def contact_forces_world(self, forces: np.ndarray) -> np.ndarray:
+        """The force of each contact (n_contacts, 3) in world axes, from the F part of x.
+
+        A point foot's force already is; a flat foot's is rotated out of its sole frame.
+        """
+        out = np.empty((len(self.contacts), 3))
+        for i, (contact, rows) in enumerate(zip(self.contacts, self.force_slices, strict=True)):
+            f = forces[rows][:3]
+            out[i] = f if contact.kind == "point" else self.contact_rotations[i] @ f
+        return out
+
     def joint_torques(self, x: np.ndarray) -> np.ndarray:
         """τ = M_a q̈ + h_a − J_aᵀ F, the actuated rows of the dynamics (Herzog eq. 14)."""
         qdd, forces = x[: self.nv], x[self.nv :]

@@ -57,14 +57,7 @@ class LoadDistributionMetrics:
         self.energy += float(tau @ tau) * dt
         normals = surface_normals(refs, len(model.contacts))
         active = refs.contact_active
-        commanded = np.array(
-            [
-                session.forces[rows][:3]
-                if c.kind == "point"
-                else model.contact_rotations[i] @ session.forces[rows][:3]
-                for i, (c, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True))
-            ]
-        )
+        commanded = model.contact_forces_world(session.forces)
         self.commanded += _friction_ratios(commanded[active], normals[active])
         self.measured += _friction_ratios(session.plant.foot_forces()[active], normals[active])
         self.max_knee = max(self.max_knee, float(np.max(np.abs(tau[self.knee]), initial=0.0)))

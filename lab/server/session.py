@@ -311,6 +311,7 @@ class Session:
         q = self.model.q
         rotation = model.base_rotation
         measured = self.plant.foot_forces()
+        commanded = model.contact_forces_world(self.forces)
         contacts = []
         feet_cop: dict[str, list[float] | None] = {}
         for i, (contact, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True)):
@@ -321,13 +322,11 @@ class Session:
                 "active": bool(refs.contact_active[i]),
                 "position": position.tolist(),
                 "measured_force": measured[i].tolist(),
+                "force": commanded[i].tolist(),
             }
-            wrench = self.forces[rows]
-            if contact.kind == "point":
-                entry["force"] = wrench.tolist()
-            else:
+            if contact.kind == "flat":
+                wrench = self.forces[rows]
                 R = model.contact_rotations[i]
-                entry["force"] = (R @ wrench[:3]).tolist()
                 entry["moment"] = (R @ wrench[3:]).tolist()
                 fz = wrench[2]
                 cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0]) if fz > 1e-6 else None
