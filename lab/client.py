@@ -46,22 +46,8 @@ class LabClient:
         return self.request(verb, json.dumps(fields), timeout)
 
     def request(self, verb: str, payload: str | bytes, timeout: float | None = None) -> dict:
-        """Send a raw payload to `lab/cmd/<verb>`. A missing reply becomes
-        {"ok": false, "error": "no reply ..."} so callers handle one shape."""
-        if timeout is None:
-            timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
-        no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
-        for reply in self._session.get(CMD_PREFIX + verb, payload=payload, timeout=timeout):
-            if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
-                error = reply.err.payload.to_string()
-                return (
-                    no_reply if error == "Timeout" else {"ok": False, "error": f"{verb}: {error}"}
-                )
-            try:
-                return json.loads(reply.ok.payload.to_bytes())
-            except ValueError:
-                return {"ok": False, "error": f"{verb}: the reply is not JSON"}
-        return no_reply
+        """Send a raw payload to `lab/cmd/<verb>`; see `query`."""
+        return query(self._session, verb, payload, timeout)
 
     def latest_telemetry(self) -> dict | None:
         """The newest telemetry message received so far (None before the first)."""
@@ -130,6 +116,25 @@ class LabClient:
         self._fresh(key)
         with self._lock:
             return self._last[key]
+
+
+def query(
+    session: zenoh.Session, verb: str, payload: str | bytes, timeout: float | None = None
+) -> dict:
+    """Send a raw payload to `lab/cmd/<verb>` and return the server's reply. A missing reply
+    becomes {"ok": false, "error": "no reply ..."} so callers handle one shape."""
+    if timeout is None:
+        timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
+    no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
+    for reply in session.get(CMD_PREFIX + verb, payload=payload, timeout=timeout):
+        if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
+            error = reply.err.payload.to_string()
+            return no_reply if error == "Timeout" else {"ok": False, "error": f"{verb}: {error}"}
+        try:
+            return json.loads(reply.ok.payload.to_bytes())
+        except ValueError:
+            return {"ok": False, "error": f"{verb}: the reply is not JSON"}
+    return no_reply
 
 
 def _open(endpoint: str, timeout: float) -> zenoh.Session:

@@ -5,16 +5,14 @@ import json
 
 import zenoh
 
+from lab.client import query
 from lab.server.transport import (
-    CMD_PREFIX,
     DEFAULT_ENDPOINT,
     KEY_EVENTS,
     KEY_STATE,
     KEY_TELEMETRY,
     client_config,
 )
-
-SLOW_VERBS = ("robot", "scene")  # rebuild the session: allow a long reply time
 
 
 class Link:
@@ -28,19 +26,7 @@ class Link:
 
     def request(self, verb: str, payload: dict | None = None, timeout: float | None = None) -> dict:
         """Send one command and wait for its reply; no reply gives {"ok": False, "error": ...}."""
-        if timeout is None:
-            timeout = 15.0 if verb in SLOW_VERBS else 2.0
-        replies = self._session.get(
-            CMD_PREFIX + verb, payload=json.dumps(payload or {}), timeout=timeout
-        )
-        for reply in replies:
-            if reply.ok is None:
-                return {"ok": False, "error": f"{verb}: error reply from Zenoh"}
-            try:
-                return json.loads(reply.ok.payload.to_bytes())
-            except ValueError:
-                return {"ok": False, "error": f"{verb}: reply is not JSON"}
-        return {"ok": False, "error": f"{verb}: no reply from the lab server within {timeout:g} s"}
+        return query(self._session, verb, json.dumps(payload or {}), timeout)
 
     def latest_state(self) -> dict | None:
         sample = self._state.try_recv()
