@@ -5,6 +5,7 @@ import pytest
 
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
 from lab.controller.hierarchy.cascade import solve_cascade
+from lab.controller.hierarchy.linalg import least_squares_and_null_space
 from lab.controller.hierarchy.weighted import solve_weighted
 
 NX = 24
@@ -155,3 +156,19 @@ def test_weighted_approaches_strict_as_weight_ratio_grows(seed: int) -> None:
         gaps.append(np.linalg.norm(solve_weighted(problem, "daqp") - strict))
     assert gaps[0] > gaps[1] > gaps[2]
     assert gaps[2] <= 1e-3 * np.linalg.norm(strict)
+
+
+@pytest.mark.parametrize(
+    ("rows", "cols", "rank"), [(12, 24, 12), (24, 6, 6), (24, 6, 3), (5, 10, 3), (6, 6, 0)]
+)
+def test_one_qr_gives_the_minimum_norm_least_squares_step_and_the_null_space(
+    rows: int, cols: int, rank: int
+) -> None:
+    rng = np.random.default_rng(rows + cols + rank)
+    A = rng.standard_normal((rows, rank)) @ rng.standard_normal((rank, cols))
+    b = rng.standard_normal(rows)
+    u, N = least_squares_and_null_space(A, b)
+    assert np.allclose(u, np.linalg.pinv(A, rcond=1e-9) @ b, atol=EQUALITY_TOL)
+    assert N.shape == (cols, cols - rank)
+    assert np.allclose(A @ N, 0.0, atol=EQUALITY_TOL)
+    assert np.allclose(N.T @ N, np.eye(cols - rank), atol=EQUALITY_TOL)

@@ -9,13 +9,17 @@ equality residual and the slacks of its inequalities over the optimal set of the
 
 where Z spans the null space of all equality rows above (eq. 8). Each level shrinks Z by the
 directions its equalities lock, and keeps its inequalities with the slack v* it reached.
+
+Most ticks no inequality binds. The cascade then first solves the equality rows alone, one least
+squares per level, and keeps that x when it satisfies every inequality of the stack: each level
+has then reached its unconstrained optimum with zero slack, which is the strict solution. Only
+otherwise does it run the QPs level by level.
 """
 
 import numpy as np
 
 from lab.controller.hierarchy.linalg import (
-    least_squares,
-    null_space,
+    least_squares_and_null_space,
     solution_and_null_space_of_leading_block,
 )
 from lab.controller.hierarchy.problem import HierarchyProblem
@@ -30,7 +34,38 @@ ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped f
 
 def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
     """The strict-priority solution x = [q̈, F]; raises QPFailure when a level has none."""
-    x, Z = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    x = _equalities_only(problem)
+    if all(
+        (level.C @ x <= level.d + FEASIBILITY_TOL).all() for level in problem.levels if len(level.d)
+    ):
+        return x
+    return _with_inequalities(problem, solver)
+
+
+def _equalities_only(problem: HierarchyProblem) -> np.ndarray:
+    """The cascade of the equality rows alone: one least squares and null space per level."""
+    # Zx = [Z | x]: one product carries the null-space basis and the solution to the next level.
+    Zx = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    levels = [level for level in problem.levels if len(level.b)]
+    for i, level in enumerate(levels):
+        if Zx.shape[1] == 1:
+            break
+        projected = level.A @ Zx
+        u, N = least_squares_and_null_space(projected[:, :-1], level.b - projected[:, -1])
+        if i == len(levels) - 1:
+            return Zx[:, -1] + Zx[:, :-1] @ u
+        step = np.zeros((len(u) + 1, N.shape[1] + 1))  # [Z | x] ← [Z N | x + Z u]
+        step[:-1, :-1] = N
+        step[:-1, -1] = u
+        step[-1, -1] = 1.0
+        Zx = Zx @ step
+    return Zx[:, -1]
+
+
+def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
+    """The cascade of eqs. 9–11, one QP per level where an inequality binds."""
+    Zx = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    Z, x = Zx[:, :-1], Zx[:, -1]
     # Inequalities of the levels above, in the current null-space coordinates: K u ≤ k keeps
     # each of them within the slack its level reached (eq. 9). k ≥ 0 always holds, so u = 0 is
     # feasible for every level whatever the solver tolerance of the levels before.
@@ -42,8 +77,9 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
             break
         Az, r = _projected(level.A, level.b, Z, x)
         Cz, s = _projected(level.C, level.d, Z, x)
+        u_ls, N = least_squares_and_null_space(Az, r)
         free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
-        u = _solve_level(Az, r, Cz, s, K[free], k[free], Z, x, solver)
+        u = _solve_level(u_ls, Az, r, Cz, s, K[free], k[free], Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
@@ -51,8 +87,7 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
             K = np.concatenate((K, Cz))
             k = np.concatenate([k, s])
         k = np.maximum(k - K @ u, 0.0)
-        if len(r):
-            N = null_space(Az)  # lock the directions this level's equalities used (eq. 8)
+        if len(r):  # lock the directions this level's equalities used (eq. 8)
             Z, K = Z @ N, K @ N
     return x
 
@@ -67,6 +102,7 @@ def _projected(
 
 
 def _solve_level(
+    u: np.ndarray,
     Az: np.ndarray,
     r: np.ndarray,
     Cz: np.ndarray,
@@ -77,17 +113,13 @@ def _solve_level(
     x: np.ndarray,
     solver: str,
 ) -> np.ndarray:
-    """The step u in the null space for one level (the slacks are implicit in the cost)."""
-    # Fast path: when the least-squares step violates no inequality, (u, v = 0) is optimal.
-    # Without equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
-    if len(r):
-        u = least_squares(Az, r)
-        fits = (not len(s) or (Cz @ u <= s + FEASIBILITY_TOL).all()) and (
-            not len(k) or (Kz @ u <= k + FEASIBILITY_TOL).all()
-        )
-    else:
-        u = np.zeros(Az.shape[1])
-        fits = (s >= -FEASIBILITY_TOL).all()
+    """The step in the null space for one level, given its least-squares step u (the slacks
+    are implicit in the cost)."""
+    # When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
+    # equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
+    fits = (not len(s) or (Cz @ u <= s + FEASIBILITY_TOL).all()) and (
+        not len(k) or (Kz @ u <= k + FEASIBILITY_TOL).all()
+    )
     if fits:
         return u
     nz, m = Az.shape[1], len(s)

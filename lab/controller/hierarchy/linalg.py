@@ -1,6 +1,7 @@
 """The small dense-algebra steps of the cascade, each a direct LAPACK call.
 
-At these sizes (tens of rows) numpy's wrappers cost more than the factorizations themselves.
+At these sizes (tens of rows) numpy's wrappers cost more than the factorizations themselves, and
+an SVD costs ten times a QR: everything here comes from one column-pivoted QR per level.
 """
 
 from functools import cache
@@ -15,64 +16,60 @@ class SingularSystem(np.linalg.LinAlgError):
     """A system that should be positive definite or invertible was not."""
 
 
-def solution_and_null_space_of_leading_block(
-    A: np.ndarray, b: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """A solution of A x = b and a basis Z of null(A), for A = [A₁ A₂] with A₁ square, invertible.
+def solution_and_null_space_of_leading_block(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """[Z | x] for A = [A₁ A₂] with A₁ square and invertible: x solves A x = b, Z spans null(A).
 
     x = [A₁⁻¹ b; 0] and Z = [−A₁⁻¹ A₂; I]: one small solve instead of an SVD. The Newton–Euler
     rows have this form, A₁ being the base block of M (Herzog §2.4, footnote 3). Z is not
-    orthonormal; the cascade only needs it to span the null space (eq. 8).
+    orthonormal; the cascade only needs it to span the null space (eq. 8). Returned side by side
+    so that one product moves both to the next level.
     """
     k, n = A.shape
-    _, _, solved, info = lapack.dgesv(A[:, :k], np.column_stack([b, A[:, k:]]))
+    _, _, solved, info = lapack.dgesv(A[:, :k], np.column_stack((A[:, k:], b)))
     if info != 0:
         raise SingularSystem("the base block of the mass matrix is singular")
-    x = np.zeros(n)
-    x[:k] = solved[:, 0]
-    Z = np.zeros((n, n - k))
-    Z[:k] = -solved[:, 1:]
-    Z[k:] = np.eye(n - k)
-    return x, Z
+    Zx = np.zeros((n, n - k + 1))
+    Zx[:k, :-1] = -solved[:, :-1]
+    Zx[:k, -1] = solved[:, -1]
+    Zx[k:, :-1] = np.eye(n - k)
+    return Zx
 
 
-def null_space(A: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of null(A), from a column-pivoted (rank-revealing) QR of Aᵀ."""
-    m, n = A.shape
-    if m == 0:
-        return np.eye(n)
-    qr, _, tau, _, _ = lapack.dgeqp3(A.T)
-    k = min(m, n)
-    diagonal = np.abs(np.diagonal(qr)[:k])
-    rank = int(np.sum(diagonal > RANK_RTOL * max(1.0, diagonal[0])))
-    reflectors = np.zeros((n, n))
-    reflectors[:, :k] = qr[:, :k]
-    Q, _, _ = lapack.dorgqr(reflectors, tau[:k])
-    return Q[:, rank:]
+def least_squares_and_null_space(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The minimum-norm minimiser u of ‖A u − b‖ and an orthonormal basis N of null(A).
 
-
-def least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The minimum-norm minimiser of ‖A u − b‖ (rank-revealing QR, no regularization bias).
-
-    Directions whose singular value is below RANK_RTOL · max(1, σ_max) count as locked, as in
-    `null_space`: rows that are zero up to round-off (a level with no freedom left) give u = 0,
-    not a step divided by round-off.
+    One column-pivoted QR of Aᵀ: Aᵀ Π = [Q₁ Q₂] [R₁; 0], with R₁ holding the `rank` rows whose
+    diagonal exceeds RANK_RTOL · max(1, |R₀₀|). Then A ≈ Π R₁ᵀ Q₁ᵀ, so u = Q₁ y with y the least-
+    squares solution of R₁ᵀ y = Πᵀ b, and N = Q₂. Rows that are zero up to round-off (a level with
+    no freedom left) count as locked and give u = 0, not a step divided by round-off.
     """
     m, n = A.shape
-    scale = float(np.sqrt((A * A).sum()))  # ≥ σ_max, within √rank of it
-    if m == 0 or scale <= RANK_RTOL:
-        return np.zeros(n)
-    rcond = RANK_RTOL * max(1.0, scale) / scale
-    rhs = np.zeros(max(m, n))
-    rhs[:m] = b
-    _, u, _, _, info = lapack.dgelsy(
-        A, rhs, np.zeros(n, dtype=np.int32), rcond, lwork=_least_squares_work(m, n)
-    )
-    if info != 0:
-        raise SingularSystem("least squares did not converge")
-    return u[:n]
+    if m == 0:
+        return np.zeros(n), np.eye(n)
+    qr, pivots, tau, _, info = lapack.dgeqp3(A.T)
+    k = min(m, n)
+    reflectors = np.zeros((n, n), order="F")
+    reflectors[:, :k] = qr[:, :k]
+    Q, _, info_q = lapack.dorgqr(reflectors, tau, overwrite_a=1)
+    # Column pivoting makes |R₀₀| ≥ |R₁₁| ≥ …: the rank is the count above the threshold.
+    diagonal = np.abs(qr.diagonal())
+    rank = int(np.count_nonzero(diagonal > RANK_RTOL * max(1.0, diagonal[0])))
+    if rank == 0:
+        return np.zeros(n), Q
+    rhs = b[pivots - 1]  # Πᵀ b
+    if rank == m:  # R₁ᵀ is square and lower triangular (dtrtrs reads only R's upper triangle)
+        y, info_y = lapack.dtrtrs(qr, rhs, trans=1)
+    else:  # more rows than freedom: least squares of the full-column-rank R₁ᵀ
+        _, y, info_y = lapack.dgels(qr[:rank, :m].T * _lower(m, rank), rhs)
+        y = y[:rank]
+    if info or info_q or info_y:
+        raise SingularSystem("the QR least squares of a level's rows failed")
+    return Q[:, :rank] @ y, Q[:, rank:]
 
 
 @cache
-def _least_squares_work(m: int, n: int) -> int:
-    return int(lapack.dgelsy_lwork(m, n, 1, RANK_RTOL)[0])
+def _lower(m: int, n: int) -> np.ndarray:
+    """Mask of the lower trapezoid of an m × n matrix (read-only, shared)."""
+    mask = np.tri(m, n)
+    mask.flags.writeable = False
+    return mask
