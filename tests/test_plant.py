@@ -56,6 +56,7 @@ def test_free_fall_under_zero_torque(plant: MujocoPlant) -> None:
     np.testing.assert_allclose(v[3:], 0.0, atol=1e-9)
     assert not plant.non_foot_ground_contact()
     np.testing.assert_array_equal(plant.foot_forces(), 0.0)
+    assert not plant.feet_touching(0.0).any()
 
 
 def _momentum(plant: MujocoPlant) -> tuple[np.ndarray, np.ndarray]:
@@ -122,6 +123,8 @@ def test_standing_touches_with_feet_only_and_feet_carry_the_weight(plant: Mujoco
         plant.step()
         assert not plant.non_foot_ground_contact()
     assert plant.foot_forces()[:, 2].min() > 0.0  # every foot is loaded
+    assert plant.feet_touching(1.0).all()
+    assert not plant.feet_touching(plant.foot_forces()[:, 2].max() + 1.0).any()
 
 
 @pytest.mark.parametrize("name", ["anymal", "solo12", "talos"])

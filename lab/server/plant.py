@@ -300,7 +300,6 @@ class MujocoPlant:
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
         self._rotation = np.zeros(9)
-        self._wrench = np.zeros(6)
         self._forces = np.zeros((len(robot.contacts), 3))
         self._steps = 0  # MuJoCo steps and resets so far: the key of the measured-force cache
         self._forces_step = -1
@@ -435,6 +434,21 @@ class MujocoPlant:
         robot_geom, on_terrain = self._ground_contacts()
         return bool(np.any(on_terrain & (self._foot_of_geom[robot_geom] < 0)))
 
+    def feet_touching(self, min_normal_force: float) -> np.ndarray:
+        """Which feet press on the terrain with a normal force above `min_normal_force` (N).
+
+        The touch sensor of haptic touchdown: cheaper than `foot_forces`, it reads only each
+        contact's normal force (the first constraint force of an elliptic-cone contact).
+        """
+        robot_geom, on_terrain = self._ground_contacts()
+        foot = self._foot_of_geom[robot_geom]
+        rows = self.mj_data.contact.efc_address[: len(foot)]
+        pressing = on_terrain & (foot >= 0) & (rows >= 0)
+        pressing[pressing] = self.mj_data.efc_force[rows[pressing]] > min_normal_force
+        touching = np.zeros(len(self._forces), dtype=bool)
+        touching[foot[pressing]] = True
+        return touching
+
     def foot_forces(self) -> np.ndarray:
         """Measured terrain force on each foot (n_contacts, 3), N, world frame.
 
@@ -444,13 +458,17 @@ class MujocoPlant:
             return self._forces.copy()
         self._forces_step = self._steps
         self._forces[:] = 0.0
-        d = self.mj_data
+        contact = self.mj_data.contact
         robot_geom, on_terrain = self._ground_contacts()
-        for i in np.flatnonzero(on_terrain & (self._foot_of_geom[robot_geom] >= 0)):
-            contact = d.contact[i]
-            mujoco.mj_contactForce(self.mj_model, d, i, self._wrench)
-            force = contact.frame.reshape(3, 3).T @ self._wrench[:3]
+        foot = self._foot_of_geom[robot_geom]
+        rows = contact.efc_address[: len(foot)]
+        (i,) = np.nonzero(on_terrain & (foot >= 0) & (rows >= 0))
+        if len(i):
+            # Elliptic cones: a contact's first three constraint forces are its normal and two
+            # tangential components in the contact frame, whose rows are the frame's axes.
+            local = self.mj_data.efc_force[rows[i, None] + np.arange(3)]
+            world = np.einsum("kij,ki->kj", contact.frame[i].reshape(-1, 3, 3), local)
             # the contact force acts from geom1 onto geom2 (along the normal, frame row 0)
-            sign = 1.0 if contact.geom[1] == robot_geom[i] else -1.0
-            self._forces[self._foot_of_geom[robot_geom[i]]] += sign * force
+            sign = np.where(contact.geom[i, 1] == robot_geom[i], 1.0, -1.0)
+            np.add.at(self._forces, foot[i], sign[:, None] * world)
         return self._forces.copy()

@@ -28,7 +28,7 @@ from lab.server.plant import MujocoPlant
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
 FALL_TILT = 1.0  # rad: fallen when the base tilts further than this from upright
 FALL_CHECK_PERIOD = 10  # ticks between fall checks
-TOUCH_FORCE = 1.0  # N: a foot whose measured normal force exceeds this touches the ground
+TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
 
@@ -138,7 +138,7 @@ class Session:
             return
         self._expire_pushes()
         q, v = self.plant.state()
-        touching = self.plant.foot_forces()[:, 2] > TOUCH_FORCE  # sensing, not control
+        touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
         try:
             self.model.update(q, v)
