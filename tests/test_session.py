@@ -77,9 +77,25 @@ def test_stack_gains_and_hierarchy_changes_show_in_telemetry(session: Session) -
     session.tick()
     telemetry = session.telemetry()
     assert telemetry["stack"] == levels
-    assert telemetry["hierarchy"] == {"method": "weighted", "solver": "clarabel"}
+    assert telemetry["hierarchy"] == {
+        "method": "weighted",
+        "solver": "clarabel",
+        "formulation": "qdd_force",
+    }
     assert next(t for t in telemetry["tasks"] if t["name"] == "com")["kp"] == 50.0
     assert telemetry["qp"]["status"] == "ok"
+
+
+def test_the_nullspace_formulation_shows_and_survives_a_scene_switch() -> None:
+    session = Session(SessionConfig(robot="anymal"))
+    reply = session.handle("hierarchy", {"method": "nullspace", "formulation": "sequential"})
+    assert reply["hierarchy"]["formulation"] == "sequential"
+    assert session.handle("scene", {"name": "rough"})["ok"]
+    run(session, 0.05)
+    hierarchy_now = session.telemetry()["hierarchy"]
+    assert hierarchy_now == {"method": "nullspace", "solver": "daqp", "formulation": "sequential"}
+    assert session.controller.config.formulation == "sequential"
+    assert "sequential" in session.info()["formulations"]
 
 
 def test_a_solver_failure_falls_back_counts_and_carries_on(monkeypatch) -> None:

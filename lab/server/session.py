@@ -16,6 +16,7 @@ from lab.controller.behaviours import BEHAVIOURS, Balance
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy import METHODS
+from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
@@ -41,6 +42,7 @@ class SessionConfig:
     scene: str = "flat"
     hierarchy: str = "cascade"
     solver: str = "daqp"
+    formulation: str = "qdd_force"  # `nullspace` only: its optimization vector (Hutter 2014 §4)
     stack: list[list[str]] | None = None
     gains: dict[str, dict[str, float]] = field(default_factory=dict)
     timestep: float = 1e-3
@@ -82,6 +84,7 @@ class Session:
                 gains=gains,
                 hierarchy=config.hierarchy,
                 solver=config.solver,
+                formulation=config.formulation,
                 limits=ContactLimits(friction=description.friction),
             ),
             robot.torque_limits,
@@ -239,6 +242,7 @@ class Session:
                 self.controller.set_hierarchy(method, solver, formulation)
                 self.config.hierarchy = method
                 self.config.solver = self.controller.config.solver
+                self.config.formulation = self.controller.config.formulation
                 return {"hierarchy": self._hierarchy()}
             case cmd.StackCommand(levels=levels):
                 stack = Stack.of(levels)
@@ -276,7 +280,12 @@ class Session:
 
     # ----------------------------------------------------------------------------- reports
     def _hierarchy(self) -> dict:
-        return {"method": self.controller.config.hierarchy, "solver": self.controller.config.solver}
+        config = self.controller.config
+        return {
+            "method": config.hierarchy,
+            "solver": config.solver,
+            "formulation": config.formulation,
+        }
 
     def _task_gains(self) -> list[dict]:
         return [
@@ -290,6 +299,7 @@ class Session:
             "scenes": list(SCENES),
             "methods": list(METHODS),
             "solvers": list(SOLVERS),
+            "formulations": list(FORMULATIONS),
             "gaits": list(BEHAVIOURS),
             "robot": self.config.robot,
             "scene": self.config.scene,

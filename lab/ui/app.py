@@ -261,9 +261,12 @@ class LabApp:
         qp = tel["qp"]
         flags = " · **paused**" if tel["paused"] else ""
         flags += " · **fell**" if tel["fell"] else ""
+        hierarchy = tel["hierarchy"]
+        method = hierarchy["method"]
+        if method == "nullspace":
+            method += f" ({hierarchy['formulation']})"
         text = (
-            f"**{tel['robot']}** on {tel['scene']} · {tel['hierarchy']['method']}/"
-            f"{tel['hierarchy']['solver']}{flags}  \n"
+            f"**{tel['robot']}** on {tel['scene']} · {method}/{hierarchy['solver']}{flags}  \n"
             f"t {tel['t']:.2f} s · RTF {self._realtime_factor():.2f} · on-time "
             f"{100.0 * loop.get('on_time_fraction', float('nan')):.2f} % · QP "
             f"{qp['solve_us']:.0f} µs ({qp['status']}) · failures {qp['failures']} · view "

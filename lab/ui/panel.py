@@ -69,12 +69,16 @@ class ControlPanel:
             self.scene = gui.add_dropdown("Scene", ("…",))
             self.method = gui.add_dropdown("Hierarchy", ("…",))
             self.solver = gui.add_dropdown("QP solver", ("…",))
+            self.formulation = gui.add_dropdown(
+                "Formulation", ("…",), hint="nullspace only: its optimization vector"
+            )
             row = gui.add_button_group("Sim", ("Reset", "Pause", "Resume"))
-        self._controls += [self.robot, self.scene, self.method, self.solver, row]
+        self._controls += [self.robot, self.scene, self.method, self.solver, self.formulation, row]
         self.robot.on_update(lambda e: self._switch(e, "robot", {"name": self.robot.value}))
         self.scene.on_update(lambda e: self._switch(e, "scene", {"name": self.scene.value}))
         self.method.on_update(self._hierarchy)
         self.solver.on_update(self._hierarchy)
+        self.formulation.on_update(self._hierarchy)
         row.on_click(lambda e: app.send(client, e.target.value.lower(), {}))
 
         with gui.add_folder("Velocity", order=4):
@@ -157,6 +161,7 @@ class ControlPanel:
                 (self.scene, info["scenes"], info["scene"]),
                 (self.method, info["methods"], info["hierarchy"]["method"]),
                 (self.solver, info["solvers"], info["hierarchy"]["solver"]),
+                (self.formulation, info["formulations"], info["hierarchy"]["formulation"]),
             ):
                 dropdown.options = tuple(options)
                 dropdown.value = value
@@ -210,7 +215,11 @@ class ControlPanel:
 
     def _hierarchy(self, _: viser.GuiEvent) -> None:
         if not self._syncing:
-            payload = {"method": self.method.value, "solver": self.solver.value}
+            payload = {
+                "method": self.method.value,
+                "solver": self.solver.value,
+                "formulation": self.formulation.value,
+            }
             self.app.send(self.client, "hierarchy", payload)
 
     def _set_velocity(self, cmd: VelocityCommand) -> None:
