@@ -1,6 +1,8 @@
-"""Pure parts of the realtime loop: deadman ramp, lateness histogram, event folding."""
+"""Parts of the realtime loop: deadman ramp, lateness histogram, event folding, priority."""
 
 import itertools
+import os
+import threading
 
 import numpy as np
 import pytest
@@ -13,6 +15,7 @@ from lab.server.loop import (
     Deadman,
     EventThrottle,
     LogHistogram,
+    request_fifo,
 )
 
 
@@ -78,3 +81,23 @@ def test_event_throttle_folds_bursts() -> None:
     throttle.hit()
     assert throttle.take(EVENT_INTERVAL_S / 2) == 0  # too soon: kept
     assert throttle.take(EVENT_INTERVAL_S + 0.01) == 2
+
+
+def test_threads_started_by_the_realtime_loop_do_not_inherit_its_priority() -> None:
+    policies: dict[str, int] = {}
+
+    def loop_thread() -> None:
+        if not request_fifo():
+            return
+        policies["loop"] = os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK
+        child = threading.Thread(target=lambda: policies.update(child=os.sched_getscheduler(0)))
+        child.start()
+        child.join()
+
+    thread = threading.Thread(target=loop_thread)
+    thread.start()
+    thread.join()
+    if "loop" not in policies:
+        pytest.skip("SCHED_FIFO refused on this machine (no privileges)")
+    assert policies == {"loop": os.SCHED_FIFO, "child": os.SCHED_OTHER}
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER  # the calling thread is untouched

@@ -204,9 +204,11 @@ def lower_timer_slack() -> None:
 
 def request_fifo() -> bool:
     """Ask for SCHED_FIFO for the calling thread; True if granted. Refusal (no privileges) is
-    expected and ignored."""
+    expected and ignored. Threads it starts later (Zenoh spawns some lazily) do not inherit the
+    realtime priority (SCHED_RESET_ON_FORK): only the loop itself may starve the machine."""
+    policy = os.SCHED_FIFO | os.SCHED_RESET_ON_FORK
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(FIFO_PRIORITY))
+        os.sched_setscheduler(0, policy, os.sched_param(FIFO_PRIORITY))
     except (OSError, AttributeError):
         return False
     return True
