@@ -5,7 +5,9 @@ layout (contacts, stack) and one giving the values of one message. When the labe
 switch, stack edit) the chart is rebuilt with fresh buffers.
 """
 
+import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import viser
@@ -17,6 +19,8 @@ from lab.ui.support import polygon_bounds
 WINDOW_S = 10.0
 MAX_POINTS = 250  # points per series sent to the browser (25 per second of window)
 TOP_LEVELS = 3  # task errors are plotted for this many highest-priority levels
+ERROR_FLOOR = 1e-12  # a task error of 0 plots as 10⁻¹²
+Y_AXIS_PX = 64  # room for tick labels such as "12,500"
 PALETTE = (
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#17becf", "#8c564b", "#e377c2",
 )  # fmt: skip
@@ -64,7 +68,11 @@ def _labels_tasks(tel: dict) -> tuple[str, ...]:
 
 
 def _tasks(tel: dict) -> list[float]:
-    return [t["error"] for t in tel["tasks"] if t["level"] < TOP_LEVELS]
+    # Decades: a well-tracked task's error is 1e-7…1e-3 (SI), which uPlot's tick labels (three
+    # decimals) would all print as "0"; an error of exactly 0 shows at the floor.
+    return [
+        math.log10(max(t["error"], ERROR_FLOOR)) for t in tel["tasks"] if t["level"] < TOP_LEVELS
+    ]
 
 
 def _labels_qp(tel: dict) -> tuple[str, ...]:
@@ -75,13 +83,24 @@ def _qp(tel: dict) -> list[float]:
     return [tel["qp"]["solve_us"]]
 
 
-CHARTS: tuple[tuple[str, Callable[[dict], tuple[str, ...]], Callable[[dict], list[float]]], ...] = (
-    ("Contact normal force [N]", _labels_forces, _forces),
-    ("CoP vs support polygon [m]", _labels_cop, _cop),
-    ("Linear momentum [kg m/s]", _labels_linear, _linear),
-    ("Angular momentum [kg m²/s]", _labels_angular, _angular),
-    ("Task errors, top levels", _labels_tasks, _tasks),
-    ("QP solve time [µs]", _labels_qp, _qp),
+@dataclass(frozen=True)
+class ChartSpec:
+    title: str
+    labels_of: Callable[[dict], tuple[str, ...]]
+    values_of: Callable[[dict], list[float]]
+    # The y axis spans at least [−min_span, min_span]: a standing robot's momentum of a few
+    # 1e-3 would otherwise fill the chart with noise, and uPlot's tick labels (3 decimals) would
+    # all read "0".
+    min_span: float = 0.0
+
+
+CHARTS = (
+    ChartSpec("Contact normal force [N]", _labels_forces, _forces),
+    ChartSpec("CoP vs support polygon [m]", _labels_cop, _cop),
+    ChartSpec("Linear momentum [kg m/s]", _labels_linear, _linear, min_span=1.0),
+    ChartSpec("Angular momentum [kg m²/s]", _labels_angular, _angular, min_span=0.5),
+    ChartSpec("Task errors, top levels [log₁₀ SI]", _labels_tasks, _tasks),
+    ChartSpec("QP solve time [µs]", _labels_qp, _qp),
 )
 
 
@@ -96,20 +115,17 @@ def _series(labels: tuple[str, ...], title: str) -> tuple[uplot.Series, ...]:
 
 
 class Chart:
-    def __init__(
-        self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, title: str, labels_of, values_of
-    ) -> None:
+    def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, spec: ChartSpec) -> None:
         self._gui = gui
         self._folder = folder
-        self.title = title
-        self._labels_of = labels_of
-        self._values_of = values_of
+        self.spec = spec
+        self.title = spec.title
         self.labels: tuple[str, ...] | None = None
         self.buffer: RollingBuffer | None = None
         self._handle: viser.GuiUplotHandle | None = None
 
     def record(self, tel: dict) -> None:
-        labels = self._labels_of(tel)
+        labels = self.spec.labels_of(tel)
         if labels != self.labels:
             self.labels = labels
             self.buffer = RollingBuffer(len(labels), window=WINDOW_S)
@@ -117,7 +133,7 @@ class Chart:
                 self._handle.remove()
                 self._handle = None
         if labels:
-            self.buffer.append(tel["t"], self._values_of(tel))
+            self.buffer.append(tel["t"], self.spec.values_of(tel))
 
     def draw(self) -> None:
         if self.buffer is None or not self.labels or len(self.buffer) < 2:
@@ -132,11 +148,21 @@ class Chart:
             self._handle.data = data
 
     def _add(self, data: tuple[np.ndarray, ...]) -> viser.GuiUplotHandle:
+        scales: dict[str, uplot.Scale] = {"x": {"time": False}}
+        if self.spec.min_span:
+            span = self.spec.min_span  # uPlot soft range: widened to ±span unless data exceeds it
+            scales["y"] = {
+                "range": {
+                    "min": {"pad": 0.1, "soft": -span, "mode": 1},
+                    "max": {"pad": 0.1, "soft": span, "mode": 1},
+                }
+            }
         return self._gui.add_uplot(
             data,
             _series(self.labels, self.title),
             title=self.title,
-            scales={"x": {"time": False}},
+            scales=scales,
+            axes=({}, {"size": Y_AXIS_PX}),
             aspect=1.6,
             legend={"show": True},
         )
@@ -144,7 +170,7 @@ class Chart:
 
 class Plots:
     def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle) -> None:
-        self.charts = [Chart(gui, folder, *chart) for chart in CHARTS]
+        self.charts = [Chart(gui, folder, spec) for spec in CHARTS]
 
     def record(self, tel: dict) -> None:
         for chart in self.charts:
