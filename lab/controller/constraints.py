@@ -128,12 +128,14 @@ class TorqueLimitConstraint(Constraint):
         self.torque_limits = np.asarray(torque_limits, dtype=float)
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        a = slice(BASE_DOF, None)
-        T = np.concatenate((robot.M[a], -robot.Jc[:, a].T), axis=1)
-        h = robot.h[a]
-        return np.concatenate((T, -T)), np.concatenate(
-            (self.torque_limits - h, self.torque_limits + h)
-        )
+        nv, na = robot.nv, robot.na
+        C = np.empty((2 * na, robot.nx))
+        tau = C[:na]  # the rows of τ over x = [q̈, F]
+        tau[:, :nv] = robot.M[BASE_DOF:]
+        np.negative(robot.Jc[:, BASE_DOF:].T, out=tau[:, nv:])
+        np.negative(tau, out=C[na:])
+        h = robot.h[BASE_DOF:]
+        return C, np.concatenate((self.torque_limits - h, self.torque_limits + h))
 
 
 class JointLimitConstraint(Constraint):

@@ -33,11 +33,6 @@ def _selection(nx: int, start: int, stop: int) -> np.ndarray:
     return A
 
 
-@cache
-def _indices(ranges: tuple[tuple[int, int], ...]) -> np.ndarray:
-    return np.concatenate([np.arange(start, stop) for start, stop in ranges])
-
-
 class Task:
     """Base class: a named producer of equality rows."""
 
@@ -60,16 +55,14 @@ class ContactTask(Task):
     name = "contact"
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        active = [s for s, on in zip(robot.force_slices, refs.contact_active, strict=True) if on]
-        if not active:
-            self.error = np.zeros(0)
-            return np.zeros((0, robot.nx)), np.zeros(0)
-        idx = _indices(tuple((s.start, s.stop) for s in active))
-        J = robot.Jc[idx]
+        support = robot.support_rows(refs.contact_active)
+        J = robot.Jc[support]
         velocity = J @ robot.v
-        A = np.zeros((len(idx), robot.nx))
+        A = np.zeros((len(J), robot.nx))
         A[:, : robot.nv] = J
-        b = -robot.Jc_dot_v[idx] - self.gains.kd * velocity
+        b = -robot.Jc_dot_v[support]
+        if self.gains.kd:
+            b -= self.gains.kd * velocity
         self.error = velocity
         return A, b
 
