@@ -19,7 +19,7 @@ from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
 from lab.controller.hierarchy.cascade import solve_cascade
 from lab.controller.hierarchy.formulations import FORMULATIONS
-from lab.controller.hierarchy.nullspace import solve_nullspace
+from lab.controller.hierarchy.nullspace import hierarchical_least_squares, solve_nullspace
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack
 from lab.controller.tasks import TaskGains
@@ -187,3 +187,26 @@ def test_without_model_terms_only_the_own_variables_work() -> None:
     problem.formulation = "full"
     with pytest.raises(ValueError, match="needs the model terms"):
         solve_nullspace(problem)
+
+
+def test_activated_row_is_released_when_the_optimum_keeps_it_inside() -> None:
+    """§3.2's grow-only activation pins z1 + z2 ≤ 1 too (violated by the unconstrained (3, −1))
+    and answers (1, 0); with z1 ≤ 1 alone pinned the objective's optimum (1, −1) keeps
+    z1 + z2 = 0 inside, so the row is released and the lower level is met exactly."""
+    C = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    limits = Level(np.zeros((0, 2)), np.zeros(0), C, np.ones(3))
+    objective = Level(np.eye(2), np.array([3.0, -1.0]), np.zeros((0, 2)), np.zeros(0))
+    z = hierarchical_least_squares([limits, objective], 2)
+    assert np.allclose(z, [1.0, -1.0], atol=1e-12)
+
+
+def test_opposite_bounds_are_never_pinned_together() -> None:
+    """−1 ≤ z1 ≤ 1 under z1 = 3 − 5 z2 then z2 = −1: the activated upper bound, then the lower one
+    violated by the level below, end with one bound held and the level below met where it can."""
+    C = np.array([[1.0, 0.0], [-1.0, 0.0]])
+    bounds = Level(np.zeros((0, 2)), np.zeros(0), C, np.ones(2))
+    first = Level(np.array([[1.0, 5.0]]), np.array([3.0]), np.zeros((0, 2)), np.zeros(0))
+    second = Level(np.array([[0.0, 1.0]]), np.array([-1.0]), np.zeros((0, 2)), np.zeros(0))
+    z = hierarchical_least_squares([bounds, first, second], 2)
+    assert -1.0 - 1e-12 <= z[0] <= 1.0 + 1e-12
+    assert abs(z[0] + 5 * z[1] - 3.0) <= 1e-12

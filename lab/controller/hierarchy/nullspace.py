@@ -10,8 +10,15 @@ singular tasks). No QP is solved.
 
 Inequality rows C x ≤ d (§3.2, §5.1.3) are off until violated: a violated row becomes the
 equality C_j x = d_j at its own level, stacked with the other active rows of that level just above
-that level's equalities, and the whole hierarchy is solved again until no inactive row is
-violated. The active set only grows, so this ends after at most one pass per inequality row.
+that level's equalities, and the whole hierarchy is solved again. §3.2 stops there, and the
+active set only grows: a row activated on the way stays pinned at its bound where the final
+solution would keep it inside, and both bounds of one joint can end up pinned at once (Sim4, F min
+under knee limits in three-leg support: eleven torque rows pinned against three internal force
+directions, their least-squares compromise far from any bound). So this is a primal active set:
+the violated rows of the highest violated level are activated; once nothing is violated, an active
+row is released when the hierarchy solved without it keeps it inside its bound (its multiplier
+has the wrong sign; every level is a convex least squares, so an optimum without the row that
+satisfies it is the optimum with it).
 
 The hierarchy can be solved over any vector of §4 (`problem.formulation`, formulations.py).
 `sequential` (Table 4) splits it: rows without force terms (motion, joint limits) solve q̈ first
@@ -37,6 +44,7 @@ from lab.controller.hierarchy.problem import HierarchyProblem, Level
 RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
 RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
 ACTIVATION_TOL = 1e-9  # an inequality violated by more than this is activated
+ACTIVE_SET_ITERATIONS_PER_ROW = 4  # a cap on activations and releases, against cycling
 
 
 def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
@@ -52,17 +60,39 @@ def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarr
 def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
     """Strict priorities over z ∈ Rⁿ with inequalities activated when violated (§3.1–3.2)."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
-    for _ in range(sum(len(level.d) for level in levels) + 1):
-        z = _project(levels, active, n)
-        grew = False
-        for level, on in zip(levels, active, strict=True):
-            violated = level.C @ z - level.d > ACTIVATION_TOL
-            if np.any(violated & ~on):
-                on |= violated
-                grew = True
-        if not grew:
+    iterations = ACTIVE_SET_ITERATIONS_PER_ROW * sum(len(level.d) for level in levels) + 1
+    z = _project(levels, active, n)
+    for _ in range(iterations):
+        if not (_activate_violated(levels, active, z) or _release_one(levels, active, z, n)):
             break
+        z = _project(levels, active, n)
     return z
+
+
+def _activate_violated(
+    levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray
+) -> bool:
+    """Activate the violated rows of the highest-priority level that has any."""
+    for level, on in zip(levels, active, strict=True):
+        violated = (level.C @ z - level.d > ACTIVATION_TOL) & ~on
+        if np.any(violated):
+            on |= violated
+            return True
+    return False
+
+
+def _release_one(
+    levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray, n: int
+) -> bool:
+    """Release the first active row that the hierarchy solved without it keeps inside its bound."""
+    for level, on in zip(levels, active, strict=True):
+        for j in np.flatnonzero(on):
+            on[j] = False
+            released = _project(levels, active, n)
+            if level.C[j] @ released - level.d[j] <= ACTIVATION_TOL:
+                return True
+            on[j] = True
+    return False
 
 
 def _project(levels: Sequence[Level], active: Sequence[np.ndarray], n: int) -> np.ndarray:
