@@ -33,11 +33,11 @@ def _walked(report: dict) -> dict:
 
 def test_anymal_trots_at_half_a_metre_per_second_with_a_level_trunk() -> None:
     metrics = _walked(run_scenario(_load("anymal_trot_flat"), 3.0))
-    # S3 has no velocity task: the posture pulls the base over the footholds, and lags (measured
-    # 0.33 m/s over this run, 0.34 m/s over 20 s; docs/locomotion.md). It must not run away.
-    assert 0.25 < metrics["mean_vx_mps"] < 0.55
-    assert abs(metrics["mean_vy_mps"]) < 0.05
-    assert metrics["mean_velocity_error_mps"] < 0.3
+    # S3 has no velocity task: the stance legs' posture references move the base (Raiola eqs.
+    # 30-32; measured 0.529 m/s over 20 s, mean |v - v_cmd| 0.069 m/s with the trot's sway).
+    assert metrics["mean_vx_mps"] == pytest.approx(0.5, abs=0.05)
+    assert abs(metrics["mean_vy_mps"]) < 0.03
+    assert metrics["mean_velocity_error_mps"] < 0.15  # 2 s of averaging, right after the start
     assert metrics["mean_abs_roll_rad"] < MAX_MEAN_ATTITUDE
     assert metrics["mean_abs_pitch_rad"] < MAX_MEAN_ATTITUDE
     assert metrics["distance_m"] > 0.6
@@ -48,7 +48,7 @@ def test_crawl_trot_crawl_switches_while_walking(stack: str) -> None:
     scenario = _compressed(_load(f"anymal_crawl_trot_crawl_{stack}"), 0.3)  # switches at 1.2, 2.4 s
     metrics = _walked(run_scenario(scenario))
     assert scenario.duration == pytest.approx(3.6)
-    assert metrics["mean_vx_mps"] > 0.1  # commanded 0.2 m/s, never stopped
+    assert metrics["mean_vx_mps"] == pytest.approx(0.2, abs=0.04)  # never stopped
     assert metrics["mean_abs_roll_rad"] < 2 * MAX_MEAN_ATTITUDE
     assert metrics["mean_abs_pitch_rad"] < 2 * MAX_MEAN_ATTITUDE
 
@@ -75,6 +75,7 @@ def test_solo12_turns_in_place() -> None:
 
 def test_solo12_strafes() -> None:
     metrics = _walked(run_scenario(_load("solo12_trot_strafe"), 2.5))
-    assert metrics["mean_vy_mps"] > 0.03  # commanded 0.15 m/s; S3 lags (measured 0.041)
+    # Commanded 0.15 m/s; measured 0.171 m/s over 10 s (the base overshoots, docs/locomotion.md).
+    assert metrics["mean_vy_mps"] == pytest.approx(0.15, abs=0.03)
     assert abs(metrics["mean_vx_mps"]) < 0.03
     assert abs(metrics["mean_yaw_rate_radps"]) < 0.05

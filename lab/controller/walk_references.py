@@ -2,7 +2,8 @@
 
 `WalkReferences` extends `References` with what the static walk asks of its tasks: the swing
 feet's trajectories, the local surface normal under each foot, and the contact-force
-interpolation weight of each foot (Hutter 2014 §5.1.5–5.1.6). Tasks that need these fields read
+interpolation weight of each foot (Hutter 2014 §5.1.5–5.1.6), and the joint velocities the
+posture moves with (Raiola eqs. 30–31). Tasks that need these fields read
 them when the references carry them and fall back to flat, fully loaded ground otherwise.
 """
 
@@ -26,6 +27,8 @@ class WalkReferences(References):
     surface_normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     # w ∈ [0, 1] scaling the optimal force of a foot being loaded or unloaded; NaN: not changing.
     force_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # Joint velocity reference q̇_d of the postural task (Raiola eq. 9); empty: zero.
+    posture_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def surface_normals(refs: References, n_contacts: int) -> np.ndarray:

@@ -5,13 +5,19 @@
   without foot trajectories give no rows.
 - `com_xy`: the horizontal CoM alone (Table 6, P3), so that body height can sit at another
   priority (`base_height`).
+- `moving_posture`: Raiola's postural task eq. 9 with a moving reference,
+  q̈_a = kp (q_d − q_a) + kd (q̇_d − q̇_a), q̇_d from the walking references (eqs. 30–31), zero
+  for references without one. A swinging leg's joints are left to `swing_feet`, which fixes
+  them at a higher priority: posture rows on them only steer the base's acceleration (under S3,
+  ANYmal's 0.5 m/s trot ran at 0.62 m/s with ±0.25 m/s of lateral sway; without them at
+  0.525 m/s and ±0.06 m/s).
 """
 
 import numpy as np
 
-from lab.controller.model import RobotModel
+from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import TASK_TYPES, ComTask, Task
+from lab.controller.tasks import TASK_TYPES, ComTask, Task, TaskGains
 from lab.controller.walk_references import WalkReferences
 
 
@@ -19,15 +25,7 @@ class SwingFeetTask(Task):
     name = "swing_feet"
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        swinging = []
-        if isinstance(refs, WalkReferences) and len(refs.foot_position):
-            swinging = [
-                i
-                for i, (contact, active) in enumerate(
-                    zip(robot.contacts, refs.contact_active, strict=True)
-                )
-                if not active and contact.kind == "point"
-            ]
+        swinging = _swinging(robot, refs)
         if not swinging:
             self.error = np.zeros(0)
             return np.zeros((0, robot.nx)), np.zeros(0)
@@ -58,5 +56,49 @@ class ComXYTask(ComTask):
         return A[:2], b[:2]
 
 
-for _task in (SwingFeetTask, ComXYTask):
+def leg_joints(robot: RobotModel) -> list[np.ndarray]:
+    """Actuated-joint indices of each contact's leg: the joints that move the contact point."""
+    return [
+        np.flatnonzero(np.any(np.abs(robot.Jc[s, BASE_DOF:]) > 1e-9, axis=0))
+        for s in robot.force_slices
+    ]
+
+
+def _swinging(robot: RobotModel, refs: References) -> list[int]:
+    """Point feet out of contact that have a swing trajectory (the `swing_feet` task's feet)."""
+    if not isinstance(refs, WalkReferences) or not len(refs.foot_position):
+        return []
+    return [
+        i
+        for i, (contact, active) in enumerate(zip(robot.contacts, refs.contact_active, strict=True))
+        if not active and contact.kind == "point"
+    ]
+
+
+class MovingPostureTask(Task):
+    name = "moving_posture"
+
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self._legs: list[np.ndarray] | None = None
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        if self._legs is None:
+            self._legs = leg_joints(robot)
+        reference_velocity = np.zeros(robot.na)
+        if isinstance(refs, WalkReferences) and len(refs.posture_velocity) == robot.na:
+            reference_velocity = refs.posture_velocity
+        keep = np.ones(robot.na, dtype=bool)
+        for i in _swinging(robot, refs):
+            keep[self._legs[i]] = False
+        joints = np.flatnonzero(keep)
+        e = (refs.posture - robot.q[7:])[joints]
+        self.error = e
+        A = np.zeros((len(joints), robot.nx))
+        A[np.arange(len(joints)), BASE_DOF + joints] = 1.0
+        de = reference_velocity[joints] - robot.v[BASE_DOF + joints]
+        return A, self.gains.kp * e + self.gains.kd * de
+
+
+for _task in (SwingFeetTask, ComXYTask, MovingPostureTask):
     TASK_TYPES[_task.name] = _task

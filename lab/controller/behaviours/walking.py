@@ -9,7 +9,9 @@ both ends of the stance; swinging feet get position, velocity and acceleration r
 integrated from the command, never further than YAW_LEAD_MAX from the measured yaw), its height
 above the mean of the stance feet (Raiola eq. 17: blind, the height follows the ground), and the
 commanded velocity for the tasks that track one (Hutter Table 7); the CoM reference moves with
-the base for stacks that have a CoM task. The posture reference stays the standing posture.
+the base for stacks that have a CoM task. The posture reference (joint positions and velocities)
+follows the feet: the swing trajectories and, in stance, the commanded base twist and the base
+height (Raiola eqs. 30–32, `leg_posture.py`).
 
 Gait, step height, cycle time and foothold planner can change while walking: a new Walking
 continues from the previous one (`continue_from`), legs in the air finish their step.
@@ -24,6 +26,7 @@ import pinocchio as pin
 from lab.controller.behaviours.balance import standing_references
 from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
+from lab.controller.behaviours.leg_posture import LegPostureReference
 from lab.controller.behaviours.swing import swing_reference
 from lab.controller.model import RobotModel
 from lab.controller.references import References
@@ -83,6 +86,8 @@ class Walking:
         refs.foot_position = feet.copy()
         refs.foot_velocity = np.zeros((n, 3))
         refs.foot_acceleration = np.zeros((n, 3))
+        self.posture = LegPostureReference(robot, refs.posture)
+        refs.posture, refs.posture_velocity = self.posture.position, self.posture.velocity
 
     # ------------------------------------------------------------------------ parameters
     def configure(
@@ -126,6 +131,7 @@ class Walking:
         self.t, self.command, self.yaw_ref = previous.t, previous.command.copy(), previous.yaw_ref
         self.hip_velocity = previous.hip_velocity.copy()
         self.liftoff = previous.liftoff.copy()
+        self.posture.position[:] = previous.posture.position
         for name in ("step_height", "footholds"):
             if name not in self._configured:
                 setattr(self, name, getattr(previous, name))
@@ -150,9 +156,18 @@ class Walking:
         to_world = np.array([[c, -s], [s, c]])
         velocity_world = to_world @ np.array([vx, vy])
 
-        for event in self.scheduler.advance(t, touching.tolist()):
+        events = self.scheduler.advance(t, touching.tolist())
+        changed = {event.leg for event in events}
+        standing = [
+            i
+            for i, leg in enumerate(self.scheduler.legs)
+            if leg.state is LegState.STANCE and i not in changed
+        ]
+        for event in events:
             if event.kind == "liftoff":
                 self.liftoff[event.leg] = robot.contact_positions[event.leg]
+            landed = event.kind == "touchdown"
+            self.posture.restart(robot, event.leg, standing if landed else [])
         self._filter_hip_velocity(robot, to_world, dt)
 
         refs = self.references
@@ -196,6 +211,16 @@ class Walking:
         refs.com = np.array([*(robot.base_position[:2] + offset), refs.base_height])
         refs.com[2] += self.com_offset[2]
         refs.com_velocity = refs.base_linear_velocity.copy()
+        self.posture.update(
+            robot,
+            dt,
+            [leg.state is LegState.STANCE for leg in legs],
+            refs.foot_position,
+            refs.foot_velocity,
+            refs.base_linear_velocity,
+            refs.base_angular_velocity,
+            refs.base_height - float(robot.base_position[2]),  # ΔH_z, eq. 32
+        )
 
     def _filter_hip_velocity(self, robot: RobotModel, to_world: np.ndarray, dt: float) -> None:
         """Measured velocity of each hip point (H axes), low-passed for the Raibert feedback."""

@@ -1,0 +1,94 @@
+"""Posture references of the legs from their feet (Raiola §3.4, eqs. 30–32).
+
+The postural task (eq. 9) tracks joint positions q_d and velocities q̇_d; Raiola maps Cartesian
+foot motion relative to the base into them by closed-loop inverse kinematics, leg by leg,
+q̇_d = J_i⁻¹ ṙ_d, q_d found by integration:
+
+- a swinging leg (eq. 30): ṙ_d = ẋ_f,d + P (x_f,d − x_f), the swing trajectory relative to the
+  base (Raiola's world frame W is attached to the base origin, §2.4.1);
+- a stance leg (eq. 31): ṙ_d = P ΔH_bl, ΔH_bl = [0, 0, −ΔH_z], ΔH_z = h_d − h (eq. 32), h the
+  base height over the stance feet (eq. 17): the legs stretch or fold to set the base height.
+
+Eq. 31 moves the stance feet relative to the base only vertically, so the stance legs' posture
+holds the base where it stood over them at touchdown, braking the walk (the base is moved only
+by the posture in S3). The stance feet here also move relative to the base by what the commanded
+twist asks of the base, ṙ_d = −(v_d + ω_d × r) + P ΔH_bl: the same feed-forward eq. 30 has, with
+the base's commanded instead of its measured velocity (no base velocity estimate, as in Raiola).
+Without it ANYmal's 0.5 m/s trot under S3 went at 0.34 m/s.
+
+Each leg's integration starts from its measured joints at lift-off and at touchdown, so a
+haptic touchdown early or late (rough ground) starts the stance from where the leg really is.
+Joint velocities, foot offsets r = x_f − x_base and the Jacobians are in world axes.
+"""
+
+import numpy as np
+
+from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.walk_tasks import leg_joints
+
+CLIK_GAIN = 10.0  # 1/s, P of eqs. 30–31 (Raiola Table 2)
+DAMPING = 1e-3  # damped least squares near a stretched leg's singularity
+MAX_CARRY = 0.02  # m, the largest base lag a touchdown carries over
+
+
+def _inverse(J: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+    """J⁻¹ velocity, damped near singular configurations."""
+    return J.T @ np.linalg.solve(J @ J.T + DAMPING**2 * np.eye(len(J)), velocity)
+
+
+class LegPostureReference:
+    """Integrated joint references q_d and their velocities q̇_d for every leg."""
+
+    def __init__(self, robot: RobotModel, q_joints: np.ndarray) -> None:
+        self.joints = leg_joints(robot)
+        self.position = q_joints.copy()
+        self.velocity = np.zeros_like(q_joints)
+
+    def restart(self, robot: RobotModel, leg: int, carry_from: list[int]) -> None:
+        """Restart leg's integration from its measured joints (at lift-off and touchdown). At
+        touchdown the new stance reference carries the mean horizontal lag of the base behind
+        the references of the legs `carry_from` (those standing since before this tick), so
+        that the base's position error outlives the step and its mean velocity converges."""
+        j = self.joints[leg]
+        self.position[j] = robot.q[7:][j]
+        others = carry_from
+        if not others:
+            return
+        lag = np.zeros(3)
+        for k in others:
+            jk = self.joints[k]
+            J = robot.Jc[robot.force_slices[k], BASE_DOF + jk]
+            lag += J @ (self.position[jk] - robot.q[7:][jk]) / len(others)
+        lag[2] = 0.0
+        lag *= min(1.0, MAX_CARRY / max(float(np.linalg.norm(lag)), 1e-12))
+        J = robot.Jc[robot.force_slices[leg], BASE_DOF + j]
+        self.position[j] += _inverse(J, lag)
+
+    def update(
+        self,
+        robot: RobotModel,
+        dt: float,
+        stance: list[bool],
+        foot_position: np.ndarray,
+        foot_velocity: np.ndarray,
+        base_velocity: np.ndarray,
+        base_angular_velocity: np.ndarray,
+        height_error: float,
+    ) -> None:
+        """Integrate one tick. `foot_*` are the swing references (world; rows of stance legs
+        unused), `base_*` the commanded base twist (world), `height_error` ΔH_z of eq. 32."""
+        base = robot.base_position
+        height_step = np.array([0.0, 0.0, -CLIK_GAIN * height_error])  # P ΔH_bl, eq. 31
+        for i, j in enumerate(self.joints):
+            s = robot.force_slices[i]
+            J = robot.Jc[s, BASE_DOF + j]
+            r = robot.contact_positions[i] - base
+            if stance[i]:
+                rate = height_step - base_velocity - np.cross(base_angular_velocity, r)
+            else:
+                r_d = foot_position[i] - base
+                carried = base_velocity + np.cross(base_angular_velocity, r_d)
+                rate = foot_velocity[i] - carried + CLIK_GAIN * (r_d - r)  # eq. 30
+            q_dot = _inverse(J, rate)
+            self.velocity[j] = q_dot
+            self.position[j] += dt * q_dot
