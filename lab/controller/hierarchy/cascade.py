@@ -10,6 +10,9 @@ equality residual and the slacks of its inequalities over the optimal set of the
 where Z spans the null space of all equality rows above (eq. 8). Each level shrinks Z by the
 directions its equalities lock, and keeps its inequalities with the slack v* it reached.
 
+Forces of contacts out of support are zero, like the dynamics, above every level: the cascade
+drops them from Z at level 0 instead of carrying their bounds through every level.
+
 Most ticks no inequality binds. The cascade then first solves the equality rows alone, one least
 squares per level, and keeps that x when it satisfies every inequality of the stack: each level
 has then reached its unconstrained optimum with zero slack, which is the strict solution. Only
@@ -42,10 +45,21 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
     return _with_inequalities(problem, solver)
 
 
+def _dynamics_solution(problem: HierarchyProblem) -> np.ndarray:
+    """[Z | x] of level 0: the Newton–Euler rows, with no force on a contact out of support."""
+    Zx = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    if problem.terms is None or problem.terms.support.all():
+        return Zx
+    # Z's columns past the base are the joint accelerations, then the forces, then x.
+    nj = Zx.shape[1] - 1 - len(problem.terms.support)
+    keep = np.concatenate((np.ones(nj, dtype=bool), problem.terms.support, [True]))
+    return Zx[:, keep]
+
+
 def _equalities_only(problem: HierarchyProblem) -> np.ndarray:
     """The cascade of the equality rows alone: one least squares and null space per level."""
     # Zx = [Z | x]: one product carries the null-space basis and the solution to the next level.
-    Zx = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    Zx = _dynamics_solution(problem)
     levels = [level for level in problem.levels if len(level.b)]
     for i, level in enumerate(levels):
         if Zx.shape[1] == 1:
@@ -64,7 +78,7 @@ def _equalities_only(problem: HierarchyProblem) -> np.ndarray:
 
 def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
     """The cascade of eqs. 9–11, one QP per level where an inequality binds."""
-    Zx = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    Zx = _dynamics_solution(problem)
     Z, x = Zx[:, :-1], Zx[:, -1]
     # Inequalities of the levels above, in the current null-space coordinates: K u ≤ k keeps
     # each of them within the slack its level reached (eq. 9). k ≥ 0 always holds, so u = 0 is
