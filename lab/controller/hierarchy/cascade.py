@@ -26,11 +26,15 @@ from lab.controller.hierarchy.linalg import (
     solution_and_null_space_of_leading_block,
 )
 from lab.controller.hierarchy.problem import HierarchyProblem
-from lab.controller.qp import solve_qp
+from lab.controller.qp import QPFailure, solve_qp
 
 # ε: keeps the level QP's Hessian positive definite and, among the optimal steps of a level, picks
 # the one with the smallest x, which leaves the most room to the levels below (Herzog eq. 5).
 REGULARIZATION = 1e-8
+# A level with one or two equality rows in a null space of ten dimensions leaves its Hessian with
+# eigenvalues of ε alone; DAQP then sometimes reports a level infeasible although u = 0 is
+# feasible by construction. Such a level is solved again once with this larger ε.
+RETRY_REGULARIZATION = 1e-6
 FEASIBILITY_TOL = 1e-9  # an unconstrained step that violates no row by more is taken as is
 ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped from the QP
 
@@ -137,10 +141,21 @@ def _solve_level(
     if fits:
         return u
     nz, m = Az.shape[1], len(s)
-    P = np.zeros((nz + m, nz + m))
-    P[:nz, :nz] = Az.T @ Az + REGULARIZATION * Z.T @ Z
-    P[nz:, nz:] = np.eye(m)
-    q = np.concatenate([REGULARIZATION * Z.T @ x - Az.T @ r, np.zeros(m)])
     G = np.block([[Cz, -np.eye(m)], [Kz, np.zeros((len(k), m))]])
     h = np.concatenate([s, k])
-    return solve_qp(P, q, G, h, solver=solver)[:nz]
+    try:
+        return solve_qp(*_level_cost(Az, r, Z, x, m, REGULARIZATION), G, h, solver=solver)[:nz]
+    except QPFailure:
+        cost = _level_cost(Az, r, Z, x, m, RETRY_REGULARIZATION)
+        return solve_qp(*cost, G, h, solver=solver)[:nz]
+
+
+def _level_cost(
+    Az: np.ndarray, r: np.ndarray, Z: np.ndarray, x: np.ndarray, m: int, epsilon: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """P and q of ‖Az u − r‖² + ‖v‖² + ε‖x + Z u‖² over (u, v), v being m slacks (eq. 10)."""
+    nz = Az.shape[1]
+    P = np.zeros((nz + m, nz + m))
+    P[:nz, :nz] = Az.T @ Az + epsilon * Z.T @ Z
+    P[nz:, nz:] = np.eye(m)
+    return P, np.concatenate([epsilon * Z.T @ x - Az.T @ r, np.zeros(m)])
