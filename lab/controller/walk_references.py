@@ -3,7 +3,8 @@
 `WalkReferences` extends `References` with what the static walk asks of its tasks: the swing
 feet's trajectories, the local surface normal under each foot, and the contact-force
 interpolation weight of each foot (Hutter 2014 §5.1.5–5.1.6), and the joint velocities the
-posture moves with (Raiola eqs. 30–31). Tasks that need these fields read
+posture moves with (Raiola eqs. 30–31) and the weight of each leg's postural rows. Tasks that need
+these fields read
 them when the references carry them and fall back to flat, fully loaded ground otherwise.
 """
 
@@ -29,6 +30,8 @@ class WalkReferences(References):
     force_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
     # Joint velocity reference q̇_d of the postural task (Raiola eq. 9); empty: zero.
     posture_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # w ∈ [0, 1] weighting the postural rows of each contact's leg (the leg's load ramp); empty: 1.
+    posture_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def surface_normals(refs: References, n_contacts: int) -> np.ndarray:

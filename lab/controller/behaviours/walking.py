@@ -86,6 +86,7 @@ class Walking:
         refs.foot_position = feet.copy()
         refs.foot_velocity = np.zeros((n, 3))
         refs.foot_acceleration = np.zeros((n, 3))
+        refs.posture_weight = np.ones(n)
         self.posture = LegPostureReference(robot, refs.posture)
         refs.posture, refs.posture_velocity = self.posture.position, self.posture.velocity
 
@@ -180,8 +181,9 @@ class Walking:
         for i, leg in enumerate(legs):
             standing = leg.state is LegState.STANCE
             refs.contact_active[i] = standing
+            load = self.scheduler.load(i, t)  # 0 in the air
+            refs.posture_weight[i] = load  # the leg's postural rows fade with its load
             if standing:
-                load = self.scheduler.load(i, t)
                 refs.normal_force_max[i] = (
                     load * self.full_load if load < 1.0 else UNBOUNDED_LOADS * self.full_load
                 )
