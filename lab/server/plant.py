@@ -290,6 +290,8 @@ class MujocoPlant:
             raise ValueError(f"robot {robot.description.name!r}: only hinge joints are supported")
         self._qpos_index = np.array([j.qposadr[0] for j in joints])
         self._dof_index = np.array([j.dofadr[0] for j in joints])
+        self._q_order = np.concatenate(([0, 1, 2, 4, 5, 6, 3], self._qpos_index))
+        self._v_order = np.concatenate((np.arange(6), self._dof_index))
         self.base_body_id = m.joint("root_joint").bodyid[0]
         self.contact_site_ids = np.array([m.site(c.name).id for c in robot.contacts])
         self.foot_geom_ids = np.array([m.geom(c.name).id for c in robot.contacts])
@@ -297,6 +299,8 @@ class MujocoPlant:
         self._foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
         _shorten_shanks(m, self.foot_geom_ids)
         self._terrain = m.geom_bodyid == 0
+        self._terrain_list = self._terrain.tolist()  # the same, for per-contact Python loops
+        self._foot_of_geom_list = self._foot_of_geom.tolist()
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
         self._rotation = np.zeros(9)
@@ -347,16 +351,10 @@ class MujocoPlant:
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in pinocchio conventions (new arrays)."""
         qpos, qvel = self.mj_data.qpos, self.mj_data.qvel
-        q = np.empty(self.nq)
-        v = np.empty(self.nv)
-        q[:3] = qpos[:3]
-        q[3:6] = qpos[4:7]
-        q[6] = qpos[3]
-        q[7:] = qpos[self._qpos_index]
+        q = qpos[self._q_order]  # quaternion (w, x, y, z) → (x, y, z, w), joints by name
+        v = qvel[self._v_order]
         mujoco.mju_quat2Mat(self._rotation, qpos[3:7])
-        v[:3] = self._rotation.reshape(3, 3).T @ qvel[:3]
-        v[3:6] = qvel[3:6]
-        v[6:] = qvel[self._dof_index]
+        v[:3] = self._rotation.reshape(3, 3).T @ v[:3]  # linear velocity: world → base frame
         return q, v
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
@@ -438,15 +436,20 @@ class MujocoPlant:
         """Which feet press on the terrain with a normal force above `min_normal_force` (N).
 
         The touch sensor of haptic touchdown: cheaper than `foot_forces`, it reads only each
-        contact's normal force (the first constraint force of an elliptic-cone contact).
+        contact's normal force (the first constraint force of an elliptic-cone contact). A plain
+        loop: a step has a handful of contacts, fewer than numpy calls would cost.
         """
-        robot_geom, on_terrain = self._ground_contacts()
-        foot = self._foot_of_geom[robot_geom]
-        rows = self.mj_data.contact.efc_address[: len(foot)]
-        pressing = on_terrain & (foot >= 0) & (rows >= 0)
-        pressing[pressing] = self.mj_data.efc_force[rows[pressing]] > min_normal_force
+        d = self.mj_data
+        contact, efc_force = d.contact, d.efc_force
         touching = np.zeros(len(self._forces), dtype=bool)
-        touching[foot[pressing]] = True
+        n = d.ncon
+        terrain, foot_of = self._terrain_list, self._foot_of_geom_list
+        geoms, rows = contact.geom[:n].tolist(), contact.efc_address[:n].tolist()
+        for (g1, g2), row in zip(geoms, rows, strict=True):
+            foot = foot_of[g2 if terrain[g1] else g1]
+            on_terrain = terrain[g1] or terrain[g2]
+            if on_terrain and foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
+                touching[foot] = True
         return touching
 
     def foot_forces(self) -> np.ndarray:
