@@ -6,6 +6,7 @@ state → RobotModel.update → tasks and constraints become rows, level by leve
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cache
 
 import numpy as np
 
@@ -182,7 +183,15 @@ def _stacked(
     rows: list[np.ndarray], rhs: list[np.ndarray], nx: int
 ) -> tuple[np.ndarray, np.ndarray]:
     if not rows:
-        return np.zeros((0, nx)), np.zeros(0)
+        return _no_rows(nx)
     if len(rows) == 1:
         return rows[0], rhs[0]
     return np.concatenate(rows), np.concatenate(rhs)
+
+
+@cache
+def _no_rows(nx: int) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of a level without tasks (or constraints): shared, read-only."""
+    A, b = np.zeros((0, nx)), np.zeros(0)
+    A.flags.writeable = b.flags.writeable = False
+    return A, b
