@@ -25,14 +25,24 @@ def solution_and_null_space_of_leading_block(A: np.ndarray, b: np.ndarray) -> np
     so that one product moves both to the next level.
     """
     k, n = A.shape
-    _, _, solved, info = lapack.dgesv(A[:, :k], np.column_stack((A[:, k:], b)))
+    rhs = np.empty((k, n - k + 1), order="F")  # [−A₂ | b]
+    np.negative(A[:, k:], out=rhs[:, :-1])
+    rhs[:, -1] = b
+    _, _, solved, info = lapack.dgesv(A[:, :k], rhs, overwrite_b=1)
     if info != 0:
         raise SingularSystem("the base block of the mass matrix is singular")
-    Zx = np.zeros((n, n - k + 1))
-    Zx[:k, :-1] = -solved[:, :-1]
-    Zx[:k, -1] = solved[:, -1]
-    Zx[k:, :-1] = np.eye(n - k)
+    Zx = _identity_below(n, k).copy()
+    Zx[:k] = solved
     return Zx
+
+
+@cache
+def _identity_below(n: int, k: int) -> np.ndarray:
+    """[0; I | 0]: an n × (n − k + 1) block with the identity under its first k rows."""
+    block = np.zeros((n, n - k + 1))
+    block[k:, :-1] = np.eye(n - k)
+    block.flags.writeable = False
+    return block
 
 
 def least_squares_and_null_space(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
