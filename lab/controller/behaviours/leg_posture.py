@@ -16,24 +16,36 @@ twist asks of the base, ṙ_d = −(v_d + ω_d × r) + P ΔH_bl: the same feed-f
 the base's commanded instead of its measured velocity (no base velocity estimate, as in Raiola).
 Without it ANYmal's 0.5 m/s trot under S3 went at 0.34 m/s.
 
+The controller's point contact is the foot sphere's centre, but a rigid sphere on a pitching
+shank rolls: without slipping its centre moves by ω_f × ρ ẑ (ρ its radius, ω_f the foot's
+angular velocity, flat ground assumed). A stance reference that keeps the centre still relative
+to the ground lets the base gain that rolling distance every step (ANYmal: 9.7 of the 11.7 mm a
+stance foot centre moved forward per stance, a 7 % overshoot of the commanded 0.5 m/s). So the
+stance rate also carries the measured rolling of the foot: the base then moves at v_d relative
+to the ground, not to the foot centre.
+
 Each leg's integration starts from its measured joints at lift-off and at touchdown, so a
 haptic touchdown early or late (rough ground) starts the stance from where the leg really is.
 Joint velocities, foot offsets r = x_f − x_base and the Jacobians are in world axes.
 """
 
 import numpy as np
+import pinocchio as pin
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.walk_tasks import leg_joints
 
 CLIK_GAIN = 10.0  # 1/s, P of eqs. 30–31 (Raiola Table 2)
 DAMPING = 1e-3  # damped least squares near a stretched leg's singularity
-MAX_CARRY = 0.02  # m, the largest base lag a touchdown carries over
+MAX_CARRY = 0.01  # m, the largest base lag a touchdown carries over
+
+
+_DAMPING_3 = DAMPING**2 * np.eye(3)
 
 
 def _inverse(J: np.ndarray, velocity: np.ndarray) -> np.ndarray:
-    """J⁻¹ velocity, damped near singular configurations."""
-    return J.T @ np.linalg.solve(J @ J.T + DAMPING**2 * np.eye(len(J)), velocity)
+    """J⁻¹ velocity for a point foot's 3-row Jacobian, damped near singular configurations."""
+    return J.T @ np.linalg.solve(J @ J.T + _DAMPING_3, velocity)
 
 
 class LegPostureReference:
@@ -43,6 +55,10 @@ class LegPostureReference:
         self.joints = leg_joints(robot)
         self.position = q_joints.copy()
         self.velocity = np.zeros_like(q_joints)
+        self.radius = np.array([contact.radius for contact in robot.contacts])
+        self._rotations = robot.contact_rotations.copy()  # the feet's orientations last tick
+        self._gram = np.zeros((len(self.joints), 3, 3))  # J Jᵀ + damping of every leg
+        self._rate = np.zeros((len(self.joints), 3, 1))  # ṙ_d of every leg
 
     def restart(self, robot: RobotModel, leg: int, carry_from: list[int]) -> None:
         """Restart leg's integration from its measured joints (at lift-off and touchdown). At
@@ -78,17 +94,27 @@ class LegPostureReference:
         """Integrate one tick. `foot_*` are the swing references (world; rows of stance legs
         unused), `base_*` the commanded base twist (world), `height_error` ΔH_z of eq. 32."""
         base = robot.base_position
-        height_step = np.array([0.0, 0.0, -CLIK_GAIN * height_error])  # P ΔH_bl, eq. 31
+        turn = pin.skew(base_angular_velocity)
+        jacobians = []
         for i, j in enumerate(self.joints):
-            s = robot.force_slices[i]
-            J = robot.Jc[s, BASE_DOF + j]
-            r = robot.contact_positions[i] - base
+            J = robot.Jc[robot.force_slices[i], BASE_DOF + j]
+            jacobians.append(J)
+            self._gram[i] = J @ J.T + _DAMPING_3
+            rate = self._rate[i, :, 0]
             if stance[i]:
-                rate = height_step - base_velocity - np.cross(base_angular_velocity, r)
+                rate[:] = -(base_velocity + turn @ (robot.contact_positions[i] - base))
+                rate[2] -= CLIK_GAIN * height_error  # P ΔH_bl, eq. 31
+                if dt > 0.0:  # the sphere's rolling, ω_f × ρ ẑ
+                    rotation = pin.log3(robot.contact_rotations[i] @ self._rotations[i].T)
+                    rate[0] += self.radius[i] * rotation[1] / dt
+                    rate[1] -= self.radius[i] * rotation[0] / dt
             else:
                 r_d = foot_position[i] - base
-                carried = base_velocity + np.cross(base_angular_velocity, r_d)
-                rate = foot_velocity[i] - carried + CLIK_GAIN * (r_d - r)  # eq. 30
-            q_dot = _inverse(J, rate)
+                r = robot.contact_positions[i] - base
+                rate[:] = foot_velocity[i] - base_velocity - turn @ r_d + CLIK_GAIN * (r_d - r)
+        self._rotations[:] = robot.contact_rotations
+        solved = np.linalg.solve(self._gram, self._rate)  # every leg's damped J⁻¹ at once
+        for i, (j, J) in enumerate(zip(self.joints, jacobians, strict=True)):
+            q_dot = J.T @ solved[i, :, 0]
             self.velocity[j] = q_dot
             self.position[j] += dt * q_dot

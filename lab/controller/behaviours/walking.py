@@ -226,13 +226,14 @@ class Walking:
 
     def _filter_hip_velocity(self, robot: RobotModel, to_world: np.ndarray, dt: float) -> None:
         """Measured velocity of each hip point (H axes), low-passed for the Raibert feedback."""
-        omega = robot.base_angular_velocity_world
-        v_base = robot.base_linear_velocity_world
         alpha = dt / (HIP_VELOCITY_TIME_CONSTANT + dt)
-        for i, hip in enumerate(self.hips):
-            r = np.array([*(to_world @ hip), 0.0])
-            measured = to_world.T @ (v_base + np.cross(omega, r))[:2]
-            self.hip_velocity[i] += alpha * (measured - self.hip_velocity[i])
+        hips = self.hips @ to_world.T  # world x, y of every hip, relative to the base
+        # v_hip = v_base + ω × r with r = [hip, 0]: the x, y rows of skew(ω) on the x, y of r.
+        velocity = (
+            robot.base_linear_velocity_world[:2]
+            + hips @ pin.skew(robot.base_angular_velocity_world)[:2, :2].T
+        )
+        self.hip_velocity += alpha * (velocity @ to_world - self.hip_velocity)
 
 
 def _factory(gait: GaitPattern) -> Callable[[RobotModel, np.ndarray], Walking]:
