@@ -6,9 +6,12 @@ switch gait twice and take two pushes. Averages skip the first second (the start
 
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
+from lab.server.locomotion_metrics import LocomotionMetrics
 from lab.server.scenario import Scenario, load_scenario, run_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -65,6 +68,45 @@ def test_trot_survives_lateral_kicks() -> None:
     scenario = _compressed(_load("anymal_trot_lateral_kicks"), 0.5)  # 20 N s, then 40 N s
     metrics = _walked(run_scenario(scenario, 3.7))
     assert metrics["largest_push_survived_ns"] == pytest.approx(40.0, rel=0.01)
+
+
+def _pushed_run(fall_at: float | None, next_push_at: float) -> dict:
+    """The locomotion metrics of a standing robot (stub session, 10 ms ticks, 4 s) pushed with
+    10 N s over [1.0, 1.1) s and 30 N s at `next_push_at`, falling at `fall_at`."""
+    model = SimpleNamespace(
+        q=np.zeros(9),
+        base_rotation=np.eye(3),
+        base_linear_velocity_world=np.zeros(3),
+        base_angular_velocity_world=np.zeros(3),
+    )
+    session = SimpleNamespace(
+        model=model, config=SimpleNamespace(timestep=0.01), velocity=np.zeros(3), fell=False
+    )
+    session.time, session.pushes = 0.0, {}
+    metrics = LocomotionMetrics(session)
+    for tick in range(400):
+        session.time = 0.01 * tick
+        pushes = ((1.0, 100.0), (next_push_at, 300.0))
+        force = [f for start, f in pushes if start <= session.time < start + 0.1 - 1e-9]
+        session.pushes = (
+            {"base": SimpleNamespace(force=np.array([0.0, *force, 0.0]))} if force else {}
+        )
+        session.fell = fall_at is not None and session.time >= fall_at
+        metrics.update(session)
+        if session.fell:
+            break
+    return metrics.result()
+
+
+def test_a_push_counts_as_survived_only_without_a_fall_before_the_next_one() -> None:
+    # Standing 1.2 s after the push is not enough when the robot falls before the next one.
+    assert _pushed_run(fall_at=2.3, next_push_at=3.0)["largest_push_survived_ns"] == 0.0
+    assert _pushed_run(fall_at=3.5, next_push_at=2.5)["largest_push_survived_ns"] == pytest.approx(
+        10
+    )
+    # No fall: both count, the second one judged at the end of the run (0.9 s is too short).
+    assert _pushed_run(None, next_push_at=2.5)["largest_push_survived_ns"] == pytest.approx(30)
+    assert _pushed_run(None, next_push_at=3.0)["largest_push_survived_ns"] == pytest.approx(10)
 
 
 def test_solo12_turns_in_place() -> None:

@@ -3,8 +3,10 @@ distance, pushes.
 
 Velocities are measured in the heading frame (the base frame turned about z by the base yaw) and
 compared with the session's velocity command. Averages start after SETTLE_TIME of simulated time,
-so that the start from standing does not count. A push counts as survived when the robot has not
-fallen SURVIVE_TIME after it ended.
+so that the start from standing does not count. A push counts as survived when the robot did not
+fall between its end and the start of the next push (or the end of the run), and stood at least
+SURVIVE_TIME of that: a robot that falls 1.2 s after a kick, before anything else happened to it,
+did not survive the kick. A push followed sooner than SURVIVE_TIME by another one is judged with it.
 """
 
 from typing import TYPE_CHECKING
@@ -16,7 +18,7 @@ if TYPE_CHECKING:
     from lab.server.session import Session
 
 SETTLE_TIME = 1.0  # s
-SURVIVE_TIME = 1.0  # s
+SURVIVE_TIME = 1.0  # s, the shortest time a push is watched for a fall
 
 
 class LocomotionMetrics:
@@ -31,23 +33,26 @@ class LocomotionMetrics:
         self.command_sum = np.zeros(3)
         self.attitude_sum = np.zeros(2)
         self.impulses: dict[str, float] = {}  # body -> impulse so far of its push (N s)
-        self.ended: list[tuple[float, float]] = []  # (end time, impulse) of finished pushes
+        self.ended: list[tuple[float, float]] = []  # (end time, impulse) of pushes not judged
         self.largest_survived = 0.0
+        self.time = 0.0
+        self.fell = False
 
     def update(self, session: "Session") -> None:
         model = session.model
         self.end = model.q[:2].copy()
+        self.time, self.fell = session.time, session.fell
         dt = session.config.timestep
+        if self.fell:
+            self.ended.clear()  # the pushes since the last judged one were not survived
+        elif set(session.pushes) - set(self.impulses):  # a push starts: judge the earlier ones
+            self.largest_survived = self._largest_survived()
+            self.ended = [(end, i) for end, i in self.ended if self.time < end + SURVIVE_TIME]
         for body, push in session.pushes.items():
             impulse = dt * float(np.linalg.norm(push.force))
             self.impulses[body] = self.impulses.get(body, 0.0) + impulse
         for body in set(self.impulses) - set(session.pushes):
             self.ended.append((session.time, self.impulses.pop(body)))
-        if not session.fell:
-            for end, impulse in self.ended:
-                if session.time >= end + SURVIVE_TIME:
-                    self.largest_survived = max(self.largest_survived, impulse)
-            self.ended = [(end, i) for end, i in self.ended if session.time < end + SURVIVE_TIME]
         if session.time < SETTLE_TIME:
             return
         roll, pitch, yaw = pin.rpy.matrixToRpy(model.base_rotation)
@@ -62,6 +67,11 @@ class LocomotionMetrics:
         self.command_sum += session.velocity
         self.attitude_sum += np.abs([roll, pitch])
 
+    def _largest_survived(self) -> float:
+        """The largest push survived, counting the finished pushes watched for SURVIVE_TIME."""
+        watched = [i for end, i in self.ended if self.time >= end + SURVIVE_TIME]
+        return max([self.largest_survived, *watched]) if not self.fell else self.largest_survived
+
     def result(self) -> dict[str, float]:
         n = max(self.samples, 1)
         mean_v, mean_cmd = self.velocity_sum / n, self.command_sum / n
@@ -74,5 +84,5 @@ class LocomotionMetrics:
             "mean_yaw_rate_radps": float(mean_v[2]),
             "mean_abs_roll_rad": float(self.attitude_sum[0] / n),
             "mean_abs_pitch_rad": float(self.attitude_sum[1] / n),
-            "largest_push_survived_ns": self.largest_survived,
+            "largest_push_survived_ns": self._largest_survived(),  # the run ended: judge all
         }
