@@ -210,3 +210,22 @@ def test_opposite_bounds_are_never_pinned_together() -> None:
     z = hierarchical_least_squares([bounds, first, second], 2)
     assert -1.0 - 1e-12 <= z[0] <= 1.0 + 1e-12
     assert abs(z[0] + 5 * z[1] - 3.0) <= 1e-12
+
+
+def test_knee_and_hip_limits_converge_to_the_lexicographic_optimum(anymal) -> None:
+    """Knees and hips limited to 10 N m under the motion (reduced [q̈, τ]): activating every
+    violated row and releasing one at a time used to cycle between active sets here and stop at
+    the iteration cap 3 kN m past a limit; stepping from the feasible point to the optimum of the
+    new active set (blocked by the first row it would violate) holds every limit and tracks the
+    motion as well as the cascade's lexicographic optimum."""
+    stack = [["contact"], ["torque_limits"], ["com", "base_orientation"], ["posture", "torques"]]
+    limits = np.full(12, 80.0)
+    limits[[1, 2, 4, 5, 7, 8, 10, 11]] = 10.0
+    c = controller(anymal, stack, (True,) * 4, seed=5, torque_limits=limits)
+    problem = c.build_problem()
+    problem.formulation = "qdd_tau"
+    x = solve_nullspace(problem)
+    motion = problem.levels[2]
+    assert np.all(np.abs(c.robot.joint_torques(x)) <= limits + AGREE_TOL)
+    lexicographic = np.linalg.norm(motion.A @ solve_cascade(problem) - motion.b)
+    assert np.linalg.norm(motion.A @ x - motion.b) <= lexicographic + CASCADE_QP_TOL

@@ -15,10 +15,13 @@ active set only grows: a row activated on the way stays pinned at its bound wher
 solution would keep it inside, and both bounds of one joint can end up pinned at once (Sim4, F min
 under knee limits in three-leg support: eleven torque rows pinned against three internal force
 directions, their least-squares compromise far from any bound). So this is a primal active set:
-the violated rows of the highest violated level are activated; once nothing is violated, an active
-row is released when the hierarchy solved without it keeps it inside its bound (its multiplier
-has the wrong sign; every level is a convex least squares, so an optimum without the row that
-satisfies it is the optimum with it).
+§3.2's activation first (the violated rows of the highest violated level, until none is), then an
+active row is released when the hierarchy solved without it keeps it inside its bound (its
+multiplier has the wrong sign; every level is a convex least squares, so an optimum without the
+row that satisfies it is the optimum with it), and z steps from where it is towards the optimum of
+the new active set only as far as no inactive row gets violated, the row that blocks it being
+activated. Jumping to that optimum instead and activating all it violates cycled between active
+sets when knees and hips were both limited (Sim5), ending at the iteration cap far past a limit.
 
 The hierarchy can be solved over any vector of §4 (`problem.formulation`, formulations.py).
 `sequential` (Table 4) splits it: rows without force terms (motion, joint limits) solve q̈ first
@@ -60,12 +63,18 @@ def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarr
 def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
     """Strict priorities over z ∈ Rⁿ with inequalities activated when violated (§3.1–3.2)."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
-    iterations = ACTIVE_SET_ITERATIONS_PER_ROW * sum(len(level.d) for level in levels) + 1
+    budget = ACTIVE_SET_ITERATIONS_PER_ROW * sum(len(level.d) for level in levels) + 1
     z = _project(levels, active, n)
-    for _ in range(iterations):
-        if not (_activate_violated(levels, active, z) or _release_one(levels, active, z, n)):
-            break
+    while budget > 0 and _activate_violated(levels, active, z):  # §3.2
         z = _project(levels, active, n)
+        budget -= 1
+    while budget > 0 and _release_one(levels, active, z, n):
+        while budget > 0:  # from the feasible z towards the optimum of the new active set
+            budget -= 1
+            target = _project(levels, active, n)
+            z, blocked = _step(levels, active, z, target)
+            if not blocked:
+                break
     return z
 
 
@@ -93,6 +102,28 @@ def _release_one(
                 return True
             on[j] = True
     return False
+
+
+def _step(
+    levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray, target: np.ndarray
+) -> tuple[np.ndarray, bool]:
+    """Move from z towards target as far as every inactive row z satisfies stays satisfied;
+    activate the row that blocks the move, if one does."""
+    dz = target - z
+    alpha, blocking = 1.0, None
+    for k, (level, on) in enumerate(zip(levels, active, strict=True)):
+        if len(level.d) == 0:
+            continue
+        slack = level.d - level.C @ z
+        rate = level.C @ dz
+        closing = np.flatnonzero(~on & (slack >= -ACTIVATION_TOL) & (rate * alpha > slack))
+        if len(closing):
+            j = closing[np.argmin(slack[closing] / rate[closing])]
+            alpha, blocking = max(0.0, slack[j] / rate[j]), (k, j)
+    if blocking is None:
+        return target, False
+    active[blocking[0]][blocking[1]] = True
+    return z + alpha * dz, True
 
 
 def _project(levels: Sequence[Level], active: Sequence[np.ndarray], n: int) -> np.ndarray:
