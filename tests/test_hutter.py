@@ -226,3 +226,4 @@ def test_half_cylinder_feet_slip_without_normal_alignment() -> None:
     assert vertical["mean_foot_slip_m"] > 0.1
     assert aligned["max_foot_slip_m"] < 0.002
     assert aligned["mean_friction_ratio_measured"] < 0.1
+    assert aligned["max_torque_over_limit_nm"] <= LIMIT_TOL  # 80 N m limits at P2
