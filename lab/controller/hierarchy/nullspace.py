@@ -64,51 +64,59 @@ def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
     """Strict priorities over z ∈ Rⁿ with inequalities activated when violated (§3.1–3.2)."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
     budget = ACTIVE_SET_ITERATIONS_PER_ROW * sum(len(level.d) for level in levels) + 1
-    z = _project(levels, active, n)
-    while budget > 0 and _activate_violated(levels, active, z):  # §3.2
-        z = _project(levels, active, n)
+    entry: list[tuple[np.ndarray, np.ndarray]] = []  # (z, Z) on entering each level
+    z = _project(levels, active, n, entry, 0)
+    while budget > 0 and (k := _activate_violated(levels, active, z)) is not None:  # §3.2
+        z = _project(levels, active, n, entry, k)
         budget -= 1
-    while budget > 0 and _release_one(levels, active, z, n):
+    while budget > 0 and (target := _release_one(levels, active, z, n, entry)) is not None:
         while budget > 0:  # from the feasible z towards the optimum of the new active set
             budget -= 1
-            target = _project(levels, active, n)
-            z, blocked = _step(levels, active, z, target)
-            if not blocked:
+            z, k = _step(levels, active, z, target)
+            if k is None:
                 break
+            target = _project(levels, active, n, entry, k)
     return z
 
 
 def _activate_violated(
     levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray
-) -> bool:
-    """Activate the violated rows of the highest-priority level that has any."""
-    for level, on in zip(levels, active, strict=True):
+) -> int | None:
+    """Activate the violated rows of the highest-priority level that has any; its index."""
+    for k, (level, on) in enumerate(zip(levels, active, strict=True)):
         violated = (level.C @ z - level.d > ACTIVATION_TOL) & ~on
         if np.any(violated):
             on |= violated
-            return True
-    return False
+            return k
+    return None
 
 
 def _release_one(
-    levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray, n: int
-) -> bool:
-    """Release the first active row that the hierarchy solved without it keeps inside its bound."""
-    for level, on in zip(levels, active, strict=True):
+    levels: Sequence[Level],
+    active: Sequence[np.ndarray],
+    z: np.ndarray,
+    n: int,
+    entry: list[tuple[np.ndarray, np.ndarray]],
+) -> np.ndarray | None:
+    """Release the first active row that the hierarchy solved without it keeps inside its bound;
+    the hierarchy's solution without it. Each trial reuses the levels above the row's."""
+    for k, (level, on) in enumerate(zip(levels, active, strict=True)):
         for j in np.flatnonzero(on):
             on[j] = False
-            released = _project(levels, active, n)
+            trial = entry[: k + 1]
+            released = _project(levels, active, n, trial, k)
             if level.C[j] @ released - level.d[j] <= ACTIVATION_TOL:
-                return True
+                entry[:] = trial
+                return released
             on[j] = True
-    return False
+    return None
 
 
 def _step(
     levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray, target: np.ndarray
-) -> tuple[np.ndarray, bool]:
+) -> tuple[np.ndarray, int | None]:
     """Move from z towards target as far as every inactive row z satisfies stays satisfied;
-    activate the row that blocks the move, if one does."""
+    activate the row that blocks the move, if one does, and give its level."""
     dz = target - z
     alpha, blocking = 1.0, None
     for k, (level, on) in enumerate(zip(levels, active, strict=True)):
@@ -121,20 +129,27 @@ def _step(
             j = closing[np.argmin(slack[closing] / rate[closing])]
             alpha, blocking = max(0.0, slack[j] / rate[j]), (k, j)
     if blocking is None:
-        return target, False
+        return target, None
     active[blocking[0]][blocking[1]] = True
-    return z + alpha * dz, True
+    return z + alpha * dz, blocking[0]
 
 
-def _project(levels: Sequence[Level], active: Sequence[np.ndarray], n: int) -> np.ndarray:
-    z = np.zeros(n)
-    Z = np.eye(n)
-    for level, on in zip(levels, active, strict=True):
+def _project(
+    levels: Sequence[Level],
+    active: Sequence[np.ndarray],
+    n: int,
+    entry: list[tuple[np.ndarray, np.ndarray]],
+    first: int,
+) -> np.ndarray:
+    """Solve levels `first`, ... from the (z, Z) recorded on entering `first` (levels above
+    unchanged since), recording each level's entry in `entry` as it goes."""
+    z, Z = (np.zeros(n), np.eye(n)) if first == 0 else entry[first]
+    del entry[first:]
+    for level, on in zip(levels[first:], active[first:], strict=True):
+        entry.append((z, Z))
         for A, b in ((level.C[on], level.d[on]), (level.A, level.b)):
-            if len(b) == 0:
+            if len(b) == 0 or Z.shape[1] == 0:
                 continue
-            if Z.shape[1] == 0:
-                return z
             AZ = A @ Z
             U, s, Vt, info = lapack.dgesdd(AZ, compute_uv=1, full_matrices=1)
             if info != 0:
