@@ -9,7 +9,7 @@ import pytest
 
 from lab.controller import hierarchy
 from lab.controller.qp import QPFailure
-from lab.server.session import Session, SessionConfig
+from lab.server.session import FALL_CONTACT_S, Session, SessionConfig
 
 
 @pytest.fixture(scope="module")
@@ -133,6 +133,22 @@ def test_a_fall_is_detected() -> None:
     run(session, 2.0)
     assert session.fell
     assert any(e["type"] == "fall" for e in session.pop_events())
+
+
+@pytest.mark.parametrize(
+    ("touch_s", "falls"), [(FALL_CONTACT_S - 0.2, False), (FALL_CONTACT_S + 0.1, True)]
+)
+def test_a_shin_on_the_ground_is_a_fall_only_when_it_stays(
+    monkeypatch, touch_s: float, falls: bool
+) -> None:
+    """A stumble (a shin grazing a tile edge) is not a fall; resting on it is (FALL_CONTACT_S)."""
+    session = Session(SessionConfig(robot="anymal"))
+    run(session, 0.1)
+    monkeypatch.setattr(session.plant, "non_foot_ground_contact", lambda: True)
+    run(session, touch_s)
+    monkeypatch.undo()
+    run(session, 0.1)
+    assert session.fell is falls
 
 
 def test_telemetry_is_json_and_physical(session: Session) -> None:

@@ -29,6 +29,9 @@ from lab.server.plant import MujocoPlant
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
 FALL_TILT = 1.0  # rad: fallen when the base tilts further than this from upright
 FALL_CHECK_PERIOD = 10  # ticks between fall checks
+# s: a body other than a foot touching the terrain this long is a fall. Shorter is a stumble: a
+# blind trot over tiles grazes a shin on a tile edge for a stance phase (≤ 0.35 s) and walks on.
+FALL_CONTACT_S = 0.5
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
@@ -104,6 +107,7 @@ class Session:
         self.velocity = np.zeros(3)
         self.paused = False
         self.fell = False
+        self._non_foot_contact_since: float | None = None
         self.ticks = 0
         self.qp_failures = 0
         self.qp_ok = True
@@ -188,10 +192,17 @@ class Session:
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
         tilt = float(np.arccos(np.clip(upright, -1.0, 1.0)))
+        if not self.plant.non_foot_ground_contact():
+            self._non_foot_contact_since = None
+        elif self._non_foot_contact_since is None:
+            self._non_foot_contact_since = self.time
         return (
             height < FALL_HEIGHT_FRACTION * self.robot.q_standing[2]
             or tilt > FALL_TILT
-            or self.plant.non_foot_ground_contact()
+            or (
+                self._non_foot_contact_since is not None
+                and self.time - self._non_foot_contact_since >= FALL_CONTACT_S
+            )
         )
 
     def _expire_pushes(self) -> None:
