@@ -17,11 +17,12 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 from ports import free_port
 
 from lab.client import LabClient
-from lab.server.transport import MAX_PAYLOAD_BYTES
+from lab.server.transport import MAX_PAYLOAD_BYTES, encode
 
 STARTUP_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 2.0
@@ -361,3 +362,10 @@ def test_sigterm_stops_a_fresh_server_within_2s(tmp_path: Path) -> None:
         if srv.process.poll() is None:
             srv.process.kill()
             srv.process.wait()
+
+
+def test_messages_are_json_with_numpy_numbers_and_null_for_non_finite() -> None:
+    message = {"t": np.float64(0.5), "n": np.int64(3), "v": np.arange(2.0), "cop": math.nan}
+    assert json.loads(encode(message)) == {"t": 0.5, "n": 3, "v": [0.0, 1.0], "cop": None}
+    with pytest.raises(TypeError, match="object"):
+        encode({"bad": object()})

@@ -9,6 +9,8 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import msgspec
+import numpy as np
 import zenoh
 
 DEFAULT_PORT = 7447
@@ -21,6 +23,18 @@ MAX_PAYLOAD_BYTES = 64 * 1024
 COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
 
 _NO_SCOUTING = {"multicast": {"enabled": False}, "gossip": {"enabled": False}}
+
+
+def _plain(value: object) -> object:
+    """What msgspec cannot encode itself: numpy scalars and arrays as Python numbers and lists."""
+    if isinstance(value, np.generic | np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot encode {type(value).__name__} as JSON")
+
+
+# msgspec encodes a telemetry message in ~6 µs where json.dumps takes ~75 µs, inside the 1 ms tick
+# that publishes it. Non-finite floats become null (json.dumps would write NaN, which is not JSON).
+encode = msgspec.json.Encoder(enc_hook=_plain).encode
 
 
 def server_config(
@@ -95,20 +109,20 @@ class ServerTransport:
 
     def reply(self, request: Request, body: dict[str, object]) -> None:
         try:
-            request.query.reply(request.query.key_expr, json.dumps(body), express=True)
+            request.query.reply(request.query.key_expr, encode(body), express=True)
         except zenoh.ZError:
             pass  # the querier asked on a key we may not answer (wildcards) or has gone
         finally:
             request.query.drop()
 
     def publish_telemetry(self, message: dict[str, object]) -> None:
-        self._telemetry.put(json.dumps(message))
+        self._telemetry.put(encode(message))
 
     def publish_state(self, message: dict[str, object]) -> None:
-        self._state.put(json.dumps(message))
+        self._state.put(encode(message))
 
     def publish_event(self, message: dict[str, object]) -> None:
-        self._events.put(json.dumps(message))
+        self._events.put(encode(message))
 
     def close(self) -> None:
         for entity in (self._queryable, self._telemetry, self._state, self._events):
