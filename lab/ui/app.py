@@ -295,10 +295,16 @@ class LabApp:
         next_frame = time.monotonic()
         while not stop.is_set():
             now = time.monotonic()
-            tel = self._take_telemetry()
+            tel = self._take_telemetry()  # plots keep recording while nobody watches
             state = self.link.latest_state()
-            if state is not None:
+            # With no browser connected only a robot switch is drawn: the UI then costs the
+            # machine almost nothing, and the sim loop beside it keeps its schedule.
+            watched = bool(self.server.get_clients())
+            if state is not None and (watched or state["robot"] != self._robot_name):
                 self._draw_state(state)
+            if not watched:
+                stop.wait(FRAME_S)
+                continue
             if tel is not None and self.overlays is not None and now - last_overlay >= OVERLAY_S:
                 last_overlay = now
                 if (tel["scene"], tel["robot"]) != (self._scene_name, self._robot_name) and (
