@@ -295,12 +295,12 @@ class MujocoPlant:
         self.base_body_id = m.joint("root_joint").bodyid[0]
         self.contact_site_ids = np.array([m.site(c.name).id for c in robot.contacts])
         self.foot_geom_ids = np.array([m.geom(c.name).id for c in robot.contacts])
-        self._foot_of_geom = np.full(m.ngeom, -1)
-        self._foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
+        foot_of_geom = np.full(m.ngeom, -1)
+        foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
         _shorten_shanks(m, self.foot_geom_ids)
-        self._terrain = m.geom_bodyid == 0
-        self._terrain_list = self._terrain.tolist()  # the same, for per-contact Python loops
-        self._foot_of_geom_list = self._foot_of_geom.tolist()
+        # Per geom, as lists for the per-contact loops: is it terrain, which foot is it (or −1).
+        self._terrain_list = (m.geom_bodyid == 0).tolist()
+        self._foot_of_geom_list = foot_of_geom.tolist()
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
         self._rotation = np.zeros(9)
@@ -420,35 +420,35 @@ class MujocoPlant:
         self.mj_data.xfrc_applied[:] = 0.0
         self._point_pushes.clear()
 
-    def _ground_contacts(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per contact of the last step: (robot geom, is it against terrain)."""
-        geoms = self.mj_data.contact.geom[: self.mj_data.ncon]
-        terrain = self._terrain[geoms]
-        robot_geom = np.where(terrain[:, 0], geoms[:, 1], geoms[:, 0])
-        return robot_geom, terrain[:, 0] | terrain[:, 1]
+    def _terrain_contacts(self) -> list[tuple[int, int, int, float]]:
+        """(contact, foot or −1, first constraint row or −1, sign) of each contact of the last step
+        between the robot and the terrain. The sign is +1 where the robot's geom is geom2: the
+        contact force acts from geom1 onto geom2. A plain loop: a step has a handful of
+        contacts, fewer than the numpy calls that would replace it cost."""
+        d = self.mj_data
+        terrain, foot_of = self._terrain_list, self._foot_of_geom_list
+        geoms, rows = d.contact.geom[: d.ncon].tolist(), d.contact.efc_address[: d.ncon].tolist()
+        found = []
+        for i, ((g1, g2), row) in enumerate(zip(geoms, rows, strict=True)):
+            if terrain[g1] != terrain[g2]:  # one side is the robot
+                robot_geom, sign = (g2, 1.0) if terrain[g1] else (g1, -1.0)
+                found.append((i, foot_of[robot_geom], row, sign))
+        return found
 
     def non_foot_ground_contact(self) -> bool:
         """Does any robot geom other than the feet touch the terrain?"""
-        robot_geom, on_terrain = self._ground_contacts()
-        return bool(np.any(on_terrain & (self._foot_of_geom[robot_geom] < 0)))
+        return any(foot < 0 for _, foot, _, _ in self._terrain_contacts())
 
     def feet_touching(self, min_normal_force: float) -> np.ndarray:
         """Which feet press on the terrain with a normal force above `min_normal_force` (N).
 
         The touch sensor of haptic touchdown: cheaper than `foot_forces`, it reads only each
-        contact's normal force (the first constraint force of an elliptic-cone contact). A plain
-        loop: a step has a handful of contacts, fewer than numpy calls would cost.
+        contact's normal force (the first constraint force of an elliptic-cone contact).
         """
-        d = self.mj_data
-        contact, efc_force = d.contact, d.efc_force
+        efc_force = self.mj_data.efc_force
         touching = np.zeros(len(self._forces), dtype=bool)
-        n = d.ncon
-        terrain, foot_of = self._terrain_list, self._foot_of_geom_list
-        geoms, rows = contact.geom[:n].tolist(), contact.efc_address[:n].tolist()
-        for (g1, g2), row in zip(geoms, rows, strict=True):
-            foot = foot_of[g2 if terrain[g1] else g1]
-            on_terrain = terrain[g1] or terrain[g2]
-            if on_terrain and foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
+        for _, foot, row, _ in self._terrain_contacts():
+            if foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
                 touching[foot] = True
         return touching
 
@@ -461,17 +461,13 @@ class MujocoPlant:
             return self._forces.copy()
         self._forces_step = self._steps
         self._forces[:] = 0.0
-        contact = self.mj_data.contact
-        robot_geom, on_terrain = self._ground_contacts()
-        foot = self._foot_of_geom[robot_geom]
-        rows = contact.efc_address[: len(foot)]
-        (i,) = np.nonzero(on_terrain & (foot >= 0) & (rows >= 0))
-        if len(i):
+        on_feet = [c for c in self._terrain_contacts() if c[1] >= 0 and c[2] >= 0]
+        if on_feet:
+            i, foot, row, sign = (np.array(column) for column in zip(*on_feet, strict=True))
             # Elliptic cones: a contact's first three constraint forces are its normal and two
             # tangential components in the contact frame, whose rows are the frame's axes.
-            local = self.mj_data.efc_force[rows[i, None] + np.arange(3)]
-            world = np.einsum("kij,ki->kj", contact.frame[i].reshape(-1, 3, 3), local)
-            # the contact force acts from geom1 onto geom2 (along the normal, frame row 0)
-            sign = np.where(contact.geom[i, 1] == robot_geom[i], 1.0, -1.0)
-            np.add.at(self._forces, foot[i], sign[:, None] * world)
+            local = self.mj_data.efc_force[row[:, None] + np.arange(3)]
+            frames = self.mj_data.contact.frame[i].reshape(-1, 3, 3)
+            world = np.einsum("kij,ki->kj", frames, local)
+            np.add.at(self._forces, foot, sign[:, None] * world)
         return self._forces.copy()
