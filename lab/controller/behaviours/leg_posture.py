@@ -53,12 +53,17 @@ class LegPostureReference:
 
     def __init__(self, robot: RobotModel, q_joints: np.ndarray) -> None:
         self.joints = leg_joints(robot)
+        if len({len(j) for j in self.joints}) != 1:
+            raise ValueError("leg posture references need legs with equally many joints")
         self.position = q_joints.copy()
         self.velocity = np.zeros_like(q_joints)
         self.radius = np.array([contact.radius for contact in robot.contacts])
         self._rotations = robot.contact_rotations.copy()  # the feet's orientations last tick
-        self._gram = np.zeros((len(self.joints), 3, 3))  # J Jᵀ + damping of every leg
-        self._rate = np.zeros((len(self.joints), 3, 1))  # ṙ_d of every leg
+        # Every leg's 3 × k block of the contact Jacobian in one gather: rows of its contact,
+        # columns of its joints.
+        self._legs = np.array(self.joints)  # (legs, k) joint indices
+        self._rows = np.array([np.arange(s.start, s.stop) for s in robot.force_slices])[:, :, None]
+        self._columns = BASE_DOF + self._legs[:, None, :]
 
     def restart(self, robot: RobotModel, leg: int, carry_from: list[int]) -> None:
         """Restart leg's integration from its measured joints (at lift-off and touchdown). At
@@ -95,26 +100,22 @@ class LegPostureReference:
         unused), `base_*` the commanded base twist (world), `height_error` ΔH_z of eq. 32."""
         base = robot.base_position
         turn = pin.skew(base_angular_velocity)
-        jacobians = []
-        for i, j in enumerate(self.joints):
-            J = robot.Jc[robot.force_slices[i], BASE_DOF + j]
-            jacobians.append(J)
-            self._gram[i] = J @ J.T + _DAMPING_3
-            rate = self._rate[i, :, 0]
-            if stance[i]:
-                rate[:] = -(base_velocity + turn @ (robot.contact_positions[i] - base))
-                rate[2] -= CLIK_GAIN * height_error  # P ΔH_bl, eq. 31
-                if dt > 0.0:  # the sphere's rolling, ω_f × ρ ẑ
-                    rotation = pin.log3(robot.contact_rotations[i] @ self._rotations[i].T)
-                    rate[0] += self.radius[i] * rotation[1] / dt
-                    rate[1] -= self.radius[i] * rotation[0] / dt
-            else:
-                r_d = foot_position[i] - base
-                r = robot.contact_positions[i] - base
-                rate[:] = foot_velocity[i] - base_velocity - turn @ r_d + CLIK_GAIN * (r_d - r)
+        r = robot.contact_positions - base
+        # A stance foot moves against the commanded base twist, and by P ΔH_bl (eq. 31) ...
+        rate = -(base_velocity + r @ turn.T)
+        rate[:, 2] -= CLIK_GAIN * height_error
+        stance = np.asarray(stance)
+        if dt > 0.0:  # ... plus the sphere's rolling, ω_f × ρ ẑ
+            for i in np.flatnonzero(stance):
+                rotation = pin.log3(robot.contact_rotations[i] @ self._rotations[i].T)
+                rate[i, :2] += self.radius[i] / dt * np.array([rotation[1], -rotation[0]])
+        # A swinging foot tracks its swing trajectory relative to the base (eq. 30).
+        r_d = foot_position - base
+        swing = foot_velocity - base_velocity - r_d @ turn.T + CLIK_GAIN * (r_d - r)
+        rate = np.where(stance[:, None], rate, swing)
         self._rotations[:] = robot.contact_rotations
-        solved = np.linalg.solve(self._gram, self._rate)  # every leg's damped J⁻¹ at once
-        for i, (j, J) in enumerate(zip(self.joints, jacobians, strict=True)):
-            q_dot = J.T @ solved[i, :, 0]
-            self.velocity[j] = q_dot
-            self.position[j] += dt * q_dot
+        J = robot.Jc[self._rows, self._columns]  # (legs, 3, k)
+        gram = J @ J.transpose(0, 2, 1) + _DAMPING_3
+        q_dot = (J.transpose(0, 2, 1) @ np.linalg.solve(gram, rate[:, :, None]))[:, :, 0]
+        self.velocity[self._legs] = q_dot
+        self.position[self._legs] += dt * q_dot
