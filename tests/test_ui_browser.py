@@ -101,12 +101,18 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
     page.get_by_text("RTF").wait_for()  # status line from live telemetry
 
 
-def test_push_button_moves_the_base_in_the_pushed_direction(page, lab: LabClient) -> None:
+def test_push_button_moves_the_base_in_the_pushed_direction(
+    page, lab: LabClient, serve: LabServe
+) -> None:
     tel = lab.wait_telemetry(lambda m: not m["fell"], timeout=5.0)
     yaw_ok = abs(tel["base"]["quaternion"][2]) < 0.1  # heading ~ world x: "left" is world +y
     assert yaw_ok, tel["base"]["quaternion"]
     page.get_by_role("button", name="left", exact=True).click(no_wait_after=True)
-    peak = lab.wait_telemetry(lambda m: m["base"]["linear_velocity"][1] > 0.1, timeout=10.0)
+    try:
+        peak = lab.wait_telemetry(lambda m: m["base"]["linear_velocity"][1] > 0.1, timeout=10.0)
+    except TimeoutError as error:  # seen once in ten runs: keep what the page and server saw
+        page.screenshot(path=str(serve.log.with_name("push_timeout.png")))
+        raise AssertionError(f"no push arrived; lab serve said:\n{serve.output()}") from error
     vx, vy, _ = peak["base"]["linear_velocity"]
     assert vy > 0.1 and vy > abs(vx), peak["base"]["linear_velocity"]
 

@@ -128,6 +128,7 @@ class LabApp:
 
     def notify_error(self, client: viser.ClientHandle, verb: str, error: str) -> None:
         self._last_error = f"{verb}: {error}"
+        print(f"lab ui: {verb} from browser {client.client_id} not applied: {error}", flush=True)
         client.add_notification(
             f"Rejected: {verb}", error, color="red", auto_close_seconds=6.0, with_close_button=True
         )
