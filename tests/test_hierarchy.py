@@ -5,7 +5,7 @@ import pytest
 
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
 from lab.controller.hierarchy.cascade import solve_cascade
-from lab.controller.hierarchy.linalg import least_squares_and_null_space
+from lab.controller.hierarchy.linalg import least_squares_and_null_space, least_squares_step
 from lab.controller.hierarchy.weighted import solve_weighted
 
 NX = 24
@@ -172,3 +172,21 @@ def test_one_qr_gives_the_minimum_norm_least_squares_step_and_the_null_space(
     assert N.shape == (cols, cols - rank)
     assert np.allclose(A @ N, 0.0, atol=EQUALITY_TOL)
     assert np.allclose(N.T @ N, np.eye(cols - rank), atol=EQUALITY_TOL)
+
+
+@pytest.mark.parametrize(("rows", "rank"), [(12, 12), (24, 10), (5, 3), (6, 0)])
+def test_a_least_squares_step_moves_x_and_shrinks_the_null_space_like_the_explicit_qr(
+    rows: int, rank: int
+) -> None:
+    rng = np.random.default_rng(rows + rank)
+    Z = np.linalg.qr(rng.standard_normal((NX, 14)))[0] @ rng.standard_normal((14, 14))
+    x = rng.standard_normal(NX)
+    A = rng.standard_normal((rows, rank)) @ rng.standard_normal((rank, NX))
+    b = rng.standard_normal(rows)
+    Z_next, x_next = least_squares_step(Z, x, A, b)
+    u, N = least_squares_and_null_space(A @ Z, b - A @ x)
+    assert np.allclose(x_next, x + Z @ u, atol=EQUALITY_TOL)
+    assert Z_next.shape == (Z @ N).shape
+    # The same subspace: each basis lies in the span of the other.
+    assert np.allclose(Z_next @ np.linalg.lstsq(Z_next, Z @ N, rcond=None)[0], Z @ N)
+    assert np.allclose(A @ Z_next, 0.0, atol=EQUALITY_TOL)

@@ -23,6 +23,7 @@ import numpy as np
 
 from lab.controller.hierarchy.linalg import (
     least_squares_and_null_space,
+    least_squares_step,
     solution_and_null_space_of_leading_block,
 )
 from lab.controller.hierarchy.problem import HierarchyProblem
@@ -49,41 +50,29 @@ def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray
     return _with_inequalities(problem, solver)
 
 
-def _dynamics_solution(problem: HierarchyProblem) -> np.ndarray:
-    """[Z | x] of level 0: the Newton–Euler rows, with no force on a contact out of support."""
+def _dynamics_solution(problem: HierarchyProblem) -> tuple[np.ndarray, np.ndarray]:
+    """Z and x of level 0: the Newton–Euler rows, with no force on a contact out of support."""
     Zx = solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b)
+    Z, x = Zx[:, :-1], Zx[:, -1]
     if problem.terms is None or problem.terms.support.all():
-        return Zx
-    # Z's columns past the base are the joint accelerations, then the forces, then x.
-    nj = Zx.shape[1] - 1 - len(problem.terms.support)
-    keep = np.concatenate((np.ones(nj, dtype=bool), problem.terms.support, [True]))
-    return Zx[:, keep]
+        return Z, x
+    # Z's columns past the base are the joint accelerations, then the forces.
+    nj = Z.shape[1] - len(problem.terms.support)
+    return Z[:, np.concatenate((np.ones(nj, dtype=bool), problem.terms.support))], x
 
 
 def _equalities_only(problem: HierarchyProblem) -> np.ndarray:
     """The cascade of the equality rows alone: one least squares and null space per level."""
-    # Zx = [Z | x]: one product carries the null-space basis and the solution to the next level.
-    Zx = _dynamics_solution(problem)
-    levels = [level for level in problem.levels if len(level.b)]
-    for i, level in enumerate(levels):
-        if Zx.shape[1] == 1:
-            break
-        projected = level.A @ Zx
-        u, N = least_squares_and_null_space(projected[:, :-1], level.b - projected[:, -1])
-        if i == len(levels) - 1:
-            return Zx[:, -1] + Zx[:, :-1] @ u
-        step = np.zeros((len(u) + 1, N.shape[1] + 1))  # [Z | x] ← [Z N | x + Z u]
-        step[:-1, :-1] = N
-        step[:-1, -1] = u
-        step[-1, -1] = 1.0
-        Zx = Zx @ step
-    return Zx[:, -1]
+    Z, x = _dynamics_solution(problem)
+    for level in problem.levels:
+        if len(level.b) and Z.shape[1]:
+            Z, x = least_squares_step(Z, x, level.A, level.b)
+    return x
 
 
 def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
     """The cascade of eqs. 9–11, one QP per level where an inequality binds."""
-    Zx = _dynamics_solution(problem)
-    Z, x = Zx[:, :-1], Zx[:, -1]
+    Z, x = _dynamics_solution(problem)
     # Inequalities of the levels above, in the current null-space coordinates: K u ≤ k keeps
     # each of them within the slack its level reached (eq. 9). k ≥ 0 always holds, so u = 0 is
     # feasible for every level whatever the solver tolerance of the levels before.

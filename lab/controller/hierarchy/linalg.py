@@ -77,6 +77,37 @@ def least_squares_and_null_space(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarr
     return Q[:, :rank] @ y, Q[:, rank:]
 
 
+def least_squares_step(
+    Z: np.ndarray, x: np.ndarray, A: np.ndarray, b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """One equality level of the cascade: x + Z u and Z N, without forming Q or N.
+
+    u and N are those of `least_squares_and_null_space(A Z, b − A x)`. With A Z = Π R₁ᵀ Q₁ᵀ,
+    u = Q₁ y and N = Q₂, so x + Z u = x + (Z Q)₁ y and Z N = (Z Q)₂: one `dormqr` applies the
+    reflectors to Z directly (Herzog eq. 8 for the new basis).
+    """
+    AZ, r = A @ Z, b - A @ x
+    m, nz = AZ.shape
+    qr, pivots, tau, _, info = lapack.dgeqp3(AZ.T)
+    diagonal = np.abs(qr.diagonal())
+    rank = int(np.count_nonzero(diagonal > RANK_RTOL * max(1.0, diagonal[0])))
+    if rank == 0:
+        return Z, x
+    ZQ, _, info_q = lapack.dormqr("R", "N", qr[:, : min(m, nz)], tau, Z, _WORK_PER_ROW * len(Z))
+    rhs = r[pivots - 1]  # Πᵀ (b − A x)
+    if rank == m:  # R₁ᵀ is square and lower triangular (dtrtrs reads only R's upper triangle)
+        y, info_y = lapack.dtrtrs(qr, rhs, trans=1)
+    else:  # more rows than freedom: least squares of the full-column-rank R₁ᵀ
+        _, y, info_y = lapack.dgels(qr[:rank, :m].T * _lower(m, rank), rhs)
+        y = y[:rank]
+    if info or info_q or info_y:
+        raise SingularSystem("the QR least squares of a level's rows failed")
+    return ZQ[:, rank:], x + ZQ[:, :rank] @ y
+
+
+_WORK_PER_ROW = 64  # dormqr's workspace: a block of reflectors per row of Z
+
+
 @cache
 def _lower(m: int, n: int) -> np.ndarray:
     """Mask of the lower trapezoid of an m × n matrix (read-only, shared)."""
