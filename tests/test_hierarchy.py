@@ -1,11 +1,14 @@
 """Hierarchy solvers on randomized problems: strict priority, dynamics, inequalities, backends."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
 from lab.controller.hierarchy.cascade import solve_cascade
 from lab.controller.hierarchy.linalg import least_squares_and_null_space, least_squares_step
+from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.hierarchy.weighted import solve_weighted
 
 NX = 24
@@ -190,3 +193,22 @@ def test_a_least_squares_step_moves_x_and_shrinks_the_null_space_like_the_explic
     # The same subspace: each basis lies in the span of the other.
     assert np.allclose(Z_next @ np.linalg.lstsq(Z_next, Z @ N, rcond=None)[0], Z @ N)
     assert np.allclose(A @ Z_next, 0.0, atol=EQUALITY_TOL)
+
+
+def test_a_level_without_freedom_keeps_the_solution_above() -> None:
+    """A pushed Talos, saved from a run: the carried bounds leave the posture level a feasible set
+    of ~1e-9 about u = 0 (16 tight rows in a 14-dimensional null space), which DAQP reports
+    infeasible. The cascade must still return the solution of the levels above."""
+    data = np.load(Path(__file__).parent / "data" / "talos_pushed_problem.npz")
+    count = sum(name.startswith("level") and name.endswith("_A") for name in data.files)
+    levels = [Level(*(data[f"level{i}_{k}"] for k in "AbCd")) for i in range(count)]
+    terms = DynamicsTerms(data["M"], data["h"], data["Jc"], data["support"])
+    problem = HierarchyProblem(data["dynamics_A"], data["dynamics_b"], levels, terms)
+    above = HierarchyProblem(problem.dynamics_A, problem.dynamics_b, levels[:-1], terms)
+    x, x_above = solve_cascade(problem), solve_cascade(above)
+    assert np.abs(problem.dynamics_A @ x - problem.dynamics_b).max() < EQUALITY_TOL
+    # The limits of level 0 hold as well as they can (the push leaves them a slack of ~1e-6).
+    slack = (levels[0].C @ x_above - levels[0].d).max()
+    assert (levels[0].C @ x - levels[0].d).max() <= max(slack, 0.0) + SOLVER_TOL
+    for level in levels[1:-1]:
+        assert residual(level, x) == pytest.approx(residual(level, x_above), rel=1e-6)

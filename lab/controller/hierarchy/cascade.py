@@ -41,7 +41,8 @@ ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped f
 
 
 def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
-    """The strict-priority solution x = [q̈, F]; raises QPFailure when a level has none."""
+    """The strict-priority solution x = [q̈, F]. Every level is feasible (u = 0 keeps the levels
+    above), so a level whose QP the solver fails keeps the solution of the levels above."""
     x = _equalities_only(problem)
     if all(
         (level.C @ x <= level.d + FEASIBILITY_TOL).all() for level in problem.levels if len(level.d)
@@ -135,8 +136,16 @@ def _solve_level(
     try:
         return solve_qp(*_level_cost(Az, r, Z, x, m, REGULARIZATION), G, h, solver=solver)[:nz]
     except QPFailure:
+        pass
+    try:
         cost = _level_cost(Az, r, Z, x, m, RETRY_REGULARIZATION)
         return solve_qp(*cost, G, h, solver=solver)[:nz]
+    except QPFailure:
+        # u = 0 is feasible by construction, so this is the solver failing, not the level. Seen
+        # when the carried bounds leave the level no freedom (a feasible set of 1e-9 about u = 0,
+        # more tight rows than directions): DAQP then reports it infeasible. The level keeps the
+        # solution of the levels above.
+        return np.zeros(nz)
 
 
 def _level_cost(
