@@ -5,11 +5,13 @@ keeps the slack it reached for every level below (Herzog eqs. 9–11).
 """
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
+from lab.controller.tasks import PerContactSet, read_only
 
 
 @dataclass
@@ -98,10 +100,18 @@ class CopConstraint(Constraint):
 
     name = "cop"
 
+    def __init__(self) -> None:
+        # The rows depend only on which feet are active: built once per contact set.
+        self._rows = PerContactSet(self._build)
+
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        return self._rows.get(robot, refs.contact_active)
+
+    @staticmethod
+    def _build(robot: RobotModel, contact_active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         blocks = []
         for contact, rows, active in zip(
-            robot.contacts, robot.force_slices, refs.contact_active, strict=True
+            robot.contacts, robot.force_slices, contact_active, strict=True
         ):
             if contact.kind != "flat" or not active:
                 continue
@@ -113,29 +123,42 @@ class CopConstraint(Constraint):
                 C[2 * k, col + torque_axis], C[2 * k, col + 2] = 1.0, -half
                 C[2 * k + 1, col + torque_axis], C[2 * k + 1, col + 2] = -1.0, -half
             blocks.append(C)
-        if not blocks:
-            return _rows(0, robot)
-        C = np.concatenate(blocks)
-        return C, np.zeros(len(C))
+        C = np.concatenate(blocks) if blocks else np.zeros((0, robot.nx))
+        d = np.zeros(len(C))
+        C.flags.writeable = d.flags.writeable = False
+        return C, d
 
 
 class TorqueLimitConstraint(Constraint):
-    """|τ| ≤ τ_max through τ = M_a q̈ + h_a − J_aᵀ F (Herzog eqs. 14, 16)."""
+    """|τ| ≤ τ_max through τ = M_a q̈ + h_a − J_aᵀ F (Herzog eqs. 14, 16).
+
+    The rows are kept from tick to tick and rewritten in place; the C and d handed out are
+    read-only views, valid until the next `rows` call.
+    """
 
     name = "torque_limits"
 
     def __init__(self, torque_limits: np.ndarray) -> None:
         self.torque_limits = np.asarray(torque_limits, dtype=float)
+        self._robot: RobotModel | None = None
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        if robot is not self._robot:
+            self._allocate(robot)
         nv, na = robot.nv, robot.na
-        C = np.empty((2 * na, robot.nx))
-        tau = C[:na]  # the rows of τ over x = [q̈, F]
+        tau = self._C[:na]  # the rows of τ over x = [q̈, F]
         tau[:, :nv] = robot.M[BASE_DOF:]
         np.negative(robot.Jc[:, BASE_DOF:].T, out=tau[:, nv:])
-        np.negative(tau, out=C[na:])
+        np.negative(tau, out=self._C[na:])
         h = robot.h[BASE_DOF:]
-        return C, np.concatenate((self.torque_limits - h, self.torque_limits + h))
+        np.subtract(self.torque_limits, h, out=self._d[:na])
+        np.add(self.torque_limits, h, out=self._d[na:])
+        return self._views
+
+    def _allocate(self, robot: RobotModel) -> None:
+        self._robot = robot
+        self._C, self._d = np.empty((2 * robot.na, robot.nx)), np.empty(2 * robot.na)
+        self._views = read_only(self._C), read_only(self._d)
 
 
 class JointLimitConstraint(Constraint):
@@ -154,10 +177,16 @@ class JointLimitConstraint(Constraint):
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         T = self.horizon
         q, dq = robot.q[7:], robot.v[BASE_DOF:]
-        C, _ = _rows(2 * robot.na, robot)
-        eye = np.eye(robot.na)
-        C[: robot.na, BASE_DOF : robot.nv] = eye
-        C[robot.na :, BASE_DOF : robot.nv] = -eye
         upper = 2.0 * (self.upper - q - dq * T) / T**2
         lower = 2.0 * (self.lower - q - dq * T) / T**2
-        return C, np.concatenate([upper, -lower])
+        return _joint_bounds(robot.nx, robot.na), np.concatenate([upper, -lower])
+
+
+@cache
+def _joint_bounds(nx: int, na: int) -> np.ndarray:
+    """Rows [I; −I] on the joint accelerations (read-only: shared by every tick)."""
+    C = np.zeros((2 * na, nx))
+    C[:na, BASE_DOF : BASE_DOF + na] = np.eye(na)
+    C[na:, BASE_DOF : BASE_DOF + na] = -np.eye(na)
+    C.flags.writeable = False
+    return C

@@ -15,12 +15,8 @@ import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import TASK_TYPES, Task
+from lab.controller.tasks import TASK_TYPES, Task, contact_rows, no_rows, zeros
 from lab.controller.walk_references import WalkReferences, surface_normals
-
-
-def _no_rows(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
-    return np.zeros((0, robot.nx)), np.zeros(0)
 
 
 class TorqueTask(Task):
@@ -30,9 +26,11 @@ class TorqueTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         a = slice(BASE_DOF, robot.nv)
-        A = np.hstack([robot.M[a], -robot.Jc[:, a].T])
-        self.error = np.zeros(0)
-        return A, -robot.h[a]
+        A, view = self._matrix(robot, robot.na)
+        A[:, : robot.nv] = robot.M[a]
+        np.negative(robot.Jc[:, a].T, out=A[:, robot.nv :])
+        self.error = zeros(0)
+        return view, -robot.h[a]
 
 
 def tangent_basis(normal: np.ndarray) -> np.ndarray:
@@ -63,18 +61,16 @@ class ForceNormalTask(Task):
             A = np.zeros((2, robot.nx))
             A[:, robot.nv + rows.start : robot.nv + rows.start + 3] = tangents
             blocks.append(A)
-        self.error = np.zeros(0)
+        self.error = zeros(0)
         if not blocks:
-            return _no_rows(robot)
+            return no_rows(robot.nx)
         A = np.vstack(blocks)
         return A, np.zeros(len(A))
 
 
 def quasi_static_forces(robot: RobotModel, active: np.ndarray) -> np.ndarray:
     """Minimum-norm forces of the active feet that carry the base: J_uᵀ F = h_u."""
-    columns = np.concatenate(
-        [np.arange(s.start, s.stop) for s, on in zip(robot.force_slices, active, strict=True) if on]
-    )
+    columns = contact_rows(robot, active)
     forces = np.zeros(robot.nf)
     base = robot.Jc[columns, :BASE_DOF].T
     forces[columns] = np.linalg.lstsq(base, robot.h[:BASE_DOF], rcond=None)[0]
@@ -87,22 +83,18 @@ class ForceInterpolationTask(Task):
     name = "force_interpolation"
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        self.error = np.zeros(0)
+        self.error = zeros(0)
         if not isinstance(refs, WalkReferences) or len(refs.force_weight) == 0:
-            return _no_rows(robot)
+            return no_rows(robot.nx)
         changing = np.isfinite(refs.force_weight) & refs.contact_active
         if not np.any(changing):
-            return _no_rows(robot)
+            return no_rows(robot.nx)
         optimal = quasi_static_forces(robot, refs.contact_active)
-        A_rows, b_rows = [], []
-        for rows, w, on in zip(robot.force_slices, refs.force_weight, changing, strict=True):
-            if not on:
-                continue
-            A = np.zeros((rows.stop - rows.start, robot.nx))
-            A[:, robot.nv + rows.start : robot.nv + rows.stop] = np.eye(rows.stop - rows.start)
-            A_rows.append(A)
-            b_rows.append(w * optimal[rows])
-        return np.vstack(A_rows), np.concatenate(b_rows)
+        index = contact_rows(robot, changing)
+        A = np.zeros((len(index), robot.nx))
+        A[np.arange(len(index)), robot.nv + index] = 1.0
+        w = np.repeat(refs.force_weight[changing], robot.force_dims[changing])
+        return A, w * optimal[index]
 
 
 for _task in (TorqueTask, ForceNormalTask, ForceInterpolationTask):

@@ -3,10 +3,17 @@
 A motion task asks an operational-space acceleration `J q̈ + J̇v = a_des` with the PD law
 `a_des = a_ref + kp e + kd ė` (Raiola eqs. 7–9); a force task asks F directly. `error` holds the
 tracking error of the last `rows` call, for telemetry and tests.
+
+Rows are built every tick, so a task keeps its matrix A from tick to tick and rewrites in place
+only the entries that move (zero elsewhere); what depends only on which contacts are active
+(index arrays, row counts) is computed once per contact set. The A a task returns is a read-only
+view, valid until the task's next `rows` call.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
+from typing import Generic, TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -25,12 +32,60 @@ class TaskGains:
 
 
 @cache
-def _selection(nx: int, start: int, stop: int) -> np.ndarray:
+def selection(nx: int, start: int, stop: int) -> np.ndarray:
     """Rows selecting x[start:stop] (read-only: shared by every tick)."""
     A = np.zeros((stop - start, nx))
     A[:, start:stop] = np.eye(stop - start)
     A.flags.writeable = False
     return A
+
+
+@cache
+def zeros(n: int) -> np.ndarray:
+    """n zeros (read-only: shared by every tick)."""
+    z = np.zeros(n)
+    z.flags.writeable = False
+    return z
+
+
+def read_only(a: np.ndarray) -> np.ndarray:
+    """A view of `a` that its readers cannot write (the owner still writes `a` in place)."""
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
+def contact_rows(robot: RobotModel, flags: np.ndarray) -> np.ndarray:
+    """The rows of F (and of Jc) that belong to the contacts flagged in `flags`."""
+    return np.flatnonzero(np.repeat(flags, robot.force_dims))
+
+
+@cache
+def no_rows(nx: int) -> tuple[np.ndarray, np.ndarray]:
+    """No rows at all (read-only: shared by every tick)."""
+    return selection(nx, 0, 0), zeros(0)
+
+
+T = TypeVar("T")
+
+
+class PerContactSet(Generic[T]):
+    """A value built by `build(robot, active)` the first time a set of active contacts occurs,
+    then reused (a quadruped has 16 sets at most, a biped 4)."""
+
+    def __init__(self, build: Callable[[RobotModel, np.ndarray], T]) -> None:
+        self._build = build
+        self._robot: RobotModel | None = None
+        self._values: dict[bytes, T] = {}
+
+    def get(self, robot: RobotModel, active: np.ndarray) -> T:
+        if robot is not self._robot:
+            self._robot, self._values = robot, {}
+        key = active.tobytes()
+        value = self._values.get(key)
+        if value is None:
+            value = self._values[key] = self._build(robot, active)
+        return value
 
 
 class Task:
@@ -41,9 +96,35 @@ class Task:
     def __init__(self, gains: TaskGains | None = None) -> None:
         self.gains = gains or TaskGains()
         self.error = np.zeros(0)
+        self._robot: RobotModel | None = None
+        self._A = self._A_view = np.zeros((0, 0))
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
+
+    def _matrix(self, robot: RobotModel, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The task's n rows over x (zero until written) and a read-only view to hand out, for
+        a task with a fixed number of rows: allocated on its first tick, then reused."""
+        if robot is not self._robot:
+            self._robot = robot
+            self._A = np.zeros((n, robot.nx))
+            self._A_view = read_only(self._A)
+        return self._A, self._A_view
+
+
+@dataclass(frozen=True)
+class SupportRows:
+    """The rows of Jc of the contacts in support, and the contact task's matrix for them."""
+
+    index: np.ndarray
+    A: np.ndarray  # (len(index), nx): J_c in the first nv columns, zero under F
+    view: np.ndarray  # read-only A
+
+    @classmethod
+    def of(cls, robot: RobotModel, active: np.ndarray) -> "SupportRows":
+        index = contact_rows(robot, active)
+        A = np.zeros((len(index), robot.nx))
+        return cls(index, A, read_only(A))
 
 
 class ContactTask(Task):
@@ -54,17 +135,20 @@ class ContactTask(Task):
 
     name = "contact"
 
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self._support = PerContactSet(SupportRows.of)
+
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        support = robot.support_rows(refs.contact_active)
-        J = robot.Jc[support]
+        support = self._support.get(robot, refs.contact_active)
+        J = support.A[:, : robot.nv]
+        J[:] = robot.Jc.take(support.index, axis=0)
         velocity = J @ robot.v
-        A = np.zeros((len(J), robot.nx))
-        A[:, : robot.nv] = J
-        b = -robot.Jc_dot_v[support]
+        b = -robot.Jc_dot_v[support.index]
         if self.gains.kd:
             b -= self.gains.kd * velocity
         self.error = velocity
-        return A, b
+        return support.view, b
 
 
 class BaseOrientationTask(Task):
@@ -79,10 +163,10 @@ class BaseOrientationTask(Task):
         R = robot.base_rotation
         e = pin.log3(refs.base_rotation @ R.T)
         de = refs.base_angular_velocity - robot.base_angular_velocity_world
-        A = np.zeros((3, robot.nx))
+        A, view = self._matrix(robot, 3)
         A[:, 3:6] = R
         self.error = e
-        return A, self.gains.kp * e + self.gains.kd * de
+        return view, self.gains.kp * e + self.gains.kd * de
 
 
 class ComTask(Task):
@@ -93,10 +177,10 @@ class ComTask(Task):
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         e = refs.com - robot.com
         de = refs.com_velocity - robot.com_velocity
-        A = np.zeros((3, robot.nx))
+        A, view = self._matrix(robot, 3)
         A[:, : robot.nv] = robot.Jcom
         self.error = e
-        return A, self.gains.kp * e + self.gains.kd * de - robot.com_drift
+        return view, self.gains.kp * e + self.gains.kd * de - robot.com_drift
 
 
 class BaseHeightTask(Task):
@@ -112,11 +196,11 @@ class BaseHeightTask(Task):
         v_lin, w = robot.v[:3], robot.v[3:6]
         e = refs.base_height - robot.base_position[2]
         de = -(R @ v_lin)[2]
-        A = np.zeros((1, robot.nx))
+        A, view = self._matrix(robot, 1)
         A[0, :3] = R[2]
         drift = (R @ np.cross(w, v_lin))[2]
         self.error = np.array([e])
-        return A, np.array([self.gains.kp * e + self.gains.kd * de - drift])
+        return view, np.array([self.gains.kp * e + self.gains.kd * de - drift])
 
 
 class PostureTask(Task):
@@ -128,7 +212,7 @@ class PostureTask(Task):
         e = refs.posture - robot.q[7:]
         self.error = e
         b = self.gains.kp * e - self.gains.kd * robot.v[BASE_DOF:]
-        return _selection(robot.nx, BASE_DOF, robot.nv), b
+        return selection(robot.nx, BASE_DOF, robot.nv), b
 
 
 class ForceTask(Task):
@@ -137,8 +221,8 @@ class ForceTask(Task):
     name = "forces"
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        self.error = np.zeros(0)
-        return _selection(robot.nx, robot.nv, robot.nx), np.zeros(robot.nf)
+        self.error = zeros(0)
+        return selection(robot.nx, robot.nv, robot.nx), zeros(robot.nf)
 
 
 class FrameTask(Task):
@@ -162,10 +246,10 @@ class FrameTask(Task):
         e = pin.log6(current.actInv(self.target)).vector
         velocity = pin.getFrameVelocity(model, data, fid, pin.LOCAL).vector
         drift = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL).vector
-        A = np.zeros((6, robot.nx))
+        A, view = self._matrix(robot, 6)
         A[:, : robot.nv] = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
         self.error = e
-        return A, self.gains.kp * e - self.gains.kd * velocity - drift
+        return view, self.gains.kp * e - self.gains.kd * velocity - drift
 
 
 TASK_TYPES: dict[str, type[Task]] = {

@@ -9,7 +9,7 @@ import pinocchio as pin
 
 from lab.controller.model import RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import TASK_TYPES, Task
+from lab.controller.tasks import TASK_TYPES, Task, selection
 
 
 class RollPitchTask(Task):
@@ -25,10 +25,8 @@ class RollPitchTask(Task):
         R = robot.base_rotation
         e = R.T @ pin.log3(refs.base_rotation @ R.T)
         de = R.T @ refs.base_angular_velocity - robot.v[3:6]
-        A = np.zeros((2, robot.nx))
-        A[0, 3], A[1, 4] = 1.0, 1.0
         self.error = e[:2]
-        return A, self.gains.kp * e[:2] + self.gains.kd * de[:2]
+        return selection(robot.nx, 3, 5), self.gains.kp * e[:2] + self.gains.kd * de[:2]
 
 
 class YawRateTask(Task):
@@ -42,10 +40,10 @@ class YawRateTask(Task):
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         R = robot.base_rotation
         e = refs.base_angular_velocity[2] - robot.base_angular_velocity_world[2]
-        A = np.zeros((1, robot.nx))
+        A, view = self._matrix(robot, 1)
         A[0, 3:6] = R[2]
         self.error = np.array([e])
-        return A, np.array([self.gains.kd * e])
+        return view, np.array([self.gains.kd * e])
 
 
 class PlanarVelocityTask(Task):
@@ -59,10 +57,8 @@ class PlanarVelocityTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         e = robot.base_rotation.T @ refs.base_linear_velocity - robot.v[:3]
-        A = np.zeros((2, robot.nx))
-        A[0, 0], A[1, 1] = 1.0, 1.0
         self.error = e[:2]
-        return A, self.gains.kd * e[:2]
+        return selection(robot.nx, 0, 2), self.gains.kd * e[:2]
 
 
 TASK_TYPES.update({t.name: t for t in (RollPitchTask, YawRateTask, PlanarVelocityTask)})

@@ -16,38 +16,69 @@
   ANYmal's stance normal forces by 207 N in one tick.
 """
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import TASK_TYPES, ComTask, Task, TaskGains
+from lab.controller.tasks import (
+    TASK_TYPES,
+    ComTask,
+    PerContactSet,
+    Task,
+    TaskGains,
+    contact_rows,
+    no_rows,
+    read_only,
+    zeros,
+)
 from lab.controller.walk_references import WalkReferences
+
+
+@dataclass(frozen=True)
+class SwingRows:
+    """The swinging point feet of one contact set, their rows of Jc, and the task's matrix."""
+
+    feet: np.ndarray
+    index: np.ndarray
+    A: np.ndarray  # (len(index), nx): J_i in the first nv columns, zero under F
+    view: np.ndarray  # read-only A
+
+    @classmethod
+    def of(cls, robot: RobotModel, active: np.ndarray) -> "SwingRows":
+        swinging = _swinging(robot, active)
+        index = contact_rows(robot, swinging)
+        A = np.zeros((len(index), robot.nx))
+        return cls(np.flatnonzero(swinging), index, A, read_only(A))
 
 
 class SwingFeetTask(Task):
     name = "swing_feet"
 
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self._swing = PerContactSet(SwingRows.of)
+
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        swinging = _swinging(robot, refs)
-        if not swinging:
-            self.error = np.zeros(0)
-            return np.zeros((0, robot.nx)), np.zeros(0)
-        idx = np.concatenate(
-            [np.arange(robot.force_slices[i].start, robot.force_slices[i].stop) for i in swinging]
-        )
-        J = robot.Jc[idx]
-        e = (refs.foot_position[swinging] - robot.contact_positions[swinging]).ravel()
-        de = refs.foot_velocity[swinging].ravel() - J @ robot.v
-        A = np.zeros((len(idx), robot.nx))
-        A[:, : robot.nv] = J
+        swing = self._swing.get(robot, refs.contact_active) if _has_swing(refs) else None
+        if swing is None or not len(swing.feet):
+            self.error = zeros(0)
+            return no_rows(robot.nx)
+        feet, index = swing.feet, swing.index
+        J = swing.A[:, : robot.nv]
+        J[:] = robot.Jc.take(index, axis=0)
+        e = refs.foot_position.take(feet, axis=0) - robot.contact_positions.take(feet, axis=0)
+        e = e.ravel()
+        de = refs.foot_velocity.take(feet, axis=0).ravel() - J @ robot.v
         b = (
-            refs.foot_acceleration[swinging].ravel()
+            refs.foot_acceleration.take(feet, axis=0).ravel()
             + self.gains.kp * e
             + self.gains.kd * de
-            - robot.Jc_dot_v[idx]
+            - robot.Jc_dot_v[index]
         )
         self.error = e
-        return A, b
+        return swing.view, b
 
 
 class ComXYTask(ComTask):
@@ -67,15 +98,72 @@ def leg_joints(robot: RobotModel) -> list[np.ndarray]:
     ]
 
 
-def _swinging(robot: RobotModel, refs: References) -> list[int]:
-    """Point feet out of contact that have a swing trajectory (the `swing_feet` task's feet)."""
-    if not isinstance(refs, WalkReferences) or not len(refs.foot_position):
-        return []
-    return [
-        i
-        for i, (contact, active) in enumerate(zip(robot.contacts, refs.contact_active, strict=True))
-        if not active and contact.kind == "point"
-    ]
+def _has_swing(refs: References) -> bool:
+    """Whether the references give the feet swing trajectories (walking references do)."""
+    return isinstance(refs, WalkReferences) and len(refs.foot_position) > 0
+
+
+def _swinging(robot: RobotModel, active: np.ndarray) -> np.ndarray:
+    """Flags of the point feet out of contact: the `swing_feet` task's feet when the references
+    have swing trajectories."""
+    point = np.array([contact.kind == "point" for contact in robot.contacts])
+    return point & ~np.asarray(active, dtype=bool)
+
+
+@dataclass(frozen=True)
+class PostureRows:
+    """The rows of the joints whose postural weight is positive, and the task's matrix."""
+
+    joints: np.ndarray
+    columns: np.ndarray  # of q̈_j in x
+    A: np.ndarray  # (len(joints), nx): the weight w_j at column BASE_DOF + j of row j
+    view: np.ndarray  # read-only A
+
+    @classmethod
+    def of(cls, robot: RobotModel, on: np.ndarray) -> "PostureRows":
+        joints = np.flatnonzero(on)
+        A = np.zeros((len(joints), robot.nx))
+        return cls(joints, BASE_DOF + joints, A, read_only(A))
+
+    def write(self, w: np.ndarray) -> None:
+        self.A[np.arange(len(self.joints)), self.columns] = w
+
+
+@dataclass
+class LegWeights:
+    """Where each joint's postural weight comes from under one contact set.
+
+    `weights` holds one slot per leg, then 1 (joints in no leg), then 0 (swinging legs); `slots`
+    picks each joint's slot (the last leg that moves it), `swinging_slots` the same with the
+    joints of the swinging legs on the zero slot.
+    """
+
+    weights: np.ndarray
+    slots: np.ndarray
+    swinging_slots: np.ndarray
+    rows: dict[bytes, PostureRows] = field(default_factory=dict)  # by joints with rows
+
+    @classmethod
+    def of(cls, robot: RobotModel, legs: list[np.ndarray], active: np.ndarray) -> "LegWeights":
+        no_leg, swinging = len(legs), len(legs) + 1
+        weights = np.ones(len(legs) + 2)
+        weights[swinging] = 0.0
+        slots = np.full(robot.na, no_leg)
+        for i, leg in enumerate(legs):
+            slots[leg] = i
+        swinging_slots = slots.copy()
+        for i in np.flatnonzero(_swinging(robot, active)):
+            swinging_slots[legs[i]] = swinging
+        return cls(weights, slots, swinging_slots)
+
+    def rows_of(self, robot: RobotModel, weight: np.ndarray) -> PostureRows:
+        """The rows of the joints with a positive weight (built once per set of such joints)."""
+        on = weight > 0.0
+        key = on.tobytes()
+        rows = self.rows.get(key)
+        if rows is None:
+            rows = self.rows[key] = PostureRows.of(robot, on)
+        return rows
 
 
 class MovingPostureTask(Task):
@@ -84,28 +172,33 @@ class MovingPostureTask(Task):
     def __init__(self, gains: TaskGains | None = None) -> None:
         super().__init__(gains)
         self._legs: list[np.ndarray] | None = None
+        self._weights = PerContactSet(self._leg_weights)
 
-    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+    def _leg_weights(self, robot: RobotModel, active: np.ndarray) -> LegWeights:
         if self._legs is None:
             self._legs = leg_joints(robot)
-        reference_velocity = np.zeros(robot.na)
-        weight = np.ones(robot.na)
+        return LegWeights.of(robot, self._legs, active)
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        legs = self._weights.get(robot, refs.contact_active)
+        n_legs = len(legs.weights) - 2
+        reference_velocity = zeros(robot.na)
+        leg_weight: np.ndarray | float = 1.0
         if isinstance(refs, WalkReferences):
             if len(refs.posture_velocity) == robot.na:
                 reference_velocity = refs.posture_velocity
-            if len(refs.posture_weight) == len(self._legs):
-                for leg, w in zip(self._legs, refs.posture_weight, strict=True):
-                    weight[leg] = w
-        for i in _swinging(robot, refs):
-            weight[self._legs[i]] = 0.0
-        joints = np.flatnonzero(weight > 0.0)
+            if len(refs.posture_weight) == n_legs:
+                leg_weight = refs.posture_weight
+        legs.weights[:n_legs] = leg_weight
+        weight = legs.weights[legs.swinging_slots if _has_swing(refs) else legs.slots]
+        rows = legs.rows_of(robot, weight)
+        joints = rows.joints
         w = weight[joints]
         e = (refs.posture - robot.q[7:])[joints]
         self.error = e
-        A = np.zeros((len(joints), robot.nx))
-        A[np.arange(len(joints)), BASE_DOF + joints] = w
-        de = reference_velocity[joints] - robot.v[BASE_DOF + joints]
-        return A, w * (self.gains.kp * e + self.gains.kd * de)
+        rows.write(w)
+        de = reference_velocity[joints] - robot.v[rows.columns]
+        return rows.view, w * (self.gains.kp * e + self.gains.kd * de)
 
 
 for _task in (SwingFeetTask, ComXYTask, MovingPostureTask):
