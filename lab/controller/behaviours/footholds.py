@@ -14,8 +14,12 @@ at the base), so the base's roll and pitch do not move the footholds (Raiola §3
 - `raibert` (Hutter eq. 62): the hip's predicted position at touchdown, plus half the stance
   travel at the desired velocity (feed-forward), plus k_fb (v_hip − v_hip,d) sqrt(h / g)
   (feedback: a robot moving faster than asked, or pushed, steps further that way).
+
+A query holds one leg (2-vectors, a scalar `swing_left`) or every leg at once (one row per leg):
+the planners broadcast over the rows.
 """
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -23,17 +27,19 @@ import numpy as np
 
 GRAVITY = 9.81
 RAIBERT_GAIN = 1.0  # k_fb of Hutter eq. 62
+QUARTER_TURN = np.array([[0.0, 1.0], [-1.0, 0.0]])  # row vectors: p @ QUARTER_TURN = ẑ × p
 
 
 @dataclass(frozen=True)
 class FootholdQuery:
-    """What a planner needs for one swinging leg, every vector in H axes except `base_xy`.
+    """What a planner needs for the swinging legs, every vector in H axes except `base_xy`.
 
     `hip` is the nominal foot position under the hip (the virtual foothold x_f⁰), relative to
     the base; `velocity` is the commanded base velocity [vx, vy] and `yaw_rate` the commanded
     turning rate; `hip_velocity` the measured velocity of the hip point; `height` the base height
     above the feet; `swing_left` the time until the planned touchdown; `stance_time` and
-    `swing_time` the gait's durations.
+    `swing_time` the gait's durations. `hip`, `hip_velocity` and `swing_left` have a row per leg
+    (or are one leg's).
     """
 
     base_xy: np.ndarray
@@ -43,33 +49,30 @@ class FootholdQuery:
     yaw_rate: float
     hip_velocity: np.ndarray
     height: float
-    swing_left: float
+    swing_left: float | np.ndarray
     stance_time: float
     swing_time: float
 
 
 def _to_world(query: FootholdQuery, xy_h: np.ndarray) -> np.ndarray:
-    c, s = np.cos(query.yaw), np.sin(query.yaw)
-    return query.base_xy + np.array([c * xy_h[0] - s * xy_h[1], s * xy_h[0] + c * xy_h[1]])
-
-
-def _turn(yaw_rate: float, point: np.ndarray) -> np.ndarray:
-    """(ψ̇ ẑ) × point, in the plane."""
-    return yaw_rate * np.array([-point[1], point[0]])
+    c, s = math.cos(query.yaw), math.sin(query.yaw)
+    return query.base_xy + xy_h @ np.array([[c, s], [-s, c]])  # rows turned by the yaw
 
 
 def robocentric(query: FootholdQuery) -> np.ndarray:
     """Raiola eqs. 19–23: x_f⁰ + ΔL_xy0 + ΔL_h0, over half the stance time (see above)."""
-    step = 0.5 * query.stance_time * (query.velocity + _turn(query.yaw_rate, query.hip))
+    turn = query.yaw_rate * (query.hip @ QUARTER_TURN)  # ψ̇ ẑ × x_hip
+    step = 0.5 * query.stance_time * (query.velocity + turn)
     return _to_world(query, query.hip + step)
 
 
 def raibert(query: FootholdQuery) -> np.ndarray:
     """Hutter eq. 62 about the hip's position at touchdown."""
-    desired = query.velocity + _turn(query.yaw_rate, query.hip)
-    hip_at_touchdown = query.hip + query.swing_left * desired
+    desired = query.velocity + query.yaw_rate * (query.hip @ QUARTER_TURN)
+    swing_left = np.asarray(query.swing_left)[..., None]
+    hip_at_touchdown = query.hip + swing_left * desired
     feedforward = 0.5 * query.stance_time * desired
-    feedback = RAIBERT_GAIN * (query.hip_velocity - desired) * np.sqrt(query.height / GRAVITY)
+    feedback = RAIBERT_GAIN * (query.hip_velocity - desired) * math.sqrt(query.height / GRAVITY)
     return _to_world(query, hip_at_touchdown + feedforward + feedback)
 
 

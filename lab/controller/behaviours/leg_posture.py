@@ -89,26 +89,29 @@ class LegPostureReference:
         self,
         robot: RobotModel,
         dt: float,
-        stance: list[bool],
+        stance: np.ndarray,
         foot_position: np.ndarray,
         foot_velocity: np.ndarray,
         base_velocity: np.ndarray,
         base_angular_velocity: np.ndarray,
         height_error: float,
     ) -> None:
-        """Integrate one tick. `foot_*` are the swing references (world; rows of stance legs
-        unused), `base_*` the commanded base twist (world), `height_error` ΔH_z of eq. 32."""
+        """Integrate one tick. `stance` flags the legs in stance, `foot_*` are the swing
+        references (world; rows of stance legs unused), `base_*` the commanded base twist
+        (world), `height_error` ΔH_z of eq. 32."""
         base = robot.base_position
         turn = pin.skew(base_angular_velocity)
         r = robot.contact_positions - base
         # A stance foot moves against the commanded base twist, and by P ΔH_bl (eq. 31) ...
         rate = -(base_velocity + r @ turn.T)
         rate[:, 2] -= CLIK_GAIN * height_error
-        stance = np.asarray(stance)
-        if dt > 0.0:  # ... plus the sphere's rolling, ω_f × ρ ẑ
+        if dt > 0.0:  # ... plus the sphere's rolling, ω_f × ρ ẑ = ρ [ω_y, −ω_x, 0]
+            turned = robot.contact_rotations @ self._rotations.transpose(0, 2, 1)  # ω_f dt
             for i in np.flatnonzero(stance):
-                rotation = pin.log3(robot.contact_rotations[i] @ self._rotations[i].T)
-                rate[i, :2] += self.radius[i] / dt * np.array([rotation[1], -rotation[0]])
+                spin = pin.log3(turned[i])
+                roll = self.radius[i] / dt
+                rate[i, 0] += roll * spin[1]
+                rate[i, 1] -= roll * spin[0]
         # A swinging foot tracks its swing trajectory relative to the base (eq. 30).
         r_d = foot_position - base
         swing = foot_velocity - base_velocity - r_d @ turn.T + CLIK_GAIN * (r_d - r)
@@ -118,4 +121,4 @@ class LegPostureReference:
         gram = J @ J.transpose(0, 2, 1) + _DAMPING_3
         q_dot = (J.transpose(0, 2, 1) @ np.linalg.solve(gram, rate[:, :, None]))[:, :, 0]
         self.velocity[self._legs] = q_dot
-        self.position[self._legs] += dt * q_dot
+        self.position += dt * self.velocity  # joints outside the legs keep q̇_d = 0

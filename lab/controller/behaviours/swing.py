@@ -17,23 +17,27 @@ and the swing task would jerk the stance legs (measured on ANYmal: a 460 N step 
 forces at lift-off; with this time warp no tick changes a normal force by more than 50 N).
 """
 
+import math
+
 import numpy as np
 
 
 def swing_reference(
     start: np.ndarray, target_xy: np.ndarray, height: float, t: float, duration: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Position, velocity and acceleration (world) at time t after lift-off from `start`."""
-    step = target_xy - start[:2]
-    length = float(np.hypot(*step))
-    heading = step / length if length > 1e-9 else np.zeros(2)
-    w = np.pi / duration
+) -> np.ndarray:
+    """Position, velocity and acceleration (world, the rows of a 3 × 3 array) at time t after
+    lift-off from `start`."""
+    x0, y0, z0 = start.tolist()
+    step_x, step_y = target_xy[0] - x0, target_xy[1] - y0
+    length = math.hypot(step_x, step_y)
+    hx, hy = (step_x / length, step_y / length) if length > 1e-9 else (0.0, 0.0)  # heading ψ_s
+    w = math.pi / duration
     if t <= duration:
         u = t / duration
         warped = duration * u**3 * (6.0 - 8.0 * u + 3.0 * u**2)  # t'
         rate = u**2 * (18.0 - 32.0 * u + 15.0 * u**2)  # dt'/dt
         rate_dot = u * (36.0 - 96.0 * u + 60.0 * u**2) / duration  # d²t'/dt²
-        s, c = np.sin(w * warped), np.cos(w * warped)
+        s, c = math.sin(w * warped), math.cos(w * warped)
         x, dx, ddx = 0.5 * length * (1.0 - c), 0.5 * length * w * s, 0.5 * length * w * w * c
         z, dz, ddz = height * s, height * w * c, -height * w * w * s
         ddx, ddz = ddx * rate**2 + dx * rate_dot, ddz * rate**2 + dz * rate_dot
@@ -41,7 +45,10 @@ def swing_reference(
     else:
         x, dx, ddx = length, 0.0, 0.0
         z, dz, ddz = -height * w * (t - duration), -height * w, 0.0
-    position = np.array([*(start[:2] + x * heading), start[2] + z])
-    velocity = np.array([*(dx * heading), dz])
-    acceleration = np.array([*(ddx * heading), ddz])
-    return position, velocity, acceleration
+    return np.array(
+        [
+            [x0 + x * hx, y0 + x * hy, z0 + z],  # position
+            [dx * hx, dx * hy, dz],  # velocity
+            [ddx * hx, ddx * hy, ddz],  # acceleration
+        ]
+    )

@@ -17,6 +17,7 @@ Gait, step height, cycle time and foothold planner can change while walking: a n
 continues from the previous one (`continue_from`), legs in the air finish their step.
 """
 
+import math
 from collections.abc import Callable
 from dataclasses import fields
 
@@ -24,7 +25,12 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import standing_references
-from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
+from lab.controller.behaviours.footholds import (
+    FOOTHOLD_PLANNERS,
+    GRAVITY,
+    QUARTER_TURN,
+    FootholdQuery,
+)
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
 from lab.controller.behaviours.leg_posture import LegPostureReference
 from lab.controller.behaviours.swing import swing_reference
@@ -35,6 +41,7 @@ from lab.controller.walk_references import WalkReferences
 STEP_HEIGHT_FRACTION = 0.15  # default step height, of the base height above the feet
 ACCELERATION_LIMIT = 1.0  # m/s², commanded linear velocity is rate-limited to this
 YAW_ACCELERATION_LIMIT = 2.0  # rad/s², commanded yaw rate likewise
+RATE_LIMITS = (ACCELERATION_LIMIT, ACCELERATION_LIMIT, YAW_ACCELERATION_LIMIT)
 YAW_LEAD_MAX = 0.2  # rad, the yaw reference never leads the measured yaw by more
 HIP_VELOCITY_TIME_CONSTANT = 0.1  # s, low-pass on the measured hip velocity (Raibert feedback)
 UNBOUNDED_LOADS = 5.0  # a fully loaded stance leg may carry this many body weights
@@ -49,8 +56,15 @@ def _roles(hips: np.ndarray) -> tuple[str, ...]:
     return roles
 
 
-def _rate_limit(current: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndarray:
-    return current + np.clip(target - current, -step, step)
+def _rate_limited(current: list[float], target: list[float], steps: list[float]) -> list[float]:
+    """Each value moved towards its target by at most its step."""
+    moves = zip(current, target, steps, strict=True)
+    return [x + min(max(x_t - x, -step), step) for x, x_t, step in moves]
+
+
+def _wrap(angle: float) -> float:
+    """The angle in [-π, π]."""
+    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 class Walking:
@@ -65,6 +79,7 @@ class Walking:
         base = q_standing[:3]
         feet = robot.contact_positions.copy()
         self.hips = (feet - base)[:, :2]
+        self.hip_tangents = self.hips @ QUARTER_TURN  # ẑ × hip
         self.roles = _roles(self.hips)
         self.height = float(base[2] - feet[:, 2].mean())
         self.com_offset = robot.com - base
@@ -79,7 +94,7 @@ class Walking:
         self.t = 0.0
         self.command = np.zeros(3)
         self.yaw_ref = 0.0
-        self.hip_velocity = np.zeros((n, 2))
+        self.measured_twist = (0.0, 0.0, 0.0)  # low-passed base vx, vy (H axes), yaw rate
         self.liftoff = feet
         refs = self.references
         refs.normal_force_max = np.full(n, UNBOUNDED_LOADS * self.full_load)
@@ -130,7 +145,7 @@ class Walking:
         self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, previous.t)
         self.scheduler.take_state(previous.scheduler)
         self.t, self.command, self.yaw_ref = previous.t, previous.command.copy(), previous.yaw_ref
-        self.hip_velocity = previous.hip_velocity.copy()
+        self.measured_twist = previous.measured_twist
         self.liftoff = previous.liftoff.copy()
         self.posture.position[:] = previous.posture.position
         for name in ("step_height", "footholds"):
@@ -142,98 +157,121 @@ class Walking:
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
         R = robot.base_rotation
-        yaw = float(np.arctan2(R[1, 0], R[0, 0]))
+        yaw = math.atan2(R[1, 0], R[0, 0])
         if self.scheduler is None:
             self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, t)
             self.t, self.yaw_ref = t, yaw
         dt = t - self.t
         self.t = t
-        limits = dt * np.array([ACCELERATION_LIMIT, ACCELERATION_LIMIT, YAW_ACCELERATION_LIMIT])
-        self.command = _rate_limit(self.command, np.asarray(command, dtype=float), limits)
-        vx, vy, yaw_rate = self.command
-        lead = np.angle(np.exp(1j * (self.yaw_ref + yaw_rate * dt - yaw)))
-        self.yaw_ref = yaw + float(np.clip(lead, -YAW_LEAD_MAX, YAW_LEAD_MAX))
-        c, s = np.cos(yaw), np.sin(yaw)
-        to_world = np.array([[c, -s], [s, c]])
-        velocity_world = to_world @ np.array([vx, vy])
+        steps = [dt * limit for limit in RATE_LIMITS]
+        vx, vy, yaw_rate = _rate_limited(self.command.tolist(), command.tolist(), steps)
+        self.command[:] = vx, vy, yaw_rate
+        lead = _wrap(self.yaw_ref + yaw_rate * dt - yaw)
+        self.yaw_ref = yaw + min(max(lead, -YAW_LEAD_MAX), YAW_LEAD_MAX)
+        c, s = math.cos(yaw), math.sin(yaw)
 
-        events = self.scheduler.advance(t, touching.tolist())
-        changed = {event.leg for event in events}
-        standing = [
-            i
-            for i, leg in enumerate(self.scheduler.legs)
-            if leg.state is LegState.STANCE and i not in changed
-        ]
-        for event in events:
-            if event.kind == "liftoff":
-                self.liftoff[event.leg] = robot.contact_positions[event.leg]
-            landed = event.kind == "touchdown"
-            self.posture.restart(robot, event.leg, standing if landed else [])
-        self._filter_hip_velocity(robot, to_world, dt)
+        scheduler = self.scheduler
+        legs = scheduler.legs
+        events = scheduler.advance(t, touching.tolist())
+        if events:
+            changed = {event.leg for event in events}
+            standing = [
+                i for i, leg in enumerate(legs) if leg.state is LegState.STANCE and i not in changed
+            ]
+            for event in events:
+                if event.kind == "liftoff":
+                    self.liftoff[event.leg] = robot.contact_positions[event.leg]
+                landed = event.kind == "touchdown"
+                self.posture.restart(robot, event.leg, standing if landed else [])
+        self._filter_twist(robot, c, s, dt)
 
         refs = self.references
-        legs = self.scheduler.legs
-        stance = [i for i, leg in enumerate(legs) if leg.state is LegState.STANCE]
-        if stance:
-            refs.base_height = float(robot.contact_positions[stance, 2].mean() + self.height)
-        planner = FOOTHOLD_PLANNERS[self.footholds]
-        swing_time = self.scheduler.swing_time
-        for i, leg in enumerate(legs):
-            standing = leg.state is LegState.STANCE
-            refs.contact_active[i] = standing
-            load = self.scheduler.load(i, t)  # 0 in the air
-            refs.posture_weight[i] = load  # the leg's postural rows fade with its load
-            if standing:
+        stance = [leg.state is LegState.STANCE for leg in legs]
+        refs.contact_active[:] = stance
+        loads = [scheduler.load(i, t) for i in range(len(legs))]  # 0 in the air
+        refs.posture_weight[:] = loads  # a leg's postural rows fade with its load
+        for i, load in enumerate(loads):
+            if stance[i]:
                 refs.normal_force_max[i] = (
                     load * self.full_load if load < 1.0 else UNBOUNDED_LOADS * self.full_load
                 )
-                continue
-            elapsed = t - leg.since
-            query = FootholdQuery(
-                base_xy=robot.base_position[:2].copy(),
-                yaw=yaw,
-                hip=self.hips[i],
-                velocity=np.array([vx, vy]),
-                yaw_rate=yaw_rate,
-                hip_velocity=self.hip_velocity[i],
-                height=self.height,
-                swing_left=max(leg.swing_duration - elapsed, 0.0),
-                stance_time=self.cycle_time - swing_time,
-                swing_time=swing_time,
-            )
-            p, v, a = swing_reference(
-                self.liftoff[i], planner(query), self.step_height, elapsed, leg.swing_duration
-            )
-            refs.foot_position[i], refs.foot_velocity[i], refs.foot_acceleration[i] = p, v, a
+        feet_z = robot.contact_positions[:, 2].tolist()
+        on_ground = [z for z, standing in zip(feet_z, stance, strict=True) if standing]
+        if on_ground:
+            refs.base_height = sum(on_ground) / len(on_ground) + self.height
+        if not all(stance):
+            self._swing_feet(t, robot, yaw, stance)
 
         refs.base_rotation = pin.rpy.rpyToMatrix(0.0, 0.0, self.yaw_ref)
-        refs.base_angular_velocity = np.array([0.0, 0.0, yaw_rate])
-        refs.base_linear_velocity = np.array([*velocity_world, 0.0])
-        offset = to_world @ self.com_offset[:2]
-        refs.com = np.array([*(robot.base_position[:2] + offset), refs.base_height])
-        refs.com[2] += self.com_offset[2]
-        refs.com_velocity = refs.base_linear_velocity.copy()
+        refs.base_angular_velocity[:] = 0.0, 0.0, yaw_rate
+        refs.base_linear_velocity[:] = c * vx - s * vy, s * vx + c * vy, 0.0
+        x, y, z = robot.base_position.tolist()
+        ox, oy, oz = self.com_offset.tolist()
+        refs.com[:] = x + c * ox - s * oy, y + s * ox + c * oy, refs.base_height + oz
+        refs.com_velocity[:] = refs.base_linear_velocity
         self.posture.update(
             robot,
             dt,
-            [leg.state is LegState.STANCE for leg in legs],
+            refs.contact_active,
             refs.foot_position,
             refs.foot_velocity,
             refs.base_linear_velocity,
             refs.base_angular_velocity,
-            refs.base_height - float(robot.base_position[2]),  # ΔH_z, eq. 32
+            refs.base_height - z,  # ΔH_z, eq. 32
         )
 
-    def _filter_hip_velocity(self, robot: RobotModel, to_world: np.ndarray, dt: float) -> None:
-        """Measured velocity of each hip point (H axes), low-passed for the Raibert feedback."""
-        alpha = dt / (HIP_VELOCITY_TIME_CONSTANT + dt)
-        hips = self.hips @ to_world.T  # world x, y of every hip, relative to the base
-        # v_hip = v_base + ω × r with r = [hip, 0]: the x, y rows of skew(ω) on the x, y of r.
-        velocity = (
-            robot.base_linear_velocity_world[:2]
-            + hips @ pin.skew(robot.base_angular_velocity_world)[:2, :2].T
+    def _swing_feet(self, t: float, robot: RobotModel, yaw: float, stance: list[bool]) -> None:
+        """Foothold and swing references of the legs in the air."""
+        legs = self.scheduler.legs
+        elapsed = [t - leg.since for leg in legs]
+        swing_left = [max(leg.swing_duration - (t - leg.since), 0.0) for leg in legs]
+        swing_time = self.scheduler.swing_time
+        # The footholds of every leg in one batch; the rows of the legs in the air are used.
+        targets = FOOTHOLD_PLANNERS[self.footholds](
+            FootholdQuery(
+                base_xy=robot.base_position[:2],
+                yaw=yaw,
+                hip=self.hips,
+                velocity=self.command[:2],
+                yaw_rate=float(self.command[2]),
+                hip_velocity=self.hip_velocity,
+                height=self.height,
+                swing_left=np.array(swing_left),
+                stance_time=self.cycle_time - swing_time,
+                swing_time=swing_time,
+            )
         )
-        self.hip_velocity += alpha * (velocity @ to_world - self.hip_velocity)
+        refs = self.references
+        for i, leg in enumerate(legs):
+            if not stance[i]:
+                refs.foot_position[i], refs.foot_velocity[i], refs.foot_acceleration[i] = (
+                    swing_reference(
+                        self.liftoff[i],
+                        targets[i],
+                        self.step_height,
+                        elapsed[i],
+                        leg.swing_duration,
+                    )
+                )
+
+    def _filter_twist(self, robot: RobotModel, c: float, s: float, dt: float) -> None:
+        """Low-pass the measured base velocity (H axes; c, s: cosine and sine of the base yaw)
+        and yaw rate, for the Raibert feedback."""
+        alpha = dt / (HIP_VELOCITY_TIME_CONSTANT + dt)
+        vx, vy, _ = robot.base_linear_velocity_world.tolist()
+        spin = float(robot.base_angular_velocity_world[2])
+        measured = (c * vx + s * vy, c * vy - s * vx, spin)
+        self.measured_twist = tuple(
+            f + alpha * (m - f) for f, m in zip(self.measured_twist, measured, strict=True)
+        )
+
+    @property
+    def hip_velocity(self) -> np.ndarray:
+        """Low-passed velocity of each hip point (H axes): v_hip = v_base + ω × r with r = [hip, 0],
+        in the plane v_base,xy + ω_z ẑ × hip (ẑ × hip turns with the yaw, and the filter is
+        linear)."""
+        vx, vy, spin = self.measured_twist
+        return spin * self.hip_tangents + (vx, vy)
 
 
 def _factory(gait: GaitPattern) -> Callable[[RobotModel, np.ndarray], Walking]:
