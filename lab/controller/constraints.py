@@ -145,20 +145,23 @@ class TorqueLimitConstraint(Constraint):
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         if robot is not self._robot:
             self._allocate(robot)
-        nv, na = robot.nv, robot.na
-        tau = self._C[:na]  # the rows of τ over x = [q̈, F]
-        tau[:, :nv] = robot.M[BASE_DOF:]
-        np.negative(robot.Jc[:, BASE_DOF:].T, out=tau[:, nv:])
-        np.negative(tau, out=self._C[na:])
+        # The upper rows are τ over x = [q̈, F], the lower ones −τ.
+        self._tau_qdd[:] = robot.M[BASE_DOF:]
+        np.negative(robot.Jc[:, BASE_DOF:].T, out=self._tau_force)
+        np.negative(self._tau, out=self._minus_tau)
         h = robot.h[BASE_DOF:]
-        np.subtract(self.torque_limits, h, out=self._d[:na])
-        np.add(self.torque_limits, h, out=self._d[na:])
+        np.subtract(self.torque_limits, h, out=self._upper)
+        np.add(self.torque_limits, h, out=self._lower)
         return self._views
 
     def _allocate(self, robot: RobotModel) -> None:
         self._robot = robot
-        self._C, self._d = np.empty((2 * robot.na, robot.nx)), np.empty(2 * robot.na)
-        self._views = read_only(self._C), read_only(self._d)
+        nv, na = robot.nv, robot.na
+        C, d = np.empty((2 * na, robot.nx)), np.empty(2 * na)
+        self._tau, self._minus_tau = C[:na], C[na:]
+        self._tau_qdd, self._tau_force = C[:na, :nv], C[:na, nv:]
+        self._upper, self._lower = d[:na], d[na:]
+        self._views = read_only(C), read_only(d)
 
 
 class JointLimitConstraint(Constraint):

@@ -25,10 +25,10 @@ from lab.controller.references import References
 from lab.controller.tasks import (
     TASK_TYPES,
     ComTask,
+    JacobianRows,
     PerContactSet,
     Task,
     TaskGains,
-    contact_rows,
     no_rows,
     read_only,
     zeros,
@@ -38,19 +38,16 @@ from lab.controller.walk_references import WalkReferences
 
 @dataclass(frozen=True)
 class SwingRows:
-    """The swinging point feet of one contact set, their rows of Jc, and the task's matrix."""
+    """The swinging point feet of one contact set and the task's rows for them."""
 
-    feet: np.ndarray
-    index: np.ndarray
-    A: np.ndarray  # (len(index), nx): J_i in the first nv columns, zero under F
-    view: np.ndarray  # read-only A
+    coords: np.ndarray  # their entries in the flattened (n_contacts, 3) per-foot arrays
+    jacobian: JacobianRows
 
     @classmethod
     def of(cls, robot: RobotModel, active: np.ndarray) -> "SwingRows":
         swinging = _swinging(robot, active)
-        index = contact_rows(robot, swinging)
-        A = np.zeros((len(index), robot.nx))
-        return cls(np.flatnonzero(swinging), index, A, read_only(A))
+        coords = (3 * np.flatnonzero(swinging)[:, None] + np.arange(3)).ravel()
+        return cls(coords, JacobianRows.of(robot, swinging))
 
 
 class SwingFeetTask(Task):
@@ -62,23 +59,20 @@ class SwingFeetTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         swing = self._swing.get(robot, refs.contact_active) if _has_swing(refs) else None
-        if swing is None or not len(swing.feet):
+        if swing is None or not len(swing.coords):
             self.error = zeros(0)
             return no_rows(robot.nx)
-        feet, index = swing.feet, swing.index
-        J = swing.A[:, : robot.nv]
-        J[:] = robot.Jc.take(index, axis=0)
-        e = refs.foot_position.take(feet, axis=0) - robot.contact_positions.take(feet, axis=0)
-        e = e.ravel()
-        de = refs.foot_velocity.take(feet, axis=0).ravel() - J @ robot.v
+        feet, jacobian = swing.coords, swing.jacobian
+        e = refs.foot_position.take(feet) - robot.contact_positions.take(feet)
+        de = refs.foot_velocity.take(feet) - jacobian.write(robot).dot(robot.v)
         b = (
-            refs.foot_acceleration.take(feet, axis=0).ravel()
+            refs.foot_acceleration.take(feet)
             + self.gains.kp * e
             + self.gains.kd * de
-            - robot.Jc_dot_v[index]
+            - robot.Jc_dot_v[jacobian.index]
         )
         self.error = e
-        return swing.view, b
+        return jacobian.view, b
 
 
 class ComXYTask(ComTask):
@@ -118,15 +112,17 @@ class PostureRows:
     columns: np.ndarray  # of q̈_j in x
     A: np.ndarray  # (len(joints), nx): the weight w_j at column BASE_DOF + j of row j
     view: np.ndarray  # read-only A
+    diagonal: tuple[np.ndarray, np.ndarray]  # (row, column) of each w_j in A
 
     @classmethod
     def of(cls, robot: RobotModel, on: np.ndarray) -> "PostureRows":
         joints = np.flatnonzero(on)
         A = np.zeros((len(joints), robot.nx))
-        return cls(joints, BASE_DOF + joints, A, read_only(A))
+        columns = BASE_DOF + joints
+        return cls(joints, columns, A, read_only(A), (np.arange(len(joints)), columns))
 
     def write(self, w: np.ndarray) -> None:
-        self.A[np.arange(len(self.joints)), self.columns] = w
+        self.A[self.diagonal] = w
 
 
 @dataclass
