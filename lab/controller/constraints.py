@@ -145,13 +145,13 @@ class TorqueLimitConstraint(Constraint):
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         if robot is not self._robot:
             self._allocate(robot)
-        # The upper rows are τ over x = [q̈, F], the lower ones −τ.
+        # [M_a −J_aᵀ] x ≤ τ_max − h_a and −[M_a −J_aᵀ] x ≤ τ_max + h_a.
         self._tau_qdd[:] = robot.M[BASE_DOF:]
         np.negative(robot.Jc[:, BASE_DOF:].T, out=self._tau_force)
         np.negative(self._tau, out=self._minus_tau)
         h = robot.h[BASE_DOF:]
-        np.subtract(self.torque_limits, h, out=self._upper)
-        np.add(self.torque_limits, h, out=self._lower)
+        np.subtract(self.torque_limits, h, out=self._d_tau)
+        np.add(self.torque_limits, h, out=self._d_minus_tau)
         return self._views
 
     def _allocate(self, robot: RobotModel) -> None:
@@ -160,7 +160,7 @@ class TorqueLimitConstraint(Constraint):
         C, d = np.empty((2 * na, robot.nx)), np.empty(2 * na)
         self._tau, self._minus_tau = C[:na], C[na:]
         self._tau_qdd, self._tau_force = C[:na, :nv], C[:na, nv:]
-        self._upper, self._lower = d[:na], d[na:]
+        self._d_tau, self._d_minus_tau = d[:na], d[na:]
         self._views = read_only(C), read_only(d)
 
 

@@ -185,6 +185,7 @@ class MovingPostureTask(Task):
                 reference_velocity = refs.posture_velocity
             if len(refs.posture_weight) == n_legs:
                 leg_weight = refs.posture_weight
+        # Each joint's weight: its leg's load ramp, 0 on a swinging leg, 1 outside the legs.
         legs.weights[:n_legs] = leg_weight
         weight = legs.weights[legs.swinging_slots if _has_swing(refs) else legs.slots]
         rows = legs.rows_of(robot, weight)
