@@ -31,6 +31,7 @@ Joint velocities, foot offsets r = x_f − x_base and the Jacobians are in world
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg.lapack import dposv as posv
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.walk_tasks import leg_joints
@@ -53,17 +54,18 @@ class LegPostureReference:
 
     def __init__(self, robot: RobotModel, q_joints: np.ndarray) -> None:
         self.joints = leg_joints(robot)
-        if len({len(j) for j in self.joints}) != 1:
-            raise ValueError("leg posture references need legs with equally many joints")
+        # All legs solve at once: over the legs' joints, leg by leg, the feet's Jacobian is
+        # block-diagonal (a foot moves with its own leg's joints only), if no joint is shared.
+        self._joints = np.concatenate(self.joints)
+        if len(set(self._joints.tolist())) != len(self._joints):
+            raise ValueError("leg posture references need legs that share no joint")
+        self._rows = np.concatenate([np.arange(s.start, s.stop) for s in robot.force_slices])
+        self._columns = BASE_DOF + self._joints
+        self._damping = DAMPING**2 * np.eye(len(self._rows))
         self.position = q_joints.copy()
         self.velocity = np.zeros_like(q_joints)
-        self.radius = np.array([contact.radius for contact in robot.contacts])
+        self.radius = [contact.radius for contact in robot.contacts]
         self._rotations = robot.contact_rotations.copy()  # the feet's orientations last tick
-        # Every leg's 3 × k block of the contact Jacobian in one gather: rows of its contact,
-        # columns of its joints.
-        self._legs = np.array(self.joints)  # (legs, k) joint indices
-        self._rows = np.array([np.arange(s.start, s.stop) for s in robot.force_slices])[:, :, None]
-        self._columns = BASE_DOF + self._legs[:, None, :]
 
     def restart(self, robot: RobotModel, leg: int, carry_from: list[int]) -> None:
         """Restart leg's integration from its measured joints (at lift-off and touchdown). At
@@ -106,19 +108,21 @@ class LegPostureReference:
         rate = -(base_velocity + r @ turn.T)
         rate[:, 2] -= CLIK_GAIN * height_error
         if dt > 0.0:  # ... plus the sphere's rolling, ω_f × ρ ẑ = ρ [ω_y, −ω_x, 0]
-            turned = robot.contact_rotations @ self._rotations.transpose(0, 2, 1)  # ω_f dt
-            for i in np.flatnonzero(stance):
-                spin = pin.log3(turned[i])
-                roll = self.radius[i] / dt
-                rate[i, 0] += roll * spin[1]
-                rate[i, 1] -= roll * spin[0]
+            turned = robot.contact_rotations @ self._rotations.transpose(0, 2, 1)
+            for i, standing in enumerate(stance.tolist()):
+                if standing:
+                    wx, wy, _ = pin.log3(turned[i]).tolist()  # ω_f dt
+                    roll = self.radius[i] / dt
+                    rate[i, 0] += roll * wy
+                    rate[i, 1] -= roll * wx
         # A swinging foot tracks its swing trajectory relative to the base (eq. 30).
         r_d = foot_position - base
         swing = foot_velocity - base_velocity - r_d @ turn.T + CLIK_GAIN * (r_d - r)
         rate = np.where(stance[:, None], rate, swing)
         self._rotations[:] = robot.contact_rotations
-        J = robot.Jc[self._rows, self._columns]  # (legs, 3, k)
-        gram = J @ J.transpose(0, 2, 1) + _DAMPING_3
-        q_dot = (J.transpose(0, 2, 1) @ np.linalg.solve(gram, rate[:, :, None]))[:, :, 0]
-        self.velocity[self._legs] = q_dot
+        # q̇ = Jᵀ (J Jᵀ + λ² I)⁻¹ ṙ of every leg in one block-diagonal system, positive definite
+        # thanks to λ² I: one Cholesky solve (LAPACK posv).
+        J = robot.Jc[self._rows[:, None], self._columns]
+        _, y, _ = posv(J @ J.T + self._damping, rate.ravel())
+        self.velocity[self._joints] = J.T @ y
         self.position += dt * self.velocity  # joints outside the legs keep q̇_d = 0

@@ -28,7 +28,8 @@ def swing_reference(
     """Position, velocity and acceleration (world, the rows of a 3 × 3 array) at time t after
     lift-off from `start`."""
     x0, y0, z0 = start.tolist()
-    step_x, step_y = target_xy[0] - x0, target_xy[1] - y0
+    x1, y1 = target_xy.tolist()
+    step_x, step_y = x1 - x0, y1 - y0
     length = math.hypot(step_x, step_y)
     hx, hy = (step_x / length, step_y / length) if length > 1e-9 else (0.0, 0.0)  # heading ψ_s
     w = math.pi / duration

@@ -25,12 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import standing_references
-from lab.controller.behaviours.footholds import (
-    FOOTHOLD_PLANNERS,
-    GRAVITY,
-    QUARTER_TURN,
-    FootholdQuery,
-)
+from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
 from lab.controller.behaviours.leg_posture import LegPostureReference
 from lab.controller.behaviours.swing import swing_reference
@@ -79,7 +74,7 @@ class Walking:
         base = q_standing[:3]
         feet = robot.contact_positions.copy()
         self.hips = (feet - base)[:, :2]
-        self.hip_tangents = self.hips @ QUARTER_TURN  # ẑ × hip
+        self.hip_points = self.hips.tolist()
         self.roles = _roles(self.hips)
         self.height = float(base[2] - feet[:, 2].mean())
         self.com_offset = robot.com - base
@@ -98,9 +93,11 @@ class Walking:
         self.liftoff = feet
         refs = self.references
         refs.normal_force_max = np.full(n, UNBOUNDED_LOADS * self.full_load)
-        refs.foot_position = feet.copy()
-        refs.foot_velocity = np.zeros((n, 3))
-        refs.foot_acceleration = np.zeros((n, 3))
+        # The feet's position, velocity and acceleration references: refs.foot_* are views of
+        # its three layers, so that a foot's swing reference is written in one assignment.
+        self.swing = np.zeros((3, n, 3))
+        self.swing[0] = feet
+        refs.foot_position, refs.foot_velocity, refs.foot_acceleration = self.swing
         refs.posture_weight = np.ones(n)
         self.posture = LegPostureReference(robot, refs.posture)
         refs.posture, refs.posture_velocity = self.posture.position, self.posture.velocity
@@ -222,41 +219,37 @@ class Walking:
 
     def _swing_feet(self, t: float, robot: RobotModel, yaw: float, stance: list[bool]) -> None:
         """Foothold and swing references of the legs in the air."""
-        legs = self.scheduler.legs
-        elapsed = [t - leg.since for leg in legs]
-        swing_left = [max(leg.swing_duration - (t - leg.since), 0.0) for leg in legs]
+        planner = FOOTHOLD_PLANNERS[self.footholds]
         swing_time = self.scheduler.swing_time
-        # The footholds of every leg in one batch; the rows of the legs in the air are used.
-        targets = FOOTHOLD_PLANNERS[self.footholds](
-            FootholdQuery(
-                base_xy=robot.base_position[:2],
+        base_xy = robot.base_position[:2].tolist()
+        vx, vy, yaw_rate = self.command.tolist()
+        base_vx, base_vy, spin = self.measured_twist
+        for i, leg in enumerate(self.scheduler.legs):
+            if stance[i]:
+                continue
+            elapsed = t - leg.since
+            hip_x, hip_y = self.hip_points[i]
+            query = FootholdQuery(
+                base_xy=base_xy,
                 yaw=yaw,
-                hip=self.hips,
-                velocity=self.command[:2],
-                yaw_rate=float(self.command[2]),
-                hip_velocity=self.hip_velocity,
+                hip=(hip_x, hip_y),
+                velocity=(vx, vy),
+                yaw_rate=yaw_rate,
+                hip_velocity=(base_vx - spin * hip_y, base_vy + spin * hip_x),
                 height=self.height,
-                swing_left=np.array(swing_left),
+                swing_left=max(leg.swing_duration - elapsed, 0.0),
                 stance_time=self.cycle_time - swing_time,
                 swing_time=swing_time,
             )
-        )
-        refs = self.references
-        for i, leg in enumerate(legs):
-            if not stance[i]:
-                refs.foot_position[i], refs.foot_velocity[i], refs.foot_acceleration[i] = (
-                    swing_reference(
-                        self.liftoff[i],
-                        targets[i],
-                        self.step_height,
-                        elapsed[i],
-                        leg.swing_duration,
-                    )
-                )
+            self.swing[:, i] = swing_reference(
+                self.liftoff[i], planner(query), self.step_height, elapsed, leg.swing_duration
+            )
 
     def _filter_twist(self, robot: RobotModel, c: float, s: float, dt: float) -> None:
         """Low-pass the measured base velocity (H axes; c, s: cosine and sine of the base yaw)
-        and yaw rate, for the Raibert feedback."""
+        and yaw rate, for the Raibert feedback. A hip point's velocity is v_base + ω × r with
+        r = [hip, 0], in the plane v_base,xy + ω_z ẑ × hip: ẑ × hip turns with the yaw, and the
+        filter is linear, so filtering the base twist filters every hip's velocity."""
         alpha = dt / (HIP_VELOCITY_TIME_CONSTANT + dt)
         vx, vy, _ = robot.base_linear_velocity_world.tolist()
         spin = float(robot.base_angular_velocity_world[2])
@@ -264,14 +257,6 @@ class Walking:
         self.measured_twist = tuple(
             f + alpha * (m - f) for f, m in zip(self.measured_twist, measured, strict=True)
         )
-
-    @property
-    def hip_velocity(self) -> np.ndarray:
-        """Low-passed velocity of each hip point (H axes): v_hip = v_base + ω × r with r = [hip, 0],
-        in the plane v_base,xy + ω_z ẑ × hip (ẑ × hip turns with the yaw, and the filter is
-        linear)."""
-        vx, vy, spin = self.measured_twist
-        return spin * self.hip_tangents + (vx, vy)
 
 
 def _factory(gait: GaitPattern) -> Callable[[RobotModel, np.ndarray], Walking]:
