@@ -84,6 +84,14 @@ class WholeBodyController:
         """Use a new stack from the next tick on; raises StackError and keeps the old one."""
         stack.validate(self.known_names)
         self.config.stack = stack
+        # Each level's tasks and constraints, looked up here once instead of by name every tick.
+        self._levels = [
+            (
+                [self.tasks[name] for name in names if name in self.tasks],
+                [self.constraints[name] for name in names if name in self.constraints],
+            )
+            for names in stack.levels
+        ]
 
     def set_gains(
         self,
@@ -125,21 +133,19 @@ class WholeBodyController:
         dynamics_A = np.concatenate((robot.M[base], -robot.Jc[:, base].T), axis=1)
         levels = []
         weight = 1.0  # of the next level with tasks; inequality-only levels take no weight
-        for names in self.config.stack.levels:
+        for tasks, constraints in self._levels:
             A_rows, b_rows, C_rows, d_rows = [], [], [], []
-            for name in names:
-                if name in self.tasks:
-                    task = self.tasks[name]
-                    A, b = task.rows(robot, refs)
-                    if task.gains.weight != 1.0:
-                        scale = np.sqrt(task.gains.weight)
-                        A, b = scale * A, scale * b
-                    A_rows.append(A)
-                    b_rows.append(b)
-                else:
-                    C, d = self.constraints[name].rows(robot, refs)
-                    C_rows.append(C)
-                    d_rows.append(d)
+            for task in tasks:
+                A, b = task.rows(robot, refs)
+                if task.gains.weight != 1.0:
+                    scale = np.sqrt(task.gains.weight)
+                    A, b = scale * A, scale * b
+                A_rows.append(A)
+                b_rows.append(b)
+            for constraint in constraints:
+                C, d = constraint.rows(robot, refs)
+                C_rows.append(C)
+                d_rows.append(d)
             levels.append(
                 Level(
                     *_stacked(A_rows, b_rows, robot.nx),
@@ -149,7 +155,7 @@ class WholeBodyController:
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
-        support = np.repeat(refs.contact_active, robot.force_dims)  # per force component
+        support = _support(refs.contact_active.tobytes(), robot.force_dims.tobytes())
         terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
 
@@ -195,3 +201,12 @@ def _no_rows(nx: int) -> tuple[np.ndarray, np.ndarray]:
     A, b = np.zeros((0, nx)), np.zeros(0)
     A.flags.writeable = b.flags.writeable = False
     return A, b
+
+
+@cache
+def _support(contact_active: bytes, force_dims: bytes) -> np.ndarray:
+    """Which rows of F belong to contacts in support (one flag per force component)."""
+    active = np.frombuffer(contact_active, dtype=bool)
+    support = np.repeat(active, np.frombuffer(force_dims, dtype=int))
+    support.flags.writeable = False
+    return support

@@ -95,10 +95,6 @@ class RobotModel:
                 acc = pin.getFrameClassicalAcceleration(model, data, fid, frame)
                 self.Jc_dot_v[rows] = acc.vector
 
-    def support_rows(self, active: np.ndarray) -> slice | np.ndarray:
-        """The rows of F (and of Jc) that belong to the contacts flagged in `active`."""
-        return slice(None) if active.all() else np.repeat(active, self.force_dims)
-
     @property
     def base_position(self) -> np.ndarray:
         return self.q[:3]
