@@ -131,7 +131,11 @@ def _solve_level(
     if fits:
         return u
     nz, m = Az.shape[1], len(s)
-    G = np.block([[Cz, -np.eye(m)], [Kz, np.zeros((len(k), m))]])
+    # Over (u, v): C u − v ≤ s (the level's rows with their slacks), K u ≤ k (the carried rows).
+    G = np.zeros((m + len(k), nz + m))
+    G[:m, :nz] = Cz
+    G[:m, nz:] = -np.eye(m)
+    G[m:, :nz] = Kz
     h = np.concatenate([s, k])
     try:
         return solve_qp(*_level_cost(Az, r, Z, x, m, REGULARIZATION), G, h, solver=solver)[:nz]
