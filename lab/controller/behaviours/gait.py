@@ -146,14 +146,15 @@ class GaitScheduler:
         cycle, local = self._local(leg)
         time_to_liftoff = (1.0 - local) * self.cycle_time
         window = 1.0 - self.gait.duty_factor
-        due = local < CATCH_UP * window and cycle > leg.last_cycle
+        ramp = self.ramp_time
         if leg.unload_start is None:
-            rested = t - leg.since >= MIN_STANCE_RAMPS * self.ramp_time
-            soon = time_to_liftoff <= self.ramp_time or due
+            due = local < CATCH_UP * window and cycle > leg.last_cycle
+            rested = t - leg.since >= MIN_STANCE_RAMPS * ramp
+            soon = time_to_liftoff <= ramp or due
             if rested and soon and self._may_unload(i):
                 leg.unload_start = t
             return False
-        if t - leg.unload_start < self.ramp_time - 1e-9:
+        if t - leg.unload_start < ramp - 1e-9:
             return False
         # Unloaded: lift off now and swing to the end of this leg's swing window.
         if local >= window:  # unloaded ahead of the window: that is its next cycle
@@ -167,8 +168,9 @@ class GaitScheduler:
         leg = self.legs[i]
         if leg.state is not LegState.STANCE:
             return 0.0
-        up = (t - leg.since) / self.ramp_time
-        down = 1.0 if leg.unload_start is None else 1.0 - (t - leg.unload_start) / self.ramp_time
+        ramp = self.ramp_time
+        up = (t - leg.since) / ramp
+        down = 1.0 if leg.unload_start is None else 1.0 - (t - leg.unload_start) / ramp
         return min(1.0, max(0.0, min(up, down)))
 
     def take_state(self, other: "GaitScheduler") -> None:

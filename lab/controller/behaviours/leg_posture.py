@@ -54,14 +54,13 @@ class LegPostureReference:
 
     def __init__(self, robot: RobotModel, q_joints: np.ndarray) -> None:
         self.joints = leg_joints(robot)
-        # All legs solve at once: over the legs' joints, leg by leg, the feet's Jacobian is
-        # block-diagonal (a foot moves with its own leg's joints only), if no joint is shared.
-        self._joints = np.concatenate(self.joints)
-        if len(set(self._joints.tolist())) != len(self._joints):
+        # All legs are solved at once: the feet's Jacobian over the actuated joints, J, is
+        # block-diagonal up to the order of its columns (a foot moves with its own leg's joints
+        # only), as long as no joint moves two feet.
+        joints = np.concatenate(self.joints).tolist()
+        if len(set(joints)) != len(joints):
             raise ValueError("leg posture references need legs that share no joint")
-        self._rows = np.concatenate([np.arange(s.start, s.stop) for s in robot.force_slices])
-        self._columns = BASE_DOF + self._joints
-        self._damping = DAMPING**2 * np.eye(len(self._rows))
+        self._damping = DAMPING**2 * np.eye(robot.nf)
         self.position = q_joints.copy()
         self.velocity = np.zeros_like(q_joints)
         self.radius = [contact.radius for contact in robot.contacts]
@@ -121,8 +120,8 @@ class LegPostureReference:
         rate = np.where(stance[:, None], rate, swing)
         self._rotations[:] = robot.contact_rotations
         # q̇ = Jᵀ (J Jᵀ + λ² I)⁻¹ ṙ of every leg in one block-diagonal system, positive definite
-        # thanks to λ² I: one Cholesky solve (LAPACK posv).
-        J = robot.Jc[self._rows[:, None], self._columns]
+        # thanks to λ² I: one Cholesky solve (LAPACK posv). Joints outside the legs get q̇ = 0.
+        J = robot.Jc[:, BASE_DOF:]
         _, y, _ = posv(J @ J.T + self._damping, rate.ravel())
-        self.velocity[self._joints] = J.T @ y
-        self.position += dt * self.velocity  # joints outside the legs keep q̇_d = 0
+        self.velocity[:] = J.T @ y
+        self.position += dt * self.velocity

@@ -51,10 +51,12 @@ def _roles(hips: np.ndarray) -> tuple[str, ...]:
     return roles
 
 
-def _rate_limited(current: list[float], target: list[float], steps: list[float]) -> list[float]:
+def _rate_limited(
+    current: tuple[float, ...], target: list[float], steps: list[float]
+) -> tuple[float, ...]:
     """Each value moved towards its target by at most its step."""
     moves = zip(current, target, steps, strict=True)
-    return [x + min(max(x_t - x, -step), step) for x, x_t, step in moves]
+    return tuple(x + min(max(x_t - x, -step), step) for x, x_t, step in moves)
 
 
 def _wrap(angle: float) -> float:
@@ -87,7 +89,7 @@ class Walking:
         self._configured: set[str] = set()
         self.scheduler: GaitScheduler | None = None
         self.t = 0.0
-        self.command = np.zeros(3)
+        self.command = (0.0, 0.0, 0.0)  # [vx, vy, yaw_rate], rate-limited
         self.yaw_ref = 0.0
         self.measured_twist = (0.0, 0.0, 0.0)  # low-passed base vx, vy (H axes), yaw rate
         self.liftoff = feet
@@ -141,7 +143,7 @@ class Walking:
             return
         self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, previous.t)
         self.scheduler.take_state(previous.scheduler)
-        self.t, self.command, self.yaw_ref = previous.t, previous.command.copy(), previous.yaw_ref
+        self.t, self.command, self.yaw_ref = previous.t, previous.command, previous.yaw_ref
         self.measured_twist = previous.measured_twist
         self.liftoff = previous.liftoff.copy()
         self.posture.position[:] = previous.posture.position
@@ -161,8 +163,7 @@ class Walking:
         dt = t - self.t
         self.t = t
         steps = [dt * limit for limit in RATE_LIMITS]
-        vx, vy, yaw_rate = _rate_limited(self.command.tolist(), command.tolist(), steps)
-        self.command[:] = vx, vy, yaw_rate
+        self.command = vx, vy, yaw_rate = _rate_limited(self.command, command.tolist(), steps)
         lead = _wrap(self.yaw_ref + yaw_rate * dt - yaw)
         self.yaw_ref = yaw + min(max(lead, -YAW_LEAD_MAX), YAW_LEAD_MAX)
         c, s = math.cos(yaw), math.sin(yaw)
@@ -185,10 +186,10 @@ class Walking:
         refs = self.references
         stance = [leg.state is LegState.STANCE for leg in legs]
         refs.contact_active[:] = stance
-        loads = [scheduler.load(i, t) for i in range(len(legs))]  # 0 in the air
-        refs.posture_weight[:] = loads  # a leg's postural rows fade with its load
-        for i, load in enumerate(loads):
-            if stance[i]:
+        for i, standing in enumerate(stance):
+            load = scheduler.load(i, t)  # 0 in the air
+            refs.posture_weight[i] = load  # the leg's postural rows fade with its load
+            if standing:
                 refs.normal_force_max[i] = (
                     load * self.full_load if load < 1.0 else UNBOUNDED_LOADS * self.full_load
                 )
@@ -222,7 +223,7 @@ class Walking:
         planner = FOOTHOLD_PLANNERS[self.footholds]
         swing_time = self.scheduler.swing_time
         base_xy = robot.base_position[:2].tolist()
-        vx, vy, yaw_rate = self.command.tolist()
+        vx, vy, yaw_rate = self.command
         base_vx, base_vy, spin = self.measured_twist
         for i, leg in enumerate(self.scheduler.legs):
             if stance[i]:
@@ -253,9 +254,11 @@ class Walking:
         alpha = dt / (HIP_VELOCITY_TIME_CONSTANT + dt)
         vx, vy, _ = robot.base_linear_velocity_world.tolist()
         spin = float(robot.base_angular_velocity_world[2])
-        measured = (c * vx + s * vy, c * vy - s * vx, spin)
-        self.measured_twist = tuple(
-            f + alpha * (m - f) for f, m in zip(self.measured_twist, measured, strict=True)
+        fx, fy, fs = self.measured_twist
+        self.measured_twist = (
+            fx + alpha * (c * vx + s * vy - fx),
+            fy + alpha * (c * vy - s * vx - fy),
+            fs + alpha * (spin - fs),
         )
 
 
