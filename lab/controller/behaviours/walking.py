@@ -43,7 +43,7 @@ UNBOUNDED_LOADS = 5.0  # a fully loaded stance leg may carry this many body weig
 CYCLE_TIME_RANGE = (0.2, 5.0)  # s
 
 
-def _roles(hips: np.ndarray) -> tuple[str, ...]:
+def _roles(hips: list[list[float]]) -> tuple[str, ...]:
     """LF/RF/LH/RH of each foot from where it stands relative to the base (x fore, y left)."""
     roles = tuple(("L" if y > 0 else "R") + ("F" if x > 0 else "H") for x, y in hips)
     if sorted(roles) != sorted(("LF", "RF", "LH", "RH")):
@@ -75,8 +75,7 @@ class Walking:
         n = len(robot.contacts)
         base = q_standing[:3]
         feet = robot.contact_positions.copy()
-        self.hips = (feet - base)[:, :2]
-        self.hip_points = self.hips.tolist()
+        self.hips = (feet - base)[:, :2].tolist()  # x, y of each foot under its hip
         self.roles = _roles(self.hips)
         self.height = float(base[2] - feet[:, 2].mean())
         self.com_offset = robot.com - base
@@ -95,11 +94,11 @@ class Walking:
         self.liftoff = feet
         refs = self.references
         refs.normal_force_max = np.full(n, UNBOUNDED_LOADS * self.full_load)
-        # The feet's position, velocity and acceleration references: refs.foot_* are views of
-        # its three layers, so that a foot's swing reference is written in one assignment.
-        self.swing = np.zeros((3, n, 3))
-        self.swing[0] = feet
-        refs.foot_position, refs.foot_velocity, refs.foot_acceleration = self.swing
+        # The feet's position, velocity and acceleration references in one array; refs.foot_*
+        # are views of its three layers, so that a foot's swing reference is one assignment.
+        self.foot_references = np.zeros((3, n, 3))
+        self.foot_references[0] = feet
+        refs.foot_position, refs.foot_velocity, refs.foot_acceleration = self.foot_references
         refs.posture_weight = np.ones(n)
         self.posture = LegPostureReference(robot, refs.posture)
         refs.posture, refs.posture_velocity = self.posture.position, self.posture.velocity
@@ -229,20 +228,20 @@ class Walking:
             if stance[i]:
                 continue
             elapsed = t - leg.since
-            hip_x, hip_y = self.hip_points[i]
+            hip_x, hip_y = self.hips[i]
             query = FootholdQuery(
                 base_xy=base_xy,
                 yaw=yaw,
                 hip=(hip_x, hip_y),
                 velocity=(vx, vy),
                 yaw_rate=yaw_rate,
-                hip_velocity=(base_vx - spin * hip_y, base_vy + spin * hip_x),
+                hip_velocity=(base_vx - spin * hip_y, base_vy + spin * hip_x),  # + ω_z ẑ × hip
                 height=self.height,
                 swing_left=max(leg.swing_duration - elapsed, 0.0),
                 stance_time=self.cycle_time - swing_time,
                 swing_time=swing_time,
             )
-            self.swing[:, i] = swing_reference(
+            self.foot_references[:, i] = swing_reference(
                 self.liftoff[i], planner(query), self.step_height, elapsed, leg.swing_duration
             )
 
