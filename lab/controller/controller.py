@@ -4,6 +4,7 @@ state → RobotModel.update → tasks and constraints become rows, level by leve
 → hierarchy method → x = [q̈, F] → τ = M_a q̈ + h_a − J_aᵀ F (Herzog eq. 14).
 """
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from functools import cache
@@ -176,7 +177,7 @@ class WholeBodyController:
         """Norm of each task's tracking error at the last tick (tasks in the stack only)."""
         in_stack = set(self.config.stack.names())
         return {
-            name: float(np.linalg.norm(task.error))
+            name: math.hypot(*task.error)
             for name, task in self.tasks.items()
             if name in in_stack and task.error.size
         }

@@ -461,13 +461,10 @@ class MujocoPlant:
             return self._forces.copy()
         self._forces_step = self._steps
         self._forces[:] = 0.0
-        on_feet = [c for c in self._terrain_contacts() if c[1] >= 0 and c[2] >= 0]
-        if on_feet:
-            i, foot, row, sign = (np.array(column) for column in zip(*on_feet, strict=True))
-            # Elliptic cones: a contact's first three constraint forces are its normal and two
-            # tangential components in the contact frame, whose rows are the frame's axes.
-            local = self.mj_data.efc_force[row[:, None] + np.arange(3)]
-            frames = self.mj_data.contact.frame[i].reshape(-1, 3, 3)
-            world = np.einsum("kij,ki->kj", frames, local)
-            np.add.at(self._forces, foot, sign[:, None] * world)
+        efc_force, frames = self.mj_data.efc_force, self.mj_data.contact.frame
+        for i, foot, row, sign in self._terrain_contacts():
+            if foot >= 0 and row >= 0:
+                # Elliptic cones: a contact's first three constraint forces are its normal and two
+                # tangential components in the contact frame, whose rows are the frame's axes.
+                self._forces[foot] += sign * efc_force[row : row + 3].dot(frames[i].reshape(3, 3))
         return self._forces.copy()
