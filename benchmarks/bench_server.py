@@ -5,7 +5,10 @@
 - the loop's on-time fraction over `--duration` seconds (target >= 99.9 %) with two telemetry
   subscribers attached and, with `--ui`, the browser UI process.
 
-    .venv/bin/python benchmarks/bench_server.py --duration 60 [--ui] [--json]
+    .venv/bin/python benchmarks/bench_server.py --duration 60 [--ui] [--gait trot] [--json]
+
+With `--gait`, the robot walks in that gait while the commands alternate vx between 0.3 and
+0.5 m/s; without it, it stands and they alternate between 0 and 0.1 m/s.
 """
 
 import argparse
@@ -54,7 +57,9 @@ def connect(endpoint: str, timeout: float = 60.0) -> LabClient:
         client.close()
 
 
-def measure(endpoint: str, duration: float, command_hz: float) -> dict[str, object]:
+def measure(
+    endpoint: str, duration: float, command_hz: float, gait: str | None = None
+) -> dict[str, object]:
     counts = [0, 0]
     lock = threading.Lock()
     subscribers = [LabClient(endpoint) for _ in counts]
@@ -71,7 +76,14 @@ def measure(endpoint: str, duration: float, command_hz: float) -> dict[str, obje
     client = connect(endpoint)
     try:
         client.wait_telemetry(timeout=5.0)
-        time.sleep(1.0)  # settle after start-up
+        speeds = (0.0, 0.1)
+        if gait is not None:
+            reply = client.command("gait", name=gait, timeout=5.0)
+            if not reply.get("ok"):
+                raise SystemExit(f"gait {gait!r} refused: {reply.get('error')}")
+            client.command("velocity", vx=0.4, timeout=1.0)
+            speeds = (0.3, 0.5)
+        time.sleep(1.0)  # settle after start-up (and into the gait)
         first = client.wait_telemetry()["loop"]
         with lock:
             counts_first = list(counts)
@@ -84,7 +96,7 @@ def measure(endpoint: str, duration: float, command_hz: float) -> dict[str, obje
             time.sleep(max(0.0, next_send - time.monotonic()))
             next_send += 1.0 / command_hz
             t0 = time.perf_counter()
-            reply = client.command("velocity", vx=0.1 * (i % 2), timeout=1.0)
+            reply = client.command("velocity", vx=speeds[i % 2], timeout=1.0)
             latencies.append(time.perf_counter() - t0)
             failures += not reply.get("ok")
             i += 1
@@ -125,25 +137,32 @@ def main() -> int:
     p.add_argument("--rate", type=float, default=1000.0, help="loop rate, Hz (default: 1000)")
     p.add_argument("--command-hz", type=float, default=50.0, help="commands per second")
     p.add_argument("--ui", action="store_true", help="also run the browser UI process")
+    p.add_argument("--gait", help="walk in this gait (e.g. trot) instead of standing")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
     port = free_port()
     with tempfile.TemporaryFile() as log:
         server = start_server(args, port, log)
         try:
-            result = measure(f"tcp/127.0.0.1:{port}", args.duration, args.command_hz)
+            endpoint = f"tcp/127.0.0.1:{port}"
+            result = measure(endpoint, args.duration, args.command_hz, args.gait)
         finally:
             server.send_signal(signal.SIGINT)
             server.wait(10)
         result["robot"] = args.robot
         result["rate_hz"] = args.rate
         result["ui"] = args.ui
+        result["gait"] = args.gait
     if args.json:
         print(json.dumps(result))
         return 0
     lat = result["latency_ms"]
     ui = "on" if args.ui else "off"
-    print(f"robot {args.robot} at {args.rate:g} Hz, {args.duration:g} s, UI {ui}, 2 subscribers")
+    doing = f"walking ({args.gait})" if args.gait else "standing"
+    print(
+        f"robot {args.robot} {doing} at {args.rate:g} Hz, {args.duration:g} s, UI {ui}, "
+        "2 subscribers"
+    )
     print(
         f"command-to-applied latency: p50 {lat['p50']:.2f} ms, p99 {lat['p99']:.2f} ms, "
         f"max {lat['max']:.2f} ms over {result['commands']} commands "
