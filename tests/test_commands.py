@@ -61,6 +61,7 @@ def test_push_parses_vectors_as_float_tuples() -> None:
 def test_stack_hierarchy_gains_info() -> None:
     cmd = parse_command("stack", {"levels": [["contact"], ["base_orientation", "posture"]]})
     assert cmd == StackCommand((("contact",), ("base_orientation", "posture")))
+    assert parse_command("stack", {"preset": "raiola_s3"}) == StackCommand(preset="raiola_s3")
     assert parse_command("hierarchy", {"method": "weighted"}) == HierarchyCommand("weighted")
     cmd = parse_command("hierarchy", {"method": "cascade", "solver": "clarabel"})
     assert cmd == HierarchyCommand("cascade", "clarabel")
@@ -108,6 +109,8 @@ def test_stack_hierarchy_gains_info() -> None:
         ("scene", {"name": ["flat"]}, "'name' must be a string, got list"),
         ("hierarchy", {"solver": "daqp"}, "'method' is missing"),
         ("stack", {}, "'levels' is missing"),
+        ("stack", {"preset": 3}, "'preset' must be a string"),
+        ("stack", {"preset": "raiola_s3", "levels": [["contact"]]}, "not both"),
         ("stack", {"levels": []}, "non-empty list"),
         ("stack", {"levels": [[]]}, "'levels[0]' must be a non-empty list"),
         ("stack", {"levels": [["a"], "b"]}, "'levels[1]'"),

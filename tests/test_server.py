@@ -242,6 +242,8 @@ def hostile_requests(body: str, task: str) -> list[tuple[str, bytes]]:
     out += [("hierarchy", json.dumps({"method": "cascade", "solver": "osqp_nope"}))]
     for n in [*numbers, "[[]]", '[["no_such_task"]]', '[["a", "a"]]', "[" * 50 + "]" * 50]:
         out.append(("stack", f'{{"levels": {n}}}'))
+    for n in [*numbers, '"no_such_preset"', '"../stacks/raiola_s3"', json.dumps("x" * 10_000)]:
+        out.append(("stack", f'{{"preset": {n}}}'))
     for field in ("kp", "kd", "weight"):
         for n in [*numbers, "-1", "1e9"]:
             out.append(("gains", f'{{"task": "{task}", "{field}": {n}}}'))

@@ -180,3 +180,40 @@ def test_standing_starts_where_the_robot_is_and_faces() -> None:
     assert np.linalg.norm(np.array(base["position"][:2]) - q[:2]) < 0.01
     yaw = pin.rpy.matrixToRpy(pin.Quaternion(np.array(base["quaternion"])).toRotationMatrix())[2]
     assert abs(yaw - 0.4) < 0.01
+
+
+def test_a_walking_gait_brings_a_stack_that_can_swing_feet() -> None:
+    """The robots' default stacks are for standing (no swing_feet task): trotting on one, a
+    swinging leg is uncontrolled and ANYmal falls within ~1 s. The gait command installs
+    Raiola's S3 then, and says so."""
+    session = Session(SessionConfig(robot="anymal"))
+    reply = session.handle("gait", {"name": "trot"})
+    assert reply["ok"] and reply["preset"] == "raiola_s3"
+    assert ["contact", "swing_feet"] in reply["stack"]
+    assert session.telemetry()["stack"] == reply["stack"]
+    session.handle("velocity", {"vx": 0.4})
+    x0 = session.model.q[0]
+    run(session, 2.5)
+    assert not session.fell and session.qp_failures == 0
+    assert session.model.q[0] - x0 > 0.5  # m in 2.5 s at 0.4 m/s, accelerating from rest
+    # A stack that can already swing feet is kept as it is.
+    assert session.handle("stack", {"preset": "hutter_table7"})["ok"]
+    reply = session.handle("gait", {"name": "crawl"})
+    assert reply == {"ok": True}
+    assert ["base_height"] in session.telemetry()["stack"]
+
+
+def test_a_stack_preset_brings_its_levels_gains_and_method() -> None:
+    session = Session(SessionConfig(robot="anymal"))
+    before = session.info()
+    assert not session.handle("stack", {"preset": "no_such_preset"})["ok"]
+    both = session.handle("stack", {"preset": "raiola_s1", "levels": [["contact"]]})
+    assert not both["ok"] and "not both" in both["error"]
+    assert session.info()["stack"] == before["stack"]  # rejected: nothing changed
+    assert "raiola_s1" in before["stack_presets"]
+    reply = session.handle("stack", {"preset": "raiola_s1"})
+    assert reply["ok"] and reply["hierarchy"]["method"] == "weighted"
+    info = session.info()
+    assert info["stack"] == reply["stack"] and "moving_posture" in info["stack"][-1]
+    gains = {task["name"]: task for task in info["tasks"]}
+    assert gains["swing_feet"]["weight"] == 1e6  # stacks/raiola_s1.toml

@@ -92,9 +92,11 @@ class HierarchyCommand:
 
 @dataclass(frozen=True)
 class StackCommand:
-    """New task priority order: levels[0] is the highest priority."""
+    """New task priority order: levels[0] is the highest priority. Or, with `preset`, a named
+    stack from stacks/ (its levels, gains and hierarchy method)."""
 
-    levels: tuple[tuple[str, ...], ...]
+    levels: tuple[tuple[str, ...], ...] = ()
+    preset: str | None = None
 
 
 @dataclass(frozen=True)
@@ -284,7 +286,11 @@ def _hierarchy(f: _Fields) -> HierarchyCommand:
 
 
 def _stack(f: _Fields) -> StackCommand:
-    f.only("levels")
+    f.only("levels", "preset")
+    if f.has("preset"):
+        if f.has("levels"):
+            raise CommandError("stack: give either 'levels' or 'preset', not both")
+        return StackCommand(preset=f.name("preset"))
     if not f.has("levels"):
         raise f.error("levels", "is missing")
     raw = f.payload["levels"]

@@ -25,6 +25,7 @@ from lab.description import ROBOT_NAMES, Robot, build_robot, load_description
 from lab.scenes import SCENES
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant
+from lab.stack_presets import PRESET_NAMES, load_stack_preset
 
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
 FALL_TILT = 1.0  # rad: fallen when the base tilts further than this from upright
@@ -35,6 +36,9 @@ FALL_CONTACT_S = 0.5
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
+# The stack a gait that lifts feet brings along when the current one has no swing_feet task
+# (a robot's default stack is for standing): Raiola's S3, the stack of the trot scenarios.
+WALKING_PRESET = "raiola_s3"
 
 
 @dataclass
@@ -117,10 +121,12 @@ class Session:
         self.tau = np.zeros(self.model.na)
         self.forces = np.zeros(self.model.nf)
 
-    def _set_behaviour(self, name: str, options: dict | None = None) -> None:
+    def _set_behaviour(self, name: str, options: dict | None = None) -> dict:
         """Start behaviour `name` from the current state, with walking `options` (step_height,
         cycle_time, footholds) if any; a walking behaviour continues the previous one in stride.
-        Raises KeyError or ValueError for an unknown name or a bad option, changing nothing."""
+        A behaviour that lifts feet on a stack without `swing_feet` brings WALKING_PRESET along
+        (returned as the reply's `preset` and `stack`). Raises KeyError or ValueError for an
+        unknown name or a bad option, changing nothing."""
         if name not in BEHAVIOURS:
             raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(BEHAVIOURS)})")
         self.model.update(*self.plant.state())
@@ -131,8 +137,24 @@ class Session:
             behaviour.configure(**options)
         if hasattr(behaviour, "continue_from") and hasattr(self, "behaviour"):
             behaviour.continue_from(self.behaviour)
+        walking_stack = behaviour.lifts_feet and (
+            "swing_feet" not in self.controller.config.stack.names()
+        )
         self.behaviour = behaviour
         self.controller.references = behaviour.references
+        return self._use_preset(WALKING_PRESET) if walking_stack else {}
+
+    def _use_preset(self, name: str) -> dict:
+        """Install stack preset `name`: its levels, its tasks' gains, its hierarchy method.
+        Raises KeyError for an unknown name, changing nothing."""
+        preset = load_stack_preset(name)
+        stack = Stack.of(preset.levels)
+        self.controller.set_stack(stack)  # presets name known tasks: this cannot fail halfway
+        for task, gains in preset.gains.items():
+            self.controller.set_gains(task, **gains)
+        self.controller.set_hierarchy(preset.hierarchy)
+        self.config.stack, self.config.hierarchy = stack.as_lists(), preset.hierarchy
+        return {"preset": name, "stack": stack.as_lists(), "hierarchy": self._hierarchy()}
 
     @property
     def time(self) -> float:
@@ -255,6 +277,8 @@ class Session:
                 self.config.solver = self.controller.config.solver
                 self.config.formulation = self.controller.config.formulation
                 return {"hierarchy": self._hierarchy()}
+            case cmd.StackCommand(preset=str(preset)):
+                return self._use_preset(preset)
             case cmd.StackCommand(levels=levels):
                 stack = Stack.of(levels)
                 self.controller.set_stack(stack)
@@ -276,7 +300,7 @@ class Session:
                     for key in ("step_height", "cycle_time", "footholds")
                     if getattr(gait, key) is not None
                 }
-                self._set_behaviour(name, options)
+                return self._set_behaviour(name, options)
         return {}
 
     def _push(
@@ -312,6 +336,7 @@ class Session:
             "solvers": list(SOLVERS),
             "formulations": list(FORMULATIONS),
             "gaits": list(BEHAVIOURS),
+            "stack_presets": list(PRESET_NAMES),
             "robot": self.config.robot,
             "scene": self.config.scene,
             "gait": self.behaviour.name,

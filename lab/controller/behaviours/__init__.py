@@ -21,6 +21,7 @@ from lab.controller.references import References
 class Behaviour(Protocol):
     name: str
     references: References
+    lifts_feet: bool  # swings feet: the stack needs the swing_feet task to carry them
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray

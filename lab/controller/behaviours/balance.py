@@ -30,6 +30,7 @@ class Balance:
     """Stand still on every foot."""
 
     name = "stand"
+    lifts_feet = False
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         """Start from the robot's current state (the model is up to date)."""

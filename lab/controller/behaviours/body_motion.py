@@ -21,6 +21,7 @@ SHIFT_TIME = 2.0  # s
 
 class HeightStep:
     name = "height_step"
+    lifts_feet = False
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         self.references = standing_references(robot, q_standing)
@@ -39,6 +40,7 @@ class HeightStep:
 
 class ForwardShift:
     name = "forward_shift"
+    lifts_feet = False
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         self.references = standing_references(robot, q_standing)

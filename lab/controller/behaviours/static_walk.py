@@ -93,6 +93,7 @@ class StaticWalk:
     """The crawl on flat ground, or in place on a known surface (its normals in the references)."""
 
     name = "static_walk"
+    lifts_feet = True
 
     def __init__(
         self,

@@ -67,6 +67,8 @@ def _wrap(angle: float) -> float:
 class Walking:
     """Walk with `gait` on four point feet, steered by the velocity command."""
 
+    lifts_feet = True
+
     def __init__(self, robot: RobotModel, q_standing: np.ndarray, gait: GaitPattern) -> None:
         standing = standing_references(robot, q_standing)  # the model is now at q_standing
         self.references = WalkReferences(
