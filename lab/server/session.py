@@ -166,6 +166,11 @@ class Session:
         if self.paused:
             return
         self._expire_pushes()
+        if self.fell:  # torques off until a reset, as a real robot's fall protection does
+            self.plant.set_torques(self.tau)
+            self.plant.step()
+            self.ticks += 1
+            return
         q, v = self.plant.state()
         touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
@@ -186,7 +191,8 @@ class Session:
         self.ticks += 1
         if self.ticks % FALL_CHECK_PERIOD == 0 and not self.fell and self._fallen():
             self.fell = True
-            self._event("fall", "the robot fell")
+            self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
+            self._event("fall", "the robot fell: torques off until reset")
 
     def _report_failure(self, error: Exception) -> None:
         """One solver_failure event per FAILURE_EVENT_PERIOD at most, with the count since."""
