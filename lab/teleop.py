@@ -3,9 +3,11 @@
 Keys (velocity in the robot's heading frame, pushes along world axes on the base link):
   w / s  forward / back        a / d  strafe left / right      q / e  turn left / right
   space  stop                  i / k  push +x / -x             j / l  push +y / -y
+  g      gait: stand -> trot -> crawl -> stand (the velocity keys steer the walking gaits)
   r      reset                 p      pause / resume           x      quit (also Ctrl-C, EOF)
 Velocity is resent every 0.1 s while non-zero (the server's deadman stops the robot 0.5 s after
-the last one). Each reply is printed; a status line shows the latest telemetry.
+the last one). Each reply is printed (a walking gait may install the walking stack preset); a
+status line shows the latest telemetry, the running gait among it.
 """
 
 import argparse
@@ -28,6 +30,7 @@ YAW_STEP = 0.2  # rad/s
 PUSH_DURATION_S = 0.2
 REFRESH_S = 0.1  # resend a non-zero velocity this often
 PUSH_DIRECTIONS = {"i": (1.0, 0.0), "k": (-1.0, 0.0), "j": (0.0, 1.0), "l": (0.0, -1.0)}
+GAIT_CYCLE = ("stand", "trot", "crawl")  # the order the `g` key steps through
 QUIT_KEYS = ("x", "\x03", "\x04")
 BASE_LINK_NAMES = ("base", "base_link", "trunk", "pelvis")  # the usual names of a floating base
 
@@ -38,6 +41,7 @@ class TeleopState:
     vy: float = 0.0
     yaw_rate: float = 0.0
     paused: bool = False
+    gait: str = "stand"  # the gait last asked for and not rejected
 
     def velocity(self) -> dict[str, float]:
         return {"vx": self.vx, "vy": self.vy, "yaw_rate": self.yaw_rate}
@@ -45,6 +49,13 @@ class TeleopState:
 
 def _step(value: float, step: float, limit: float) -> float:
     return round(min(limit, max(-limit, value + step)), 6)
+
+
+def next_gait(gait: str) -> str:
+    """The gait after `gait` in `GAIT_CYCLE`; `stand` after any other behaviour."""
+    if gait not in GAIT_CYCLE:
+        return GAIT_CYCLE[0]
+    return GAIT_CYCLE[(GAIT_CYCLE.index(gait) + 1) % len(GAIT_CYCLE)]
 
 
 def key_to_commands(
@@ -71,7 +82,10 @@ def key_to_commands(
         dx, dy = PUSH_DIRECTIONS[key]
         force = [dx * push_force, dy * push_force, 0.0]
         return state, [("push", {"body": body, "force": force, "duration": PUSH_DURATION_S})]
-    if key == "r":
+    if key == "g":
+        state = replace(state, gait=next_gait(state.gait))
+        return state, [("gait", {"name": state.gait})]
+    if key == "r":  # the server resets to standing
         return TeleopState(paused=state.paused), [("reset", {})]
     if key == "p":
         return replace(state, paused=not state.paused), [
@@ -80,23 +94,31 @@ def key_to_commands(
     return state, []
 
 
+def acknowledged(state: TeleopState, before: TeleopState, verb: str, reply: dict) -> TeleopState:
+    """The state once the server replied to `verb`: a rejected gait keeps the one `before`."""
+    if verb == "gait" and not reply.get("ok"):
+        return replace(state, gait=before.gait)
+    return state
+
+
 def default_push_body(bodies: list[str]) -> str:
     """The floating base among `info`'s bodies, by its usual names; else the first body."""
     return next((name for name in BASE_LINK_NAMES if name in bodies), bodies[0])
 
 
 def status_line(telemetry: dict | None, state: TeleopState) -> str:
-    """One line: sim time, base height and world velocity, command, QP and loop health."""
+    """One line: sim time, gait, base height and world velocity, command, QP and loop health."""
     cmd = f"cmd vx {state.vx:+.1f} vy {state.vy:+.1f} wz {state.yaw_rate:+.1f}"
     if telemetry is None:
-        return f"(no telemetry yet) {cmd}"
+        return f"(no telemetry yet) {state.gait} {cmd}"
     base = telemetry["base"]
     v = base["linear_velocity"]
     on_time = telemetry.get("loop", {}).get("on_time_fraction", math.nan)
     flags = " PAUSED" if telemetry["paused"] else ""
     flags += " FELL" if telemetry["fell"] else ""
     return (
-        f"t {telemetry['t']:7.2f}s {telemetry['robot']} z {base['position'][2]:.3f}m "
+        f"t {telemetry['t']:7.2f}s {telemetry['robot']} {telemetry['gait']} "
+        f"z {base['position'][2]:.3f}m "
         f"v [{v[0]:+.2f} {v[1]:+.2f}] {cmd} | qp {telemetry['qp']['status']} "
         f"{telemetry['qp']['solve_us']:.0f}us | on-time {on_time:.4f}"
         f"{flags}"
@@ -122,7 +144,7 @@ def teleop_main(argv: list[str]) -> int:
             return 1
         body = args.body or default_push_body(info["bodies"])
         print(__doc__.split("\n\n")[1])
-        state = TeleopState(paused=bool(info.get("paused", False)))
+        state = TeleopState(paused=bool(info.get("paused", False)), gait=info["gait"])
         fd = sys.stdin.fileno()
         saved = termios.tcgetattr(fd) if sys.stdin.isatty() else None
         if saved is not None:
@@ -144,10 +166,12 @@ def _run(lab: LabClient, state: TeleopState, body: str, push_force: float, fd: i
             data = os.read(fd, 1).decode(errors="replace")
             if not data or data in QUIT_KEYS:
                 return
+            before = state
             state, commands = key_to_commands(data, state, body, push_force)
             for verb, payload in commands:
                 reply = lab.command(verb, **payload)
                 print(f"\r\x1b[K{verb} {payload} -> {reply}")
+                state = acknowledged(state, before, verb, reply)
                 last_sent = time.monotonic()
         if (
             state.velocity() != TeleopState().velocity()

@@ -6,6 +6,7 @@ from lab.server.commands import VX_MAX, parse_command
 from lab.teleop import (
     PUSH_DURATION_S,
     TeleopState,
+    acknowledged,
     default_push_body,
     key_to_commands,
     status_line,
@@ -53,8 +54,33 @@ def test_pause_toggles_and_reset_clears_velocity() -> None:
     assert state == TeleopState(paused=True)
 
 
+def test_gait_key_cycles_stand_trot_crawl() -> None:
+    state, sent = press("gggg")
+    assert [payload["name"] for verb, payload in sent if verb == "gait"] == [
+        "trot",
+        "crawl",
+        "stand",
+        "trot",
+    ]
+    assert state.gait == "trot"
+    assert press("w", state)[0].gait == "trot"  # other keys keep the gait
+    assert press("r", state)[0].gait == "stand"  # the server resets to standing
+    _, sent = press("g", TeleopState(gait="height_step"))  # a Hutter experiment behaviour
+    assert sent == [("gait", {"name": "stand"})]
+
+
+def test_a_rejected_gait_keeps_the_previous_one() -> None:
+    before = TeleopState(vx=0.2)
+    state, [(verb, _)] = press("g", before)
+    rejected = {"ok": False, "error": "walking needs one foot per quadrant"}
+    assert acknowledged(state, before, verb, rejected) == before
+    assert acknowledged(state, before, verb, {"ok": True}).gait == "trot"
+    pushed, [(verb, _)] = press("i", before)
+    assert acknowledged(pushed, before, verb, rejected) == pushed  # only the gait is undone
+
+
 def test_every_key_sends_valid_commands_and_others_send_nothing() -> None:
-    for key in "wsadqe ikjlrp":
+    for key in "wsadqe ikjlrpg":
         _, sent = press(key)
         assert sent
         for verb, payload in sent:
@@ -63,10 +89,12 @@ def test_every_key_sends_valid_commands_and_others_send_nothing() -> None:
 
 
 def test_status_line_without_and_with_telemetry() -> None:
-    assert "no telemetry" in status_line(None, TeleopState())
+    line = status_line(None, TeleopState(gait="crawl"))
+    assert "no telemetry" in line and "crawl" in line
     telemetry = {
         "t": 1.5,
         "robot": "anymal",
+        "gait": "trot",
         "paused": False,
         "fell": True,
         "base": {"position": [0, 0, 0.45], "linear_velocity": [0.3, -0.1, 0]},
@@ -75,6 +103,7 @@ def test_status_line_without_and_with_telemetry() -> None:
     }
     line = status_line(telemetry, TeleopState(vx=0.3))
     assert "z 0.450m" in line and "v [+0.30 -0.10]" in line and "FELL" in line
+    assert "anymal trot" in line  # the server's gait, not the teleop's
     assert "0.9995" in line
 
 
