@@ -152,6 +152,42 @@ def test_a_second_browser_is_read_only_until_it_takes_control(browser, serve, pa
     context.close()
 
 
+def heading_speed(window_s: float, start: dict):
+    """A telemetry predicate: true once the base's mean velocity along its heading over the last
+    `window_s` of sim time exceeds 0.1 m/s; raises if the robot falls or 5 s of sim pass."""
+    samples: list[tuple[float, np.ndarray]] = []
+
+    def moving(tel: dict) -> bool:
+        assert not tel["fell"], "the robot fell"
+        assert tel["t"] - start["t"] < 5.0, f"no forward walk within 5 s of sim: {samples[-1]}"
+        samples.append((tel["t"], np.array(tel["base"]["position"][:2])))
+        while len(samples) > 2 and samples[-1][0] - samples[1][0] >= window_s:
+            samples.pop(0)
+        (t0, p0), (t1, p1) = samples[0], samples[-1]
+        qx, qy, qz, qw = tel["base"]["quaternion"]
+        yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        heading = np.array([np.cos(yaw), np.sin(yaw)])
+        return t1 - t0 >= window_s and heading @ (p1 - p0) / (t1 - t0) > 0.1
+
+    return moving
+
+
+def test_trot_from_the_gait_dropdown_walks_forward(page, lab: LabClient) -> None:
+    choose(page, "Gait", "trot")
+    tel = lab.wait_telemetry(lambda m: m["gait"] == "trot", timeout=10.0)
+    assert "swing_feet" in {name for level in tel["stack"] for name in level}  # walking stack
+    page.get_by_text("swing_feet").first.wait_for()  # the stack editor shows it
+    page.evaluate("document.activeElement && document.activeElement.blur()")
+    page.keyboard.press("i")  # velocity hotkeys: two taps, 0.3 m/s forward
+    page.keyboard.press("i")
+    start = lab.wait_telemetry(lambda m: m["command"]["vx"] > 0.25, timeout=10.0)
+    walked = lab.wait_telemetry(heading_speed(1.0, start), timeout=60.0)
+    assert walked["gait"] == "trot" and not walked["fell"]
+    page.keyboard.press("x")
+    page.get_by_role("button", name="Reset", exact=True).click(no_wait_after=True)
+    lab.wait_telemetry(lambda m: m["gait"] == "stand" and m["t"] < 1.0, timeout=10.0)
+
+
 def test_choosing_another_robot_switches_it(page, lab: LabClient) -> None:
     before = dark_pixels(page)
     choose(page, "Robot", "solo12")

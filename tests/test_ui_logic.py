@@ -8,6 +8,7 @@ import pytest
 from lab.ui import stack_edit as se
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
+from lab.ui.gaits import gait_options
 from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
 from lab.ui.ownership import ControlOwnership
 from lab.ui.plot_buffer import RollingBuffer
@@ -115,6 +116,15 @@ def test_rolling_buffer_window_ring_and_rewind():
     assert len(b) == 1
     with pytest.raises(ValueError, match="expected 2"):
         b.append(0.6, [1, 2, 3])
+
+
+def test_gait_options_keep_the_experiments_out_unless_one_runs():
+    gaits = ["stand", "height_step", "forward_shift", "trot", "crawl", "static_walk"]
+    assert gait_options(gaits, "stand") == ("stand", "trot", "crawl")
+    assert gait_options(gaits, "crawl") == ("stand", "trot", "crawl")
+    # a scenario started an experiment: the dropdown still shows what runs
+    assert gait_options(gaits, "height_step") == ("stand", "trot", "crawl", "height_step")
+    assert gait_options(["stand"], "stand") == ("stand",)
 
 
 def test_control_ownership():

@@ -29,6 +29,11 @@ OVERLAY_S = 1.0 / 30.0  # overlay redraw period
 STATUS_S = 0.2
 REFRESH_S = 0.2  # resend a non-zero velocity (deadman 0.5 s) and an active drag push
 DRAG_PUSH_S = 0.25  # duration of each drag push; refreshed every REFRESH_S while dragging
+# Commands after which the panels re-read `info` to show what the server holds, accepted or not
+# (a walking gait may also install a walking stack).
+INFO_CHANGING_VERBS = frozenset(
+    ("stack", "gains", "hierarchy", "robot", "scene", "reset", "pause", "resume", "gait")
+)
 
 
 def _yaw(quat_xyzw: list[float]) -> float:
@@ -122,7 +127,7 @@ class LabApp:
         reply = self.link.request(verb, payload)
         if not reply.get("ok"):
             self.notify_error(client, verb, str(reply.get("error", "rejected")))
-        if verb in ("stack", "gains", "hierarchy", "robot", "scene", "reset", "pause", "resume"):
+        if verb in INFO_CHANGING_VERBS:
             self.refresh_info()
         return reply
 
@@ -267,7 +272,8 @@ class LabApp:
         if method == "nullspace":
             method += f" ({hierarchy['formulation']})"
         text = (
-            f"**{tel['robot']}** on {tel['scene']} · {method}/{hierarchy['solver']}{flags}  \n"
+            f"**{tel['robot']}** on {tel['scene']} · {tel['gait']} · {method}/"
+            f"{hierarchy['solver']}{flags}  \n"
             f"t {tel['t']:.2f} s · RTF {self._realtime_factor():.2f} · on-time "
             f"{100.0 * loop.get('on_time_fraction', float('nan')):.2f} % · QP "
             f"{qp['solve_us']:.0f} µs ({qp['status']}) · failures {qp['failures']} · view "
@@ -312,8 +318,12 @@ class LabApp:
                     tel["robot"] == self._robot_name
                 ):
                     self._load_scene(tel["scene"], load_description(tel["robot"]).friction)
-                if self.info is not None and tel["stack"] != self.info["stack"]:
-                    self.refresh_info()  # someone else changed the stack
+                info = self.info
+                if info is not None and (tel["stack"], tel["gait"]) != (
+                    info["stack"],
+                    info["gait"],
+                ):
+                    self.refresh_info()  # someone else changed the stack or the gait
                 self.overlays.update(tel)
                 position = np.array(tel["base"]["position"])
                 with self._lock:

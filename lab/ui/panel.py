@@ -1,5 +1,5 @@
-"""The per-browser control panel: ownership banner, robot/scene/solver choice, velocity joystick,
-push buttons, reset/pause and the task stack editor.
+"""The per-browser control panel: ownership banner, robot/scene/solver choice, gait choice and
+velocity joystick, push buttons, reset/pause and the task stack editor with its presets.
 
 Each browser gets its own panel (viser `client.gui`), so a read-only browser sees disabled
 controls and a notice while the controlling one edits. Every edit goes through `LabApp.send`,
@@ -15,6 +15,7 @@ import numpy as np
 import viser
 
 from lab.ui import stack_edit
+from lab.ui.gaits import gait_options
 from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
 
 if TYPE_CHECKING:
@@ -81,7 +82,10 @@ class ControlPanel:
         self.formulation.on_update(self._hierarchy)
         row.on_click(lambda e: app.send(client, e.target.value.lower(), {}))
 
-        with gui.add_folder("Velocity", order=4):
+        with gui.add_folder("Gait & velocity", order=4):
+            self.gait = gui.add_dropdown(
+                "Gait", ("…",), hint="trot and crawl walk, steered by the velocity; stand balances"
+            )
             gui.add_markdown(
                 "Drag the pad over the robot (springs back on release). Keys: I/K forward/back, "
                 "J/L left/right, U/O turn, X stop."
@@ -91,7 +95,8 @@ class ControlPanel:
             )
             self.command_text = gui.add_markdown("vx 0.00 · vy 0.00 · yaw 0.00")
             stop = gui.add_button("Stop", color="red", icon=viser.Icon.PLAYER_STOP)
-        self._controls += [self.yaw, stop]
+        self._controls += [self.gait, self.yaw, stop]
+        self.gait.on_update(self._choose_gait)
         self.yaw.on_update(self._yaw_changed)
         stop.on_click(lambda _: self.stop())
         for key, (label, axis, direction) in HOTKEYS.items():
@@ -115,11 +120,17 @@ class ControlPanel:
             self.kd = gui.add_number("kd", 0.0, min=0.0, max=1e5, step=0.5)
             self.weight = gui.add_number("weight", 1.0, min=1e-8, max=1e8, step=0.001)
             apply = gui.add_button("Apply gains")
+            self.preset = gui.add_dropdown(
+                "Preset", ("…",), hint="a stack of stacks/: its levels, gains and hierarchy"
+            )
+            load = gui.add_button("Load preset")
         self._controls += [self.task, moves, self.enabled, self.kp, self.kd, self.weight, apply]
+        self._controls += [self.preset, load]
         self.task.on_update(lambda _: self._show_task())
         moves.on_click(lambda e: self._move(e.target.value))
         self.enabled.on_update(self._toggle_enabled)
         apply.on_click(lambda _: self._apply_gains())
+        load.on_click(lambda _: self.app.send(client, "stack", {"preset": self.preset.value}))
 
         self._follow = client.scene.add_frame("/joystick", show_axes=False)
         self.pad = client.scene.add_transform_controls(
@@ -162,6 +173,7 @@ class ControlPanel:
                 (self.method, info["methods"], info["hierarchy"]["method"]),
                 (self.solver, info["solvers"], info["hierarchy"]["solver"]),
                 (self.formulation, info["formulations"], info["hierarchy"]["formulation"]),
+                (self.gait, gait_options(info["gaits"], info["gait"]), info["gait"]),
             ):
                 dropdown.options = tuple(options)
                 dropdown.value = value
@@ -170,6 +182,8 @@ class ControlPanel:
                 current = self.task.value if self.task.value in names else names[0]
                 self.task.options = tuple(names)
                 self.task.value = current
+            if info["stack_presets"]:
+                self.preset.options = tuple(info["stack_presets"])
             self._show_task()
         finally:
             self._syncing = False
@@ -221,6 +235,19 @@ class ControlPanel:
                 "formulation": self.formulation.value,
             }
             self.app.send(self.client, "hierarchy", payload)
+
+    def _choose_gait(self, _: viser.GuiEvent) -> None:
+        if self._syncing:
+            return
+        name = self.gait.value
+        reply = self.app.send(self.client, "gait", {"name": name})
+        if reply and reply.get("ok") and "preset" in reply:
+            self.client.add_notification(
+                f"Stack preset {reply['preset']}",
+                f"{name} needs the swing-foot task: the walking stack is installed",
+                auto_close_seconds=6.0,
+                with_close_button=True,
+            )
 
     def _set_velocity(self, cmd: VelocityCommand) -> None:
         self.velocity = cmd
