@@ -13,6 +13,7 @@ import pytest
 from browser import CHROMIUM, CHROMIUM_ARGS, LabServe
 
 from lab.client import LabClient
+from lab.stack_presets import load_stack_preset
 
 playwright_api = pytest.importorskip("playwright.sync_api")
 
@@ -142,6 +143,8 @@ def test_a_second_browser_is_read_only_until_it_takes_control(browser, serve, pa
     second.goto(serve.url)
     second.get_by_text("Read-only").wait_for()
     assert second.get_by_role("button", name="Stop").is_disabled()
+    assert second.get_by_label("Gait", exact=True).first.is_disabled()
+    assert second.get_by_role("button", name="Load preset").is_disabled()
     assert second.get_by_role("button", name="front", exact=True).count() == 0
     second.get_by_role("button", name="Take control").click(no_wait_after=True)
     second.get_by_text("You hold control").wait_for()
@@ -186,6 +189,21 @@ def test_trot_from_the_gait_dropdown_walks_forward(page, lab: LabClient) -> None
     page.keyboard.press("x")
     page.get_by_role("button", name="Reset", exact=True).click(no_wait_after=True)
     lab.wait_telemetry(lambda m: m["gait"] == "stand" and m["t"] < 1.0, timeout=10.0)
+
+
+def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
+    preset = load_stack_preset("raiola_s1")
+    choose(page, "Preset", "raiola_s1")
+    page.get_by_role("button", name="Load preset", exact=True).click(no_wait_after=True)
+    end = time.monotonic() + 10.0
+    info = lab.command("info")
+    while info["stack"] != preset.levels and time.monotonic() < end:
+        time.sleep(0.1)
+        info = lab.command("info")
+    assert info["stack"] == preset.levels
+    assert info["hierarchy"]["method"] == preset.hierarchy == "weighted"
+    expect = playwright_api.expect  # the panel shows the preset's hierarchy method
+    expect(page.get_by_label("Hierarchy", exact=True).first).to_have_value("weighted")
 
 
 def test_choosing_another_robot_switches_it(page, lab: LabClient) -> None:
