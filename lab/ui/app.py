@@ -266,7 +266,7 @@ class LabApp:
         loop = tel.get("loop", {})
         qp = tel["qp"]
         flags = " · **paused**" if tel["paused"] else ""
-        flags += " · **fell**" if tel["fell"] else ""
+        flags += " · **fell**: torques off until Reset" if tel["fell"] else ""
         hierarchy = tel["hierarchy"]
         method = hierarchy["method"]
         if method == "nullspace":
