@@ -56,25 +56,15 @@ def least_squares_and_null_space(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarr
     m, n = A.shape
     if m == 0:
         return np.zeros(n), np.eye(n)
-    qr, pivots, tau, _, info = lapack.dgeqp3(A.T)
-    k = min(m, n)
+    qr, pivots, tau, rank = _pivoted_qr_of_transpose(A)
     reflectors = np.zeros((n, n), order="F")
-    reflectors[:, :k] = qr[:, :k]
-    Q, _, info_q = lapack.dorgqr(reflectors, tau, overwrite_a=1)
-    # Column pivoting makes |R₀₀| ≥ |R₁₁| ≥ …: the rank is the count above the threshold.
-    diagonal = np.abs(qr.diagonal())
-    rank = int(np.count_nonzero(diagonal > RANK_RTOL * max(1.0, diagonal[0])))
+    reflectors[:, : len(tau)] = qr[:, : len(tau)]
+    Q, _, info = lapack.dorgqr(reflectors, tau, overwrite_a=1)
+    if info:
+        raise SingularSystem("forming Q of a level's rows failed")
     if rank == 0:
         return np.zeros(n), Q
-    rhs = b[pivots - 1]  # Πᵀ b
-    if rank == m:  # R₁ᵀ is square and lower triangular (dtrtrs reads only R's upper triangle)
-        y, info_y = lapack.dtrtrs(qr, rhs, trans=1)
-    else:  # more rows than freedom: least squares of the full-column-rank R₁ᵀ
-        _, y, info_y = lapack.dgels(qr[:rank, :m].T * _lower(m, rank), rhs)
-        y = y[:rank]
-    if info or info_q or info_y:
-        raise SingularSystem("the QR least squares of a level's rows failed")
-    return Q[:, :rank] @ y, Q[:, rank:]
+    return Q[:, :rank] @ _triangular_solve(qr, pivots, b, rank), Q[:, rank:]
 
 
 def least_squares_step(
@@ -86,23 +76,40 @@ def least_squares_step(
     u = Q₁ y and N = Q₂, so x + Z u = x + (Z Q)₁ y and Z N = (Z Q)₂: one `dormqr` applies the
     reflectors to Z directly (Herzog eq. 8 for the new basis).
     """
-    AZ, r = A @ Z, b - A @ x
-    m, nz = AZ.shape
-    qr, pivots, tau, _, info = lapack.dgeqp3(AZ.T)
-    diagonal = np.abs(qr.diagonal())
-    rank = int(np.count_nonzero(diagonal > RANK_RTOL * max(1.0, diagonal[0])))
+    AZ = A @ Z
+    qr, pivots, tau, rank = _pivoted_qr_of_transpose(AZ)
     if rank == 0:
         return Z, x
-    ZQ, _, info_q = lapack.dormqr("R", "N", qr[:, : min(m, nz)], tau, Z, _WORK_PER_ROW * len(Z))
-    rhs = r[pivots - 1]  # Πᵀ (b − A x)
-    if rank == m:  # R₁ᵀ is square and lower triangular (dtrtrs reads only R's upper triangle)
-        y, info_y = lapack.dtrtrs(qr, rhs, trans=1)
-    else:  # more rows than freedom: least squares of the full-column-rank R₁ᵀ
-        _, y, info_y = lapack.dgels(qr[:rank, :m].T * _lower(m, rank), rhs)
-        y = y[:rank]
-    if info or info_q or info_y:
-        raise SingularSystem("the QR least squares of a level's rows failed")
+    ZQ, _, info = lapack.dormqr("R", "N", qr[:, : len(tau)], tau, Z, _WORK_PER_ROW * len(Z))
+    if info:
+        raise SingularSystem("applying Q of a level's rows failed")
+    y = _triangular_solve(qr, pivots, b - A @ x, rank)
     return ZQ[:, rank:], x + ZQ[:, :rank] @ y
+
+
+def _pivoted_qr_of_transpose(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """`dgeqp3` of Aᵀ (R and the reflectors in one array, pivots, reflector scales) and the rank."""
+    qr, pivots, tau, _, info = lapack.dgeqp3(A.T)
+    if info:
+        raise SingularSystem("the pivoted QR of a level's rows failed")
+    # Column pivoting makes |R₀₀| ≥ |R₁₁| ≥ …: the rank is the count above the threshold.
+    diagonal = np.abs(qr.diagonal())
+    rank = int(np.count_nonzero(diagonal > RANK_RTOL * max(1.0, diagonal[0])))
+    return qr, pivots, tau, rank
+
+
+def _triangular_solve(qr: np.ndarray, pivots: np.ndarray, b: np.ndarray, rank: int) -> np.ndarray:
+    """y solving R₁ᵀ y = Πᵀ b, in the least-squares sense when there are more rows than rank."""
+    m = len(b)
+    rhs = b[pivots - 1]  # Πᵀ b
+    if rank == m:  # R₁ᵀ is square and lower triangular (dtrtrs reads only R's upper triangle)
+        y, info = lapack.dtrtrs(qr, rhs, trans=1)
+    else:  # more rows than freedom: least squares of the full-column-rank R₁ᵀ
+        _, y, info = lapack.dgels(qr[:rank, :m].T * _lower(m, rank), rhs)
+        y = y[:rank]
+    if info:
+        raise SingularSystem("the triangular solve of a level's rows failed")
+    return y
 
 
 _WORK_PER_ROW = 64  # dormqr's workspace: a block of reflectors per row of Z
