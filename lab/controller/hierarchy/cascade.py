@@ -137,19 +137,16 @@ def _solve_level(
     G[:m, nz:] = -np.eye(m)
     G[m:, :nz] = Kz
     h = np.concatenate([s, k])
-    try:
-        return solve_qp(*_level_cost(Az, r, Z, x, m, REGULARIZATION), G, h, solver=solver)[:nz]
-    except QPFailure:
-        pass
-    try:
-        cost = _level_cost(Az, r, Z, x, m, RETRY_REGULARIZATION)
-        return solve_qp(*cost, G, h, solver=solver)[:nz]
-    except QPFailure:
-        # u = 0 is feasible by construction, so this is the solver failing, not the level. Seen
-        # when the carried bounds leave the level no freedom (a feasible set of 1e-9 about u = 0,
-        # more tight rows than directions): DAQP then reports it infeasible. The level keeps the
-        # solution of the levels above.
-        return np.zeros(nz)
+    for epsilon in (REGULARIZATION, RETRY_REGULARIZATION):
+        try:
+            return solve_qp(*_level_cost(Az, r, Z, x, m, epsilon), G, h, solver=solver)[:nz]
+        except QPFailure:
+            continue
+    # u = 0 is feasible by construction, so this is the solver failing, not the level. Seen when
+    # the carried bounds leave the level no freedom (a feasible set of 1e-9 about u = 0, more
+    # tight rows than directions): DAQP then reports it infeasible. The level keeps the solution
+    # of the levels above.
+    return np.zeros(nz)
 
 
 def _level_cost(
