@@ -27,6 +27,7 @@ FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
 PLOT_S = 1.0 / 20.0  # plot redraw period
 OVERLAY_S = 1.0 / 30.0  # overlay redraw period
 STATUS_S = 0.2
+SLOW_COMMAND_S = 1.0  # a command answered later than this is logged (the lab answers in ms)
 REFRESH_S = 0.2  # resend a non-zero velocity (deadman 0.5 s) and an active drag push
 DRAG_PUSH_S = 0.25  # duration of each drag push; refreshed every REFRESH_S while dragging
 # Commands after which the panels re-read `info` to show what the server holds, accepted or not
@@ -124,7 +125,10 @@ class LabApp:
         if not self.ownership.is_owner(client.client_id):
             self.notify_error(client, verb, "this browser is read-only: press Take control")
             return None
+        sent = time.monotonic()
         reply = self.link.request(verb, payload)
+        if time.monotonic() - sent > SLOW_COMMAND_S:
+            print(f"lab ui: {verb} took {time.monotonic() - sent:.1f} s to answer", flush=True)
         if not reply.get("ok"):
             self.notify_error(client, verb, str(reply.get("error", "rejected")))
         if verb in INFO_CHANGING_VERBS:
