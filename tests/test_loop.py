@@ -12,9 +12,12 @@ from lab.server.loop import (
     DEADMAN_RAMP_S,
     DEADMAN_TIMEOUT_S,
     EVENT_INTERVAL_S,
+    STATS_INTERVAL_TICKS,
     Deadman,
     EventThrottle,
     LogHistogram,
+    LoopConfig,
+    SimLoop,
     request_fifo,
 )
 
@@ -101,3 +104,62 @@ def test_threads_started_by_the_realtime_loop_do_not_inherit_its_priority() -> N
         pytest.skip("SCHED_FIFO refused on this machine (no privileges)")
     assert policies == {"loop": os.SCHED_FIFO, "child": os.SCHED_OTHER}
     assert os.sched_getscheduler(0) == os.SCHED_OTHER  # the calling thread is untouched
+
+
+class _CountingSession:
+    """Stops the loop after `ticks` ticks; `jobs[k]` lists what the loop did after tick k."""
+
+    def __init__(self, ticks: int, stop: threading.Event) -> None:
+        self.ticks, self.stop, self.jobs = ticks, stop, [[]]
+
+    def tick(self) -> None:
+        if len(self.jobs) == self.ticks:
+            self.stop.set()
+        self.jobs.append([])
+
+    def telemetry(self) -> dict:
+        self.jobs[-1].append("telemetry")
+        return {"t": 0.0}
+
+    def drawing_state(self) -> dict:
+        self.jobs[-1].append("state")
+        return {}
+
+    def handle(self, verb: str, payload: object) -> dict:
+        return {"ok": True}
+
+    def pop_events(self) -> list[dict]:
+        return []
+
+
+class _NoTransport:
+    def receive(self) -> None:
+        return None
+
+    def reply(self, request: object, body: dict) -> None: ...
+    def publish_telemetry(self, message: dict) -> None: ...
+    def publish_state(self, message: dict) -> None: ...
+    def publish_event(self, message: dict) -> None: ...
+
+
+@pytest.mark.parametrize(("rate", "telemetry_every", "state_every"), [(1000, 10, 16), (100, 1, 1)])
+def test_telemetry_and_state_keep_their_rates_and_rarely_share_a_tick(
+    rate: float, telemetry_every: int, state_every: int
+) -> None:
+    """At 1 kHz, telemetry every 10th tick and the state every 16th met on every 80th tick,
+    which then overran the period; now the state waits one tick, keeping its rate."""
+    ticks = 1600
+    stop = threading.Event()
+    session = _CountingSession(ticks, stop)
+    config = LoopConfig(rate_hz=rate, fast=True)
+    loop = SimLoop(session, _NoTransport(), config)
+    refreshes = []
+    loop.stats.refresh_percentiles = lambda: refreshes.append(loop.stats.ticks)
+    loop.run(stop)
+    assert loop.error is None
+    jobs = session.jobs[1 : ticks + 1]
+    assert sum("telemetry" in j for j in jobs) == ticks // telemetry_every
+    assert abs(sum("state" in j for j in jobs) - ticks // state_every) <= 1
+    if telemetry_every > 1:
+        assert not any(len(j) > 1 for j in jobs)
+        assert len(refreshes) == pytest.approx(ticks / STATS_INTERVAL_TICKS, abs=1)
