@@ -39,6 +39,17 @@ def test_a_push_moves_the_base_in_the_pushed_direction_and_it_recovers() -> None
     assert abs(after["com"]["position"][1] - y0) < 0.01  # the CoM task brings it back
 
 
+def test_a_humanoid_stands_a_short_hard_push() -> None:
+    """150 N for 0.1 s on Talos's base: with undamped sole velocities a sole that began to tip
+    kept turning, the feet bounced and Talos fell (the contact task's kd, robots/talos.toml)."""
+    session = Session(SessionConfig(robot="talos"))
+    run(session, 1.0)
+    session.handle("push", {"body": "base_link", "force": [0.0, 150.0, 0.0], "duration": 0.1})
+    run(session, 2.0)
+    assert not session.fell and session.qp_failures == 0
+    assert abs(session.telemetry()["base"]["linear_velocity"][1]) < 0.05  # m/s: recovered
+
+
 @pytest.mark.parametrize(
     ("verb", "payload", "needle"),
     [
