@@ -7,7 +7,6 @@ state → RobotModel.update → tasks and constraints become rows, level by leve
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from functools import cache
 
 import numpy as np
 
@@ -26,7 +25,7 @@ from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.qp import SOLVERS
 from lab.controller.references import References
 from lab.controller.stack import Stack
-from lab.controller.tasks import TASK_TYPES, Task, TaskGains
+from lab.controller.tasks import TASK_TYPES, PerContactSet, Task, TaskGains, no_rows, read_only
 
 
 @dataclass
@@ -74,6 +73,7 @@ class WholeBodyController:
         }
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
+        self._support = PerContactSet(_support_mask)
         self.set_stack(config.stack)
         self.set_hierarchy(config.hierarchy, config.solver, config.formulation)
 
@@ -156,7 +156,7 @@ class WholeBodyController:
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
-        support = _support(refs.contact_active.tobytes(), robot.force_dims.tobytes())
+        support = self._support.get(robot, refs.contact_active)
         terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
 
@@ -190,24 +190,12 @@ def _stacked(
     rows: list[np.ndarray], rhs: list[np.ndarray], nx: int
 ) -> tuple[np.ndarray, np.ndarray]:
     if not rows:
-        return _no_rows(nx)
+        return no_rows(nx)
     if len(rows) == 1:
         return rows[0], rhs[0]
     return np.concatenate(rows), np.concatenate(rhs)
 
 
-@cache
-def _no_rows(nx: int) -> tuple[np.ndarray, np.ndarray]:
-    """The rows of a level without tasks (or constraints): shared, read-only."""
-    A, b = np.zeros((0, nx)), np.zeros(0)
-    A.flags.writeable = b.flags.writeable = False
-    return A, b
-
-
-@cache
-def _support(contact_active: bytes, force_dims: bytes) -> np.ndarray:
+def _support_mask(robot: RobotModel, active: np.ndarray) -> np.ndarray:
     """Which rows of F belong to contacts in support (one flag per force component)."""
-    active = np.frombuffer(contact_active, dtype=bool)
-    support = np.repeat(active, np.frombuffer(force_dims, dtype=int))
-    support.flags.writeable = False
-    return support
+    return read_only(np.repeat(active, robot.force_dims))
