@@ -14,7 +14,8 @@ Strict means exactly lexicographic: a lower level never raises a higher level's 
 QP above is only positive semi-definite in u, and a regularization ε‖·‖² added to it would trade
 the level's own residual for a smaller x (with forces of hundreds of newtons the leak reached
 1e-2). So a level where an inequality binds is solved in two stages: its optimum first (the QP
-with a proximal term ε‖u − u₀‖², solved twice so that the term vanishes at the optimum), then,
+with a proximal term ε‖u − u₀‖², solved again from each optimum until the level's A_r Z u
+settles, so that the term vanishes), then,
 inside that level's optimal set {A_r Z u = A_r Z u*, C_r(x* + Z u) − d_r ≤ v*}, the point with
 the smallest ‖x* + Z u‖, which leaves the most room to the levels below (Herzog eq. 5).
 
@@ -159,7 +160,11 @@ def _solve_level(
     return np.zeros(nz)
 
 
-PROXIMAL_SOLVES = 2  # the second solve starts at the first one's optimum: its ε term vanishes
+# Proximal solves of one level: each starts at the last one's optimum, so the ε term vanishes
+# as they converge. A lower level's cost moves to first order with the level's A_r Z u while the
+# level's own cost moves only to second order, so the solves go on until A_r Z u has settled.
+PROXIMAL_SOLVES = 8
+PROXIMAL_TOL = 1e-10  # relative change of A_r Z u at which the level's optimum has settled
 
 
 def _level_optimum(
@@ -178,9 +183,13 @@ def _level_optimum(
     P[:nz, :nz] = Az.T @ Az + epsilon * np.eye(nz)
     P[nz:, nz:] = np.eye(m)
     q = np.zeros(nz + m)
+    w = Az @ u
     for _ in range(PROXIMAL_SOLVES):
         q[:nz] = -Az.T @ r - epsilon * u
         u = solve_qp(P, q, G, h, solver=solver)[:nz]
+        w, previous = Az @ u, w
+        if np.linalg.norm(w - previous) <= PROXIMAL_TOL * (1.0 + np.linalg.norm(w)):
+            break
     return u
 
 
@@ -204,8 +213,15 @@ def _smallest_in_optimal_set(
     G = np.concatenate((Cz @ N, Kz @ N))
     h = np.maximum(np.concatenate((s - Cz @ u, k - Kz @ u)), 0.0)
     free = (G * G).sum(axis=1) > ZERO_ROW_TOL**2
+    G, h = G[free], h[free]
     try:
-        w = solve_qp(ZN.T @ ZN, ZN.T @ (x + Z @ u), G[free], h[free], solver=solver)
+        w = solve_qp(ZN.T @ ZN, ZN.T @ (x + Z @ u), G, h, solver=solver)
     except QPFailure:
         return u  # still optimal for the level; only the smallest x among its optima is lost
+    # The solver's tolerance may overstep a row the level's optimum already sits on: step back
+    # along w until every row is within its room again (w = 0 always is).
+    rate = G @ w
+    over = rate > h
+    if over.any():
+        w = w * min(1.0, float(np.min(h[over] / rate[over])))
     return u + N @ w
