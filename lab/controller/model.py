@@ -61,6 +61,8 @@ class RobotModel:
         self.base_rotation = np.eye(3)
         self.contact_positions = np.zeros((len(self.contacts), 3))
         self.contact_rotations = np.zeros((len(self.contacts), 3, 3))
+        self.centroidal_map = np.zeros((6, self.nv))  # A_G: h = A_G v (Herzog eq. 19)
+        self._centroidal_drift: np.ndarray | None = None
 
     def update(self, q: np.ndarray, v: np.ndarray) -> None:
         """Recompute everything at state (q, v) in one pinocchio pass."""
@@ -78,6 +80,8 @@ class RobotModel:
         self.com_drift[:] = data.acom[0]
         self.Jcom[:] = data.Jcom
         self.base_rotation[:] = pin.Quaternion(q[3:7]).toRotationMatrix()
+        self.centroidal_map[:] = data.Ag
+        self._centroidal_drift = None
         for i, (contact, fid, rows) in enumerate(
             zip(self.contacts, self.frame_ids, self.force_slices, strict=True)
         ):
@@ -110,6 +114,15 @@ class RobotModel:
     def centroidal_momentum(self) -> np.ndarray:
         """[linear; angular] momentum about the CoM, world axes (valid after update)."""
         return np.array(self.data.hg.vector)
+
+    def centroidal_drift(self) -> np.ndarray:
+        """Ȧ_G v, the rate of change of the centroidal momentum at q̈ = 0 (Herzog eq. 20), world
+        axes, [linear; angular] about the CoM. One more pinocchio pass, on demand, once per
+        update (only the momentum task needs it)."""
+        if self._centroidal_drift is None:
+            dAg = pin.computeCentroidalMapTimeVariation(self.model, self.data, self.q, self.v)
+            self._centroidal_drift = dAg @ self.v
+        return self._centroidal_drift
 
     def contact_forces_world(self, forces: np.ndarray) -> np.ndarray:
         """The force of each contact (n_contacts, 3) in world axes, from the F part of x.

@@ -262,4 +262,4 @@ TASK_TYPES: dict[str, type[Task]] = {
 }
 
 # Tasks defined in other modules register themselves in TASK_TYPES (after it exists above).
-from lab.controller import objectives, trunk_tasks, walk_tasks  # noqa: E402, F401
+from lab.controller import momentum_task, objectives, trunk_tasks, walk_tasks  # noqa: E402, F401

@@ -1,0 +1,56 @@
+"""The centroidal momentum task of Herzog 2016 (eqs. 19–24), usable at any level.
+
+Rows over x = [q̈, F]: A_G q̈ = ḣ_des − Ȧ_G v (eq. 20, pinocchio's centroidal map and its drift),
+with ḣ_des = −K_h s + ḣ_ref from momentum.py: diagonal PD gains (eq. 22) or the LQR design of
+eqs. 23–26, chosen by `mode`. The reference momentum is [m ċ_ref; 0] and ḣ_ref = 0. `error` is s,
+the CoG error and the momentum errors [Δc; Δh_lin; Δh_ang] (m, kg m/s, kg m²/s).
+"""
+
+import numpy as np
+
+from lab.controller.model import RobotModel
+from lab.controller.momentum import MOMENTUM_MODES, GainSchedule, LqrCost, lqr_design, pd_gain
+from lab.controller.references import References
+from lab.controller.tasks import TASK_TYPES, Task, TaskGains
+
+
+class MomentumTask(Task):
+    """Centroidal momentum rate ḣ = −K_h s (Herzog eqs. 22 and 24), K_h from PD or LQR."""
+
+    name = "momentum"
+
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self.mode = "lqr"
+        self.cost = LqrCost()
+        self.schedule = GainSchedule()
+
+    def set_mode(self, mode: str) -> None:
+        """`pd` (eq. 22) or `lqr` (eqs. 23–26); raises ValueError naming the modes."""
+        if mode not in MOMENTUM_MODES:
+            raise ValueError(f"unknown momentum mode {mode!r} (modes: {', '.join(MOMENTUM_MODES)})")
+        if mode != self.mode:
+            self.mode = mode
+            self.schedule.clear()
+
+    def gain(self, robot: RobotModel, refs: References) -> np.ndarray:
+        """This tick's K_h (6 × 9): PD from the task's gains, LQR per contact configuration."""
+        if self.mode == "pd":
+            return pd_gain(robot.mass, self.gains.kp, self.gains.kd)
+        active = refs.contact_active
+
+        def design() -> np.ndarray:
+            return lqr_design(robot, active, self.cost).momentum_gain
+
+        return self.schedule.gain(active.tobytes(), design)
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        h = robot.centroidal_momentum()
+        s = np.concatenate((robot.com - refs.com, h[:3] - robot.mass * refs.com_velocity, h[3:]))
+        A, view = self._matrix(robot, 6)
+        A[:, : robot.nv] = robot.centroidal_map
+        self.error = s
+        return view, -self.gain(robot, refs) @ s - robot.centroidal_drift()
+
+
+TASK_TYPES[MomentumTask.name] = MomentumTask
