@@ -1,8 +1,9 @@
-"""`lab`: the command line. `lab run`, `lab bench`, `lab serve`, `lab teleop`."""
+"""`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab teleop`."""
 
 import argparse
 import json
 import sys
+from dataclasses import asdict
 
 
 def _run(argv: list[str]) -> int:
@@ -12,10 +13,11 @@ def _run(argv: list[str]) -> int:
     parser.add_argument("scenario", help="path to a scenario TOML file")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
     parser.add_argument("--duration", type=float, help="stop earlier than the scenario's duration")
+    parser.add_argument("--record", metavar="FILE.mcap", help="record the run to an MCAP file")
     args = parser.parse_args(argv)
     try:
         scenario = load_scenario(args.scenario)
-        report = run_scenario(scenario, args.duration)
+        report = run_scenario(scenario, args.duration, args.record)
     except (ScenarioError, KeyError, ValueError) as error:
         print(f"lab run: {error.args[0] if error.args else error}", file=sys.stderr)
         return 2
@@ -30,6 +32,24 @@ def _run(argv: list[str]) -> int:
             f"QP failures {report['qp_failures']}; {metrics}"
         )
     return 1 if report["fell"] else 0
+
+
+def _replay(argv: list[str]) -> int:
+    from lab.server.recording import replay
+
+    parser = argparse.ArgumentParser(
+        prog="lab replay",
+        description="Replay a recording through a new session and compare its torques.",
+    )
+    parser.add_argument("recording", help="an MCAP file written by --record")
+    args = parser.parse_args(argv)
+    try:
+        check = replay(args.recording)
+    except (OSError, ValueError, KeyError) as error:
+        print(f"lab replay: {error}", file=sys.stderr)
+        return 2
+    print(json.dumps(asdict(check)))
+    return 0
 
 
 def _bench(argv: list[str]) -> int:
@@ -50,7 +70,13 @@ def _teleop(argv: list[str]) -> int:
     return teleop_main(argv)
 
 
-COMMANDS = {"run": _run, "bench": _bench, "serve": _serve, "teleop": _teleop}
+COMMANDS = {
+    "run": _run,
+    "replay": _replay,
+    "bench": _bench,
+    "serve": _serve,
+    "teleop": _teleop,
+}
 
 
 def main(argv: list[str] | None = None) -> int:

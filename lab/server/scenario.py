@@ -21,6 +21,7 @@ import numpy as np
 from lab.server.commands import CommandError, parse_command
 from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
+from lab.server.recording import Recorder
 from lab.server.session import Session, SessionConfig
 from lab.stack_presets import load_stack_preset
 
@@ -138,10 +139,14 @@ def _event(path: Path, index: int, raw: dict) -> Event:
     return Event(float(t), verb, raw[verb])
 
 
-def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
-    """Run headless and report; `duration` shortens the run (tests run short versions)."""
+def run_scenario(
+    scenario: Scenario, duration: float | None = None, record: str | Path | None = None
+) -> dict:
+    """Run headless and report; `duration` shortens the run (tests run short versions), `record`
+    names an MCAP file to record the run to (see recording.py)."""
     session = Session(scenario.config)
     apply_limits(session.controller, scenario.limits)
+    recorder = None if record is None else Recorder(record, session, scenario.limits)
     duration = scenario.duration if duration is None else min(duration, scenario.duration)
     ticks = max(1, round(duration / scenario.config.timestep))
     pending = list(scenario.events)
@@ -153,6 +158,8 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
         while pending and pending[0].t <= session.time + 1e-9:
             event = pending.pop(0)
             reply = session.handle(event.verb, event.payload)
+            if recorder is not None:
+                recorder.command(session, event.verb, event.payload, reply)
             if not reply["ok"]:
                 rejected.append(f"t={event.t}: {event.verb}: {reply['error']}")
         start = time.perf_counter()
@@ -160,9 +167,13 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
         tick_us[i] = (time.perf_counter() - start) * 1e6
         for metric in metrics:
             metric.update(session)
+        if recorder is not None:
+            recorder.after_tick(session)
         if session.fell:
             break
     wall = time.perf_counter() - wall_start
+    if recorder is not None:
+        recorder.close()
     return {
         "scenario": scenario.name,
         "robot": scenario.config.robot,

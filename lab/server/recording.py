@@ -1,0 +1,224 @@
+"""Recording a session to MCAP, and replaying a recording through a session.
+
+A recording holds, on the protocol's own topics, what a live lab publishes: telemetry
+(`lab/telemetry`, with the joint torques of that tick), the drawing state (`lab/state`), events
+(`lab/events`) and every command with its reply (`lab/commands`). Messages are JSON with a JSON
+schema per topic, the encodings Foxglove and PlotJuggler open without configuration. Log times
+are the session clock (ns since the session started), so a recording's timeline is sim time.
+The session's configuration and limits are the metadata record `session`, so a recording can be
+replayed through a new session: same commands at the same ticks, and on one machine the same
+torques (the tick is deterministic there).
+"""
+
+import json
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from lab.server.limits import apply_limits
+from lab.server.session import Session, SessionConfig
+
+TOPICS = {
+    "telemetry": "lab/telemetry",
+    "state": "lab/state",
+    "events": "lab/events",
+    "commands": "lab/commands",
+}
+# The fields each topic's messages always have (JSON Schema, draft 2020-12); the rest is
+# described in docs/protocol.md. Foxglove and PlotJuggler read the field names from the data.
+SCHEMAS = {
+    "telemetry": {
+        "type": "object",
+        "properties": {
+            "t": {"type": "number", "description": "session time, s"},
+            "tick": {"type": "integer"},
+            "tau": {"type": "array", "items": {"type": "number"}, "description": "N m"},
+        },
+        "required": ["t", "tick", "tau"],
+    },
+    "state": {
+        "type": "object",
+        "properties": {"t": {"type": "number"}, "robot": {"type": "string"}},
+        "required": ["t"],
+    },
+    "events": {
+        "type": "object",
+        "properties": {
+            "t": {"type": "number"},
+            "type": {"type": "string"},
+            "message": {"type": "string"},
+        },
+        "required": ["t", "type", "message"],
+    },
+    "commands": {
+        "type": "object",
+        "properties": {
+            "t": {"type": "number"},
+            "tick": {"type": "integer"},
+            "verb": {"type": "string"},
+            "payload": {},
+            "reply": {"type": "object"},
+        },
+        "required": ["t", "tick", "verb", "payload", "reply"],
+    },
+}
+TELEMETRY_PERIOD = 10  # ticks between recorded telemetry messages (100 Hz at 1 kHz)
+STATE_PERIOD = 16  # ticks between recorded drawing states (about 60 Hz)
+
+
+class Recorder:
+    """Writes one session to an MCAP file; `close` (or the context manager) finishes it."""
+
+    def __init__(
+        self, output: str | Path | IO[bytes], session: Session, limits: dict | None = None
+    ) -> None:
+        """Start a recording of `session` (already built, with `limits` applied if any)."""
+        self._file = open(output, "wb") if isinstance(output, str | Path) else None  # noqa: SIM115
+        self._writer = Writer(self._file or output)
+        self._writer.start(profile="", library="wbc-lab")
+        self._channels = {}
+        for kind, topic in TOPICS.items():
+            schema = self._writer.register_schema(
+                name=f"wbc_lab.{kind}",
+                encoding="jsonschema",
+                data=json.dumps(SCHEMAS[kind]).encode(),
+            )
+            self._channels[kind] = self._writer.register_channel(topic, "json", schema)
+        self._writer.add_metadata("session", session_metadata(session, limits or {}))
+        self._sequence = 0
+
+    def after_tick(self, session: Session) -> None:
+        """What a headless run records after each tick: telemetry and the drawing state at
+        their rates, and every event."""
+        if session.ticks % TELEMETRY_PERIOD == 0:
+            self.telemetry(session)
+        if session.ticks % STATE_PERIOD == 0:
+            self.state(session)
+        self.events(session.pop_events())
+
+    def telemetry(self, session: Session) -> None:
+        """This tick's telemetry with its joint torques."""
+        message = session.telemetry()
+        message["tick"], message["tau"] = session.ticks, session.tau.tolist()
+        self._write("telemetry", session.time, message)
+
+    def state(self, session: Session) -> None:
+        self._write("state", session.time, session.drawing_state())
+
+    def events(self, events: list[dict]) -> None:
+        for event in events:
+            self._write("events", event["t"], event)
+
+    def command(self, session: Session, verb: str, payload: object, reply: dict) -> None:
+        """A command as received (before the next tick) and the reply it got."""
+        message = {"t": session.time, "tick": session.ticks, "verb": verb, "payload": payload}
+        self._write("commands", session.time, {**message, "reply": reply})
+
+    def _write(self, kind: str, t: float, message: dict) -> None:
+        stamp = max(0, round(t * 1e9))
+        data = json.dumps(message, default=_jsonable).encode()
+        self._sequence += 1
+        self._writer.add_message(self._channels[kind], stamp, data, stamp, self._sequence)
+
+    def close(self) -> None:
+        self._writer.finish()
+        if self._file is not None:
+            self._file.close()
+
+    def __enter__(self) -> "Recorder":
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.close()
+
+
+def _jsonable(value: object) -> object:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON serializable")
+
+
+def session_metadata(session: Session, limits: dict) -> dict[str, str]:
+    """What a replay needs to build the same session: its configuration and its limits."""
+    return {"config": json.dumps(asdict(session.config)), "limits": json.dumps(limits)}
+
+
+@dataclass(frozen=True)
+class Message:
+    """One recorded message: its kind (a key of TOPICS), log time (s) and content."""
+
+    kind: str
+    t: float
+    data: dict
+
+
+def read_recording(path: str | Path) -> tuple[dict[str, str], Iterator[Message]]:
+    """The `session` metadata and the messages of a recording, in the order they were written
+    (a command and the telemetry of one tick share a log time)."""
+    kinds = {topic: kind for kind, topic in TOPICS.items()}
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        metadata = next(
+            (record.metadata for record in reader.iter_metadata() if record.name == "session"),
+            None,
+        )
+        if metadata is None:
+            raise ValueError(f"{path}: not a lab recording (no 'session' metadata)")
+        messages = [
+            (
+                message.sequence,
+                Message(kinds[channel.topic], message.log_time * 1e-9, json.loads(message.data)),
+            )
+            for _, channel, message in reader.iter_messages(log_time_order=False)
+            if channel.topic in kinds
+        ]
+        messages.sort(key=lambda m: m[0])
+    messages = [message for _, message in messages]
+    return metadata, iter(messages)
+
+
+@dataclass(frozen=True)
+class ReplayCheck:
+    """How a replay through a new session compared with the recording."""
+
+    ticks: int
+    commands: int
+    compared: int  # telemetry messages whose torques were compared
+    max_torque_error: float  # N m
+    replies_differ: int  # commands whose reply differs from the recorded one
+
+
+def replay(path: str | Path) -> ReplayCheck:
+    """Run a new session through the recorded commands, tick for tick, and compare its joint
+    torques with the recorded telemetry's."""
+    metadata, messages = read_recording(path)
+    session = Session(SessionConfig(**json.loads(metadata["config"])))
+    limits = json.loads(metadata.get("limits", "{}"))
+    if limits:
+        apply_limits(session.controller, limits)
+    commands = compared = differ = 0
+    error = 0.0
+    for message in messages:
+        if message.kind not in ("commands", "telemetry"):
+            continue
+        target = message.data["tick"]
+        while session.ticks < target:
+            session.tick()
+        if message.kind == "commands":
+            commands += 1
+            reply = json.loads(
+                json.dumps(session.handle(message.data["verb"], message.data["payload"]))
+            )
+            differ += reply != message.data["reply"]
+        else:
+            compared += 1
+            recorded = np.array(message.data["tau"])
+            error = max(error, float(np.max(np.abs(session.tau - recorded), initial=0.0)))
+    return ReplayCheck(session.ticks, commands, compared, error, differ)
