@@ -36,7 +36,8 @@ class LabServe:
         self.url = f"http://127.0.0.1:{self.ui_port}"
         self.log = log
         cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(self.port)]
-        cmd += ["--ui-port", str(self.ui_port), *args]
+        # Never SCHED_FIFO: a FIFO 1 kHz loop can starve the UI process and Chromium beside it.
+        cmd += ["--ui-port", str(self.ui_port), "--sched", "other", *args]
         with log.open("wb") as out:
             self.process = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
 

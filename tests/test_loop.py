@@ -9,6 +9,7 @@ import pytest
 
 from lab.server.commands import VelocityCommand
 from lab.server.loop import (
+    AUTO_FIFO_MIN_CPUS,
     DEADMAN_RAMP_S,
     DEADMAN_TIMEOUT_S,
     EVENT_INTERVAL_S,
@@ -19,6 +20,7 @@ from lab.server.loop import (
     LoopConfig,
     SimLoop,
     request_fifo,
+    resolve_sched,
 )
 
 
@@ -104,6 +106,39 @@ def test_threads_started_by_the_realtime_loop_do_not_inherit_its_priority() -> N
         pytest.skip("SCHED_FIFO refused on this machine (no privileges)")
     assert policies == {"loop": os.SCHED_FIFO, "child": os.SCHED_OTHER}
     assert os.sched_getscheduler(0) == os.SCHED_OTHER  # the calling thread is untouched
+
+
+@pytest.mark.parametrize(
+    ("requested", "cpus", "policy"),
+    [
+        ("auto", 2, "other"),  # this project's 2-core machines: never starve the UI and browser
+        ("auto", AUTO_FIFO_MIN_CPUS - 1, "other"),
+        ("auto", AUTO_FIFO_MIN_CPUS, "fifo"),
+        ("fifo", 1, "fifo"),  # asked for explicitly
+        ("other", 64, "other"),
+    ],
+)
+def test_auto_scheduling_takes_fifo_only_with_enough_cpus(
+    requested: str, cpus: int, policy: str
+) -> None:
+    assert resolve_sched(requested, cpus) == policy
+
+
+def test_an_unknown_scheduling_is_rejected_by_name() -> None:
+    with pytest.raises(ValueError, match="deadline"):
+        resolve_sched("deadline", 8)
+
+
+@pytest.mark.parametrize(("sched", "fast"), [("other", False), ("fifo", True)])
+def test_the_loop_reports_the_scheduling_in_effect(sched: str, fast: bool) -> None:
+    """`loop.sched` in telemetry and info: "other" when asked, and always in fast mode."""
+    stop = threading.Event()
+    loop = SimLoop(_CountingSession(20, stop), _NoTransport(), LoopConfig(fast=fast, sched=sched))
+    loop.run(stop)
+    assert loop.error is None
+    snapshot = loop.stats.snapshot()
+    assert snapshot["sched"] == "other" and snapshot["fifo"] is False
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER
 
 
 class _CountingSession:
