@@ -160,7 +160,7 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
         tick_us[i] = (time.perf_counter() - start) * 1e6
         for metric in metrics:
             metric.update(session)
-        if session.fell:
+        if session.fell or session.divergences:  # a diverged run ends as a fallen one does
             break
     wall = time.perf_counter() - wall_start
     return {
@@ -169,6 +169,7 @@ def run_scenario(scenario: Scenario, duration: float | None = None) -> dict:
         "hierarchy": session.controller.config.hierarchy,
         "solver": session.controller.config.solver,
         "fell": session.fell,
+        "divergences": session.divergences,
         "sim_time_s": session.time,
         "wall_time_s": wall,
         "realtime_factor": session.time / wall if wall > 0 else float("inf"),
