@@ -198,3 +198,44 @@ def test_telemetry_and_state_keep_their_rates_and_rarely_share_a_tick(
     if telemetry_every > 1:
         assert not any(len(j) > 1 for j in jobs)
         assert len(refreshes) == pytest.approx(ticks / STATS_INTERVAL_TICKS, abs=1)
+
+
+class _StallingClock:
+    """A fake monotonic clock: 50 µs per reading; `stall()` makes the second reading after it
+    jump by `seconds`, i.e. while the loop waits for its next deadline (a descheduled thread)."""
+
+    def __init__(self) -> None:
+        self.now, self._countdown, self._jump = 0.0, -1, 0.0
+
+    def stall(self, seconds: float) -> None:
+        self._countdown, self._jump = 2, seconds
+
+    def __call__(self) -> float:
+        self._countdown -= 1
+        self.now += 5e-5 + (self._jump if self._countdown == 0 else 0.0)
+        return self.now
+
+
+def test_periods_lost_to_a_stall_are_counted_in_the_next_telemetry() -> None:
+    """A loop woken 0.2 s late drops the lost periods before its tick, so the telemetry published
+    right after the stall already counts them (it used to lag a tick: a test reading telemetry
+    after a stall saw fewer periods than had passed)."""
+    stop = threading.Event()
+    clock = _StallingClock()
+    session = _CountingSession(12, stop)
+    published: list[dict] = []
+    transport = _NoTransport()
+    transport.publish_telemetry = published.append
+    stall_after = session.tick
+
+    def tick() -> None:
+        stall_after()
+        if len(session.jobs) == 6:
+            clock.stall(0.2)
+
+    session.tick = tick
+    loop = SimLoop(session, transport, LoopConfig(rate_hz=1000, telemetry_hz=1000), clock=clock)
+    loop._run(stop)
+    skipped = [m["loop"]["skipped"] for m in published]
+    assert skipped[4] == 0 and 195 <= skipped[5] <= 200, skipped  # 0.2 s at 1 kHz
+    assert skipped[-1] == skipped[5] and loop.stats.overruns >= 1

@@ -298,18 +298,23 @@ class SimLoop:
                     os.sched_yield()
             start = clock()
             lateness = 0.0 if fast else max(0.0, start - deadline)
+            stalled = lateness > MAX_BEHIND_S
+            if stalled:  # woken far behind: drop the lost periods now (this tick's telemetry
+                missed = math.floor(lateness / period)  # counts them) and serve the current one
+                self.stats.skipped += missed
+                deadline += missed * period
             self._iterate(start)
             end = clock()
             deadline = start if fast else deadline + period
             overrun = not fast and end > deadline
-            self.stats.record(lateness, end - start, overrun)
-            if overrun:
+            self.stats.record(lateness, end - start, overrun or stalled)
+            if overrun or stalled:
                 self._overrun_events.hit()
-                self._worst_lateness = max(self._worst_lateness, end - deadline)
-                if end - deadline > MAX_BEHIND_S:
-                    missed = math.ceil((end - deadline) / period)
-                    self.stats.skipped += missed
-                    deadline += missed * period
+                self._worst_lateness = max(self._worst_lateness, lateness, end - deadline)
+            if overrun and end - deadline > MAX_BEHIND_S:  # this tick's own work took too long
+                missed = math.ceil((end - deadline) / period)
+                self.stats.skipped += missed
+                deadline += missed * period
 
     def _iterate(self, now: float) -> None:
         self._apply_commands(now)
