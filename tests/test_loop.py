@@ -1,6 +1,7 @@
 """Parts of the realtime loop: deadman ramp, lateness histogram, event folding, priority."""
 
 import itertools
+import math
 import os
 import threading
 
@@ -22,6 +23,7 @@ from lab.server.loop import (
     request_fifo,
     resolve_sched,
 )
+from lab.server.session import Session, SessionConfig
 
 
 def test_deadman_holds_then_ramps_linearly_to_zero() -> None:
@@ -239,3 +241,32 @@ def test_periods_lost_to_a_stall_are_counted_in_the_next_telemetry() -> None:
     skipped = [m["loop"]["skipped"] for m in published]
     assert skipped[4] == 0 and 195 <= skipped[5] <= 200, skipped  # 0.2 s at 1 kHz
     assert skipped[-1] == skipped[5] and loop.stats.overruns >= 1
+
+
+def test_the_loop_keeps_ticking_through_a_sim_divergence() -> None:
+    """A real session whose MuJoCo state is made invalid mid-run (fault injection): the loop
+    publishes sim_diverged, keeps ticking and its telemetry's clock never runs backwards."""
+    stop = threading.Event()
+    session = Session(SessionConfig(robot="solo12"))
+    tick = session.tick
+
+    def tick_with_fault() -> None:
+        if session.ticks == 50 and session.divergences == 0:
+            session.plant.mj_data.qvel[-1] = math.nan
+        tick()
+        if session.time > 0.2:
+            stop.set()
+
+    session.tick = tick_with_fault
+    telemetry: list[dict] = []
+    events: list[dict] = []
+    transport = _NoTransport()
+    transport.publish_telemetry = telemetry.append
+    transport.publish_event = events.append
+    loop = SimLoop(session, transport, LoopConfig(fast=True))
+    loop.run(stop)
+    assert loop.error is None
+    assert [e["type"] for e in events] == ["sim_diverged"] and events[0]["t"] >= 0.05
+    times = [m["t"] for m in telemetry]
+    assert all(b >= a for a, b in itertools.pairwise(times)) and times[-1] > 0.19
+    assert telemetry[-1]["divergences"] == 1 and not telemetry[-1]["fell"]
