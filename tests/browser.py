@@ -24,6 +24,13 @@ CHROMIUM_ARGS = [
     "--no-first-run",
 ]
 STARTUP_TIMEOUT_S = 60.0
+# How the tests run `lab serve` (later `args` of LabServe override them): never SCHED_FIFO, which
+# can starve the UI process and Chromium on a 2-core machine; the 1 ms control step on a 250 Hz
+# schedule (sim time at a quarter of wall time, as tests/test_server.py) and 30 drawing states
+# a second, so that the sim, the UI process and software-rendering Chromium share a loaded
+# machine. At 1 kHz and 60 states/s (SCHED_OTHER, a CPU hog on one core) 4 of 6 runs passed; the
+# 2 others, at load 15-23 from a parallel C++ build, had clicks in the page time out after 60 s.
+SERVE_OPTIONS = ("--sched", "other", "--rate", "250", "--state-hz", "30")
 
 
 class LabServe:
@@ -36,7 +43,7 @@ class LabServe:
         self.url = f"http://127.0.0.1:{self.ui_port}"
         self.log = log
         cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(self.port)]
-        cmd += ["--ui-port", str(self.ui_port), *args]
+        cmd += ["--ui-port", str(self.ui_port), *SERVE_OPTIONS, *args]
         with log.open("wb") as out:
             self.process = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
 

@@ -1,6 +1,7 @@
 """Parts of the realtime loop: deadman ramp, lateness histogram, event folding, priority."""
 
 import itertools
+import math
 import os
 import threading
 
@@ -9,6 +10,7 @@ import pytest
 
 from lab.server.commands import VelocityCommand
 from lab.server.loop import (
+    AUTO_FIFO_MIN_CPUS,
     DEADMAN_RAMP_S,
     DEADMAN_TIMEOUT_S,
     EVENT_INTERVAL_S,
@@ -19,7 +21,9 @@ from lab.server.loop import (
     LoopConfig,
     SimLoop,
     request_fifo,
+    resolve_sched,
 )
+from lab.server.session import Session, SessionConfig
 
 
 def test_deadman_holds_then_ramps_linearly_to_zero() -> None:
@@ -106,6 +110,39 @@ def test_threads_started_by_the_realtime_loop_do_not_inherit_its_priority() -> N
     assert os.sched_getscheduler(0) == os.SCHED_OTHER  # the calling thread is untouched
 
 
+@pytest.mark.parametrize(
+    ("requested", "cpus", "policy"),
+    [
+        ("auto", 2, "other"),  # this project's 2-core machines: never starve the UI and browser
+        ("auto", AUTO_FIFO_MIN_CPUS - 1, "other"),
+        ("auto", AUTO_FIFO_MIN_CPUS, "fifo"),
+        ("fifo", 1, "fifo"),  # asked for explicitly
+        ("other", 64, "other"),
+    ],
+)
+def test_auto_scheduling_takes_fifo_only_with_enough_cpus(
+    requested: str, cpus: int, policy: str
+) -> None:
+    assert resolve_sched(requested, cpus) == policy
+
+
+def test_an_unknown_scheduling_is_rejected_by_name() -> None:
+    with pytest.raises(ValueError, match="deadline"):
+        resolve_sched("deadline", 8)
+
+
+@pytest.mark.parametrize(("sched", "fast"), [("other", False), ("fifo", True)])
+def test_the_loop_reports_the_scheduling_in_effect(sched: str, fast: bool) -> None:
+    """`loop.sched` in telemetry and info: "other" when asked, and always in fast mode."""
+    stop = threading.Event()
+    loop = SimLoop(_CountingSession(20, stop), _NoTransport(), LoopConfig(fast=fast, sched=sched))
+    loop.run(stop)
+    assert loop.error is None
+    snapshot = loop.stats.snapshot()
+    assert snapshot["sched"] == "other" and snapshot["fifo"] is False
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER
+
+
 class _CountingSession:
     """Stops the loop after `ticks` ticks; `jobs[k]` lists what the loop did after tick k."""
 
@@ -163,3 +200,73 @@ def test_telemetry_and_state_keep_their_rates_and_rarely_share_a_tick(
     if telemetry_every > 1:
         assert not any(len(j) > 1 for j in jobs)
         assert len(refreshes) == pytest.approx(ticks / STATS_INTERVAL_TICKS, abs=1)
+
+
+class _StallingClock:
+    """A fake monotonic clock: 50 µs per reading; `stall()` makes the second reading after it
+    jump by `seconds`, i.e. while the loop waits for its next deadline (a descheduled thread)."""
+
+    def __init__(self) -> None:
+        self.now, self._countdown, self._jump = 0.0, -1, 0.0
+
+    def stall(self, seconds: float) -> None:
+        self._countdown, self._jump = 2, seconds
+
+    def __call__(self) -> float:
+        self._countdown -= 1
+        self.now += 5e-5 + (self._jump if self._countdown == 0 else 0.0)
+        return self.now
+
+
+def test_periods_lost_to_a_stall_are_counted_in_the_next_telemetry() -> None:
+    """A loop woken 0.2 s late drops the lost periods before its tick, so the telemetry published
+    right after the stall already counts them (it used to lag a tick: a test reading telemetry
+    after a stall saw fewer periods than had passed)."""
+    stop = threading.Event()
+    clock = _StallingClock()
+    session = _CountingSession(12, stop)
+    published: list[dict] = []
+    transport = _NoTransport()
+    transport.publish_telemetry = published.append
+    stall_after = session.tick
+
+    def tick() -> None:
+        stall_after()
+        if len(session.jobs) == 6:
+            clock.stall(0.2)
+
+    session.tick = tick
+    loop = SimLoop(session, transport, LoopConfig(rate_hz=1000, telemetry_hz=1000), clock=clock)
+    loop._run(stop)
+    skipped = [m["loop"]["skipped"] for m in published]
+    assert skipped[4] == 0 and 195 <= skipped[5] <= 200, skipped  # 0.2 s at 1 kHz
+    assert skipped[-1] == skipped[5] and loop.stats.overruns >= 1
+
+
+def test_the_loop_keeps_ticking_through_a_sim_divergence() -> None:
+    """A real session whose MuJoCo state is made invalid mid-run (fault injection): the loop
+    publishes sim_diverged, keeps ticking and its telemetry's clock never runs backwards."""
+    stop = threading.Event()
+    session = Session(SessionConfig(robot="solo12"))
+    tick = session.tick
+
+    def tick_with_fault() -> None:
+        if session.ticks == 50 and session.divergences == 0:
+            session.plant.mj_data.qvel[-1] = math.nan
+        tick()
+        if session.time > 0.2:
+            stop.set()
+
+    session.tick = tick_with_fault
+    telemetry: list[dict] = []
+    events: list[dict] = []
+    transport = _NoTransport()
+    transport.publish_telemetry = telemetry.append
+    transport.publish_event = events.append
+    loop = SimLoop(session, transport, LoopConfig(fast=True))
+    loop.run(stop)
+    assert loop.error is None
+    assert [e["type"] for e in events] == ["sim_diverged"] and events[0]["t"] >= 0.05
+    times = [m["t"] for m in telemetry]
+    assert all(b >= a for a, b in itertools.pairwise(times)) and times[-1] > 0.19
+    assert telemetry[-1]["divergences"] == 1 and not telemetry[-1]["fell"]

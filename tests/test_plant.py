@@ -1,11 +1,13 @@
 """The MuJoCo plant: conventions in and out, free fall, pushes, contact detection and forces."""
 
+import math
+
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from lab.description import ROBOT_NAMES, build_robot, load_description
-from lab.server.plant import MujocoPlant
+from lab.server.plant import MujocoPlant, SimulationDiverged
 
 G = 9.81
 DT = 1e-3
@@ -161,3 +163,35 @@ def test_unknown_scene_names_the_known_ones() -> None:
     robot = build_robot(load_description("solo12"))
     with pytest.raises(KeyError, match="flat"):
         MujocoPlant(robot, scene="moon")
+
+
+def test_a_diverging_step_raises_instead_of_mujoco_resetting_the_state() -> None:
+    """MuJoCo's automatic reset is off: a bad state raises SimulationDiverged naming the cause,
+    the clock is not thrown back, and `reset` puts the robot at any sim time."""
+    plant = MujocoPlant(build_robot(load_description("solo12")))
+    plant.set_torques(np.zeros(plant.nv - 6))
+    for _ in range(10):
+        plant.step()
+    plant.mj_data.qvel[-1] = 1e12  # rad/s: beyond MuJoCo's 1e10
+    with pytest.raises(SimulationDiverged, match="velocity") as raised:
+        plant.step()
+    assert raised.value.time == pytest.approx(0.011)
+    assert plant.time == pytest.approx(0.011)  # MuJoCo did not reset it to 0
+    with pytest.raises(SimulationDiverged):
+        plant.check()  # still bad until a reset
+    plant.reset(plant.robot.q_standing, time=raised.value.time)
+    plant.step()
+    assert plant.time == pytest.approx(0.012)
+    with pytest.raises(ValueError, match="time"):
+        plant.reset(plant.robot.q_standing, time=math.nan)
+
+
+def test_joint_damping_is_settable_and_checked() -> None:
+    plant = MujocoPlant(build_robot(load_description("solo12")))
+    plant.set_joint_damping(0.3)
+    assert np.all(plant.mj_model.dof_damping[6:] == 0.3)
+    assert np.all(plant.mj_model.dof_damping[:6] == 0.0)  # the base is never damped
+    with pytest.raises(ValueError, match="damping"):
+        plant.set_joint_damping(-1.0)
+    plant.set_joint_damping(0.0)
+    assert not plant.mj_model.dof_damping.any()

@@ -33,7 +33,7 @@ def test_standing(path: Path) -> None:
     report = run_scenario(scenario, STAND_SECONDS)
     weight = _weight(scenario.config.robot)
     assert report["fell"] is False
-    assert report["qp_failures"] == 0
+    assert report["qp_failures"] == 0 and report["divergences"] == 0
     assert report["sim_time_s"] == pytest.approx(STAND_SECONDS, abs=2e-3)
     metrics = report["metrics"]
     assert metrics["max_base_orientation_error_rad"] <= MAX_ORIENTATION_ERROR
@@ -48,7 +48,7 @@ def test_lateral_push_is_survived(path: Path) -> None:
     push = scenario.events[0]
     report = run_scenario(scenario, push.t + push.payload["duration"] + 1.0)
     assert report["fell"] is False
-    assert report["qp_failures"] == 0
+    assert report["qp_failures"] == 0 and report["divergences"] == 0
     metrics = report["metrics"]
     assert metrics["max_base_orientation_error_rad"] <= PUSH_MAX_ORIENTATION_ERROR
     assert metrics["max_base_height_error_m"] <= PUSH_MAX_HEIGHT_ERROR
@@ -63,7 +63,8 @@ def test_lab_run_prints_one_json_report() -> None:
         timeout=120,
     )
     report = json.loads(result.stdout)
-    for key in ("fell", "sim_time_s", "wall_time_s", "realtime_factor", "qp_failures", "metrics"):
+    keys = ("fell", "divergences", "sim_time_s", "wall_time_s", "realtime_factor", "qp_failures")
+    for key in (*keys, "metrics"):
         assert key in report
     assert set(report["tick_us"]) == {"p50", "p99", "max"}
     assert report["tick_us"]["p50"] <= report["tick_us"]["p99"] <= report["tick_us"]["max"]

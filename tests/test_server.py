@@ -1,10 +1,11 @@
 """The lab server as a real process, driven over Zenoh on loopback: commands change the running
 session, hostile input never stops the loop, signals stop the process promptly.
 
-One server process (ANYmal, headless, SCHED_FIFO when granted, as `lab serve` runs) is shared by
-the tests in file order; the robot switch comes last. It runs the 1 ms control step on a 250 Hz
-schedule (`--rate 250`: sim time at a quarter of wall time) so that the rate assertions hold on a
-loaded, shared 2-core machine too (the controller's tick alone is ~0.8-1.3 ms there today);
+One server process (ANYmal, headless, `--sched other`: a test server never takes SCHED_FIFO,
+which can starve the test process on a small machine) is shared by the tests in file order; the
+robot switch comes last. It runs the 1 ms control step on a 250 Hz schedule (`--rate 250`: sim
+time at a quarter of wall time) so that the rate assertions hold on a loaded, shared 2-core
+machine too (the controller's tick alone is ~0.8-1.3 ms there today);
 whether 1 kHz is met is measured by benchmarks/bench_server.py, not by a timed test.
 """
 
@@ -22,6 +23,7 @@ import pytest
 from ports import free_port
 
 from lab.client import LabClient
+from lab.server.loop import MAX_BEHIND_S
 from lab.server.transport import MAX_PAYLOAD_BYTES, encode
 
 STARTUP_TIMEOUT_S = 60.0
@@ -37,7 +39,7 @@ class Server:
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.log = log
         cmd = [sys.executable, "-m", "lab.server.serve", "--headless", "--port", str(self.port)]
-        cmd += ["--rate", str(RATE_HZ)]
+        cmd += ["--rate", str(RATE_HZ), "--sched", "other"]
         with open(log, "wb") as out:
             self.process = subprocess.Popen([*cmd, *args], stdout=out, stderr=subprocess.STDOUT)
 
@@ -106,7 +108,12 @@ def collect(endpoint: str, seconds: float) -> dict[str, list[dict]]:
 
 def assert_on_schedule(lab: LabClient, seconds: float) -> None:
     """Over `seconds` of wall time the schedule advanced at RATE_HZ (ticks run plus periods
-    explicitly skipped after a stall: the loop does not drift), and most periods ran."""
+    explicitly skipped after a stall: the loop does not drift) and the loop kept ticking.
+
+    Allowed error: each end may be up to MAX_BEHIND_S behind (not yet run nor skipped) plus
+    ~50 ms for a test process reading telemetry late on a loaded machine: 10 % of a 2 s window
+    (a loop that slept a period after its work would drift by work / period: 10-30 % here). How
+    many periods ran is the benchmark's business: at SCHED_OTHER, load 15, 2 cores, it was 40 %."""
     first = lab.wait_telemetry()
     t0 = time.monotonic()
     time.sleep(seconds)
@@ -114,8 +121,9 @@ def assert_on_schedule(lab: LabClient, seconds: float) -> None:
     wall = time.monotonic() - t0
     ticks = last["loop"]["ticks"] - first["loop"]["ticks"]
     skipped = last["loop"]["skipped"] - first["loop"]["skipped"]
-    assert (ticks + skipped) / wall == pytest.approx(RATE_HZ, rel=0.05), last["loop"]
-    assert ticks / wall > 0.7 * RATE_HZ, last["loop"]
+    slack = RATE_HZ * 2 * (MAX_BEHIND_S + 0.05)
+    assert abs(ticks + skipped - RATE_HZ * wall) <= slack, (wall, last["loop"])
+    assert ticks / wall > 0.2 * RATE_HZ, last["loop"]  # alive, not stuck
 
 
 def base_body(info: dict) -> str:
@@ -150,7 +158,7 @@ def test_telemetry_and_state_stream_at_rate_with_the_loop_on_schedule(
     loop = last["loop"]
     assert loop["realtime"] and loop["rate_hz"] == RATE_HZ
     assert 0.0 < loop["on_time_fraction"] <= 1.0  # its level is the benchmark's business
-    assert_on_schedule(lab, 1.0)
+    assert_on_schedule(lab, 2.0)
     state = states[-1]
     assert state["robot"] == "anymal"
     assert len(state["joints"]["names"]) == len(state["joints"]["positions"]) == 12
@@ -290,7 +298,7 @@ def test_hostile_payloads_are_each_rejected_and_the_loop_keeps_its_rate(
     # tick time and the machine's load: the benchmark measures it) and is back at rate after it
     ticks = end["loop"]["ticks"] - start["loop"]["ticks"]
     assert ticks / (elapsed * RATE_HZ) > 0.5
-    assert_on_schedule(lab, 1.0)
+    assert_on_schedule(lab, 2.0)
     assert not lab.wait_telemetry()["fell"]
     after = lab.command("info")
     for key in ("robot", "scene", "stack", "tasks", "hierarchy", "paused"):
@@ -344,7 +352,7 @@ def test_robot_switch_brings_up_the_new_robot(lab: LabClient, server: Server) ->
     assert not settled["fell"]
     assert 0.1 < settled["base"]["position"][2] < 0.4  # Solo12 stands ~0.25 m high
     assert lab.command("info")["robot"] == "solo12"
-    assert_on_schedule(lab, 1.0)
+    assert_on_schedule(lab, 2.0)
 
 
 def test_sigint_stops_the_server_within_2s(server: Server, lab: LabClient) -> None:

@@ -30,6 +30,11 @@ EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per sec
 COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
 STATS_INTERVAL_TICKS = 100  # recompute the percentiles of the loop statistics this often
 FIFO_PRIORITY = 50
+SCHED_CHOICES = ("auto", "fifo", "other")
+# `auto` takes SCHED_FIFO only with this many CPUs to run on. On a 2-core machine a 1 kHz FIFO
+# loop left the UI process and a local browser so little that a click took up to 4 s to reach
+# the sim (issue 16); with 4 or more, one core for the loop leaves enough for the rest.
+AUTO_FIFO_MIN_CPUS = 4
 _PR_SET_TIMERSLACK = 29
 
 
@@ -57,7 +62,10 @@ class Transport(Protocol):
 class LoopConfig:
     rate_hz: float = 1000.0
     fast: bool = False  # no sleeping: run as fast as the CPU allows
-    fifo: bool = True  # ask for SCHED_FIFO (never in fast mode: it would starve the machine)
+    # Scheduling policy of the loop thread: "fifo" asks for SCHED_FIFO (refusal is ignored),
+    # "other" keeps SCHED_OTHER, "auto" is "fifo" with AUTO_FIFO_MIN_CPUS CPUs or more, else
+    # "other". Fast mode never asks for FIFO: it would starve the machine.
+    sched: str = "auto"
     telemetry_hz: float = 100.0
     state_hz: float = 60.0
     max_commands_per_tick: int = 4
@@ -108,10 +116,10 @@ class DeadlineStats:
     """Live statistics of the schedule: lateness of each tick start, work per iteration,
     on-time ticks, overruns (work ended after the next deadline), skipped periods."""
 
-    def __init__(self, period: float, realtime: bool, fifo: bool) -> None:
+    def __init__(self, period: float, realtime: bool, sched: str = "other") -> None:
         self.period = period
         self.realtime = realtime
-        self.fifo = fifo
+        self.sched = sched  # the policy in effect: "fifo" or "other"
         self.ticks = 0
         self.on_time = 0
         self.overruns = 0
@@ -145,7 +153,8 @@ class DeadlineStats:
         return {
             "rate_hz": 1.0 / self.period,
             "realtime": self.realtime,
-            "fifo": self.fifo,
+            "fifo": self.sched == "fifo",
+            "sched": self.sched,
             "ticks": self.ticks,
             "on_time_fraction": self.on_time / self.ticks if self.ticks else 1.0,
             **self._percentiles,
@@ -207,6 +216,23 @@ def lower_timer_slack() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_TIMERSLACK, ctypes.c_ulong(1), 0, 0, 0)
 
 
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask, not the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def resolve_sched(requested: str, cpus: int) -> str:
+    """The policy to ask for, "fifo" or "other", for LoopConfig.sched `requested`."""
+    if requested not in SCHED_CHOICES:
+        raise ValueError(f"unknown scheduling {requested!r} (choices: {', '.join(SCHED_CHOICES)})")
+    if requested == "auto":
+        return "fifo" if cpus >= AUTO_FIFO_MIN_CPUS else "other"
+    return requested
+
+
 def request_fifo() -> bool:
     """Ask for SCHED_FIFO for the calling thread; True if granted. Refusal (no privileges) is
     expected and ignored. Threads it starts later (Zenoh spawns some lazily) do not inherit the
@@ -234,7 +260,8 @@ class SimLoop:
         self.config = config
         self.clock = clock
         self.period = 1.0 / config.rate_hz
-        self.stats = DeadlineStats(self.period, realtime=not config.fast, fifo=False)
+        self.wanted_sched = "other" if config.fast else resolve_sched(config.sched, usable_cpus())
+        self.stats = DeadlineStats(self.period, realtime=not config.fast)
         self.error: BaseException | None = None
         self._telemetry_every = max(1, math.floor(config.rate_hz / config.telemetry_hz))
         self._state_every = max(1, math.floor(config.rate_hz / config.state_hz))
@@ -252,7 +279,8 @@ class SimLoop:
         try:
             if not self.config.fast:
                 lower_timer_slack()
-                self.stats.fifo = self.config.fifo and request_fifo()
+                if self.wanted_sched == "fifo" and request_fifo():
+                    self.stats.sched = "fifo"
             self._run(stop)
         except BaseException as exc:
             self.error = exc
@@ -270,18 +298,23 @@ class SimLoop:
                     os.sched_yield()
             start = clock()
             lateness = 0.0 if fast else max(0.0, start - deadline)
+            stalled = lateness > MAX_BEHIND_S
+            if stalled:  # woken far behind: drop the lost periods now (this tick's telemetry
+                missed = math.floor(lateness / period)  # counts them) and serve the current one
+                self.stats.skipped += missed
+                deadline += missed * period
             self._iterate(start)
             end = clock()
             deadline = start if fast else deadline + period
             overrun = not fast and end > deadline
-            self.stats.record(lateness, end - start, overrun)
-            if overrun:
+            self.stats.record(lateness, end - start, overrun or stalled)
+            if overrun or stalled:
                 self._overrun_events.hit()
-                self._worst_lateness = max(self._worst_lateness, end - deadline)
-                if end - deadline > MAX_BEHIND_S:
-                    missed = math.ceil((end - deadline) / period)
-                    self.stats.skipped += missed
-                    deadline += missed * period
+                self._worst_lateness = max(self._worst_lateness, lateness, end - deadline)
+            if overrun and end - deadline > MAX_BEHIND_S:  # this tick's own work took too long
+                missed = math.ceil((end - deadline) / period)
+                self.stats.skipped += missed
+                deadline += missed * period
 
     def _iterate(self, now: float) -> None:
         self._apply_commands(now)

@@ -26,8 +26,16 @@ Physics choices (documented in the report of issue 2):
   added), Newton solver with elliptic friction cones (the physical cone; the controller uses an
   inner pyramid of it), default soft-contact parameters: stable standing under torque control with
   millimetre penetration.
+- MuJoCo's automatic reset on a bad state (`mjDSBL_AUTORESET`) is off: it would silently put the
+  robot at the model's origin and the clock at 0. `step()` instead raises `SimulationDiverged`
+  (MuJoCo's bad position / velocity / acceleration warnings, or a non-finite state) and the
+  caller decides what state comes next (the session: docs/architecture.md, "Faults").
+- Joint damping is 0 (the controller's model has none) unless the caller sets it with
+  `set_joint_damping`: the session damps the limp joints of a fallen robot. `implicitfast`
+  integrates it implicitly, so any damping is stable.
 """
 
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -41,6 +49,26 @@ from lab.scenes import add_scene
 from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE
 
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
+# MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
+# 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
+BAD_STATE_WARNINGS = {
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): "position",
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): "velocity",
+    int(mujoco.mjtWarning.mjWARN_BADQACC): "acceleration",
+}
+
+
+class SimulationDiverged(ArithmeticError):
+    """MuJoCo's state is no longer a valid one; the plant must be `reset` before it steps again.
+
+    `cause` says what MuJoCo (or the finiteness check) found and at which degree of freedom;
+    `time` is the sim time (s) the bad state was found at, never before the last valid state.
+    """
+
+    def __init__(self, cause: str, time: float) -> None:
+        super().__init__(cause)
+        self.cause = cause
+        self.time = time
 
 
 def _resolve(filename: str, urdf_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
@@ -191,6 +219,7 @@ def build_spec(robot: Robot, scene: str, timestep: float) -> mujoco.MjSpec:
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
 
     for name, angle in robot.locked_positions.items():
         _weld(spec, spec.joint(name), angle)
@@ -308,6 +337,11 @@ class MujocoPlant:
         self._steps = 0  # MuJoCo steps and resets so far: the key of the measured-force cache
         self._forces_step = -1
         self._point_pushes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # Live views into mj_data (never reallocated): `check` runs twice a tick, ~1 µs this way.
+        self._warning_counts = self.mj_data.warning.number
+        self._qpos, self._qvel = self.mj_data.qpos, self.mj_data.qvel
+        self._coordinate_names = self._name_coordinates()
+        self._valid_time = 0.0  # sim time of the last state `check` passed
         self.reset(robot.q_standing)
 
     def _pushable_bodies(self) -> dict[str, int]:
@@ -320,18 +354,35 @@ class MujocoPlant:
                 bodies[frame.name] = self.mj_model.joint(joint).bodyid[0]
         return bodies
 
+    def _name_coordinates(self) -> dict[int, list[str]]:
+        """Per bad-state warning, the names of the coordinates its `lastinfo` indexes: qpos
+        entries for a bad position, degrees of freedom for a bad velocity or acceleration."""
+        m = self.mj_model
+        qpos = ["base x", "base y", "base z", "base qw", "base qx", "base qy", "base qz"]
+        dofs = ["base vx", "base vy", "base vz", "base wx", "base wy", "base wz"]
+        qpos += [m.joint(m.dof_jntid[dof]).name for dof in range(6, m.nv)]  # hinges: 1 each
+        dofs += qpos[7:]
+        warning = mujoco.mjtWarning
+        return {
+            int(warning.mjWARN_BADQPOS): qpos,
+            int(warning.mjWARN_BADQVEL): dofs,
+            int(warning.mjWARN_BADQACC): dofs,
+        }
+
     @property
     def time(self) -> float:
         return float(self.mj_data.time)
 
-    def reset(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
-        """Put the robot at (q, v) (v = 0 if omitted), time 0, no torque, no push."""
+    def reset(self, q: np.ndarray, v: np.ndarray | None = None, time: float = 0.0) -> None:
+        """Put the robot at (q, v) (v = 0 if omitted) at sim time `time` (s), no torque, no push."""
         q = np.asarray(q, dtype=float)
         v = np.zeros(self.nv) if v is None else np.asarray(v, dtype=float)
         if q.shape != (self.nq,) or v.shape != (self.nv,):
             raise ValueError(f"reset needs q of shape ({self.nq},) and v of shape ({self.nv},)")
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
             raise ValueError("reset: q and v must be finite")
+        if not (math.isfinite(time) and time >= 0.0):
+            raise ValueError(f"reset: time must be finite and >= 0 s, not {time}")
         if abs(np.linalg.norm(q[3:7]) - 1.0) > 1e-6:
             raise ValueError("reset: the base quaternion q[3:7] must have unit norm")
         d = self.mj_data
@@ -344,9 +395,11 @@ class MujocoPlant:
         d.qvel[:3] = self._rotation.reshape(3, 3) @ v[:3]
         d.qvel[3:6] = v[3:6]
         d.qvel[self._dof_index] = v[6:]
+        d.time = time
         self._point_pushes.clear()
         mujoco.mj_forward(self.mj_model, d)
         self._steps += 1  # a new state: measured forces are stale
+        self._valid_time = time
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in pinocchio conventions (new arrays)."""
@@ -375,18 +428,45 @@ class MujocoPlant:
             raise ValueError(f"set_torques needs {self.mj_data.ctrl.size} finite torques (N m)")
         self.mj_data.ctrl[:] = tau  # actuators were added in pinocchio joint order
 
+    def set_joint_damping(self, damping: float | np.ndarray) -> None:
+        """Viscous damping (N m s/rad) of the actuated joints, one value or one per joint in
+        pinocchio order; 0 (the default, and what the controller's model assumes) removes it."""
+        damping = np.broadcast_to(np.asarray(damping, dtype=float), self._dof_index.shape)
+        if not (np.all(np.isfinite(damping)) and np.all(damping >= 0.0)):
+            raise ValueError("set_joint_damping: damping must be finite and >= 0 (N m s/rad)")
+        self.mj_model.dof_damping[self._dof_index] = damping
+
     def step(self) -> None:
-        """One timestep. A push at a point gets its lever arm from this step's kinematics."""
+        """One timestep. A push at a point gets its lever arm from this step's kinematics.
+        Raises `SimulationDiverged` if the state after it is not valid (see `check`)."""
         m, d = self.mj_model, self.mj_data
         self._steps += 1
         if not self._point_pushes:
             mujoco.mj_step(m, d)
+        else:
+            mujoco.mj_step1(m, d)
+            for body, (force, local) in self._point_pushes.items():
+                point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
+                d.xfrc_applied[body, 3:] = np.cross(point - d.xipos[body], force)
+            mujoco.mj_step2(m, d)
+        self.check()
+
+    def check(self) -> None:
+        """Raise `SimulationDiverged` unless the state is valid: MuJoCo flagged no bad position,
+        velocity or acceleration since the last `reset`, and qpos and qvel are finite."""
+        d, counts, qpos, qvel = self.mj_data, self._warning_counts, self._qpos, self._qvel
+        flagged = any(counts[kind] for kind in BAD_STATE_WARNINGS)
+        if not flagged and math.isfinite(qpos.dot(qpos) + qvel.dot(qvel)):  # NaN, inf propagate
+            self._valid_time = d.time
             return
-        mujoco.mj_step1(m, d)
-        for body, (force, local) in self._point_pushes.items():
-            point = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
-            d.xfrc_applied[body, 3:] = np.cross(point - d.xipos[body], force)
-        mujoco.mj_step2(m, d)
+        cause = "non-finite position or velocity"
+        for kind, quantity in BAD_STATE_WARNINGS.items():
+            if counts[kind]:
+                where = self._coordinate_names[kind][d.warning[kind].lastinfo]
+                cause = f"MuJoCo: NaN, inf or huge {quantity} ({where})"
+                break
+        time = d.time
+        raise SimulationDiverged(cause, time if time >= self._valid_time else self._valid_time)
 
     def push(
         self, body: str, force_world: np.ndarray, point_world: np.ndarray | None = None

@@ -169,7 +169,7 @@ def run_scenario(
             metric.update(session)
         if recorder is not None:
             recorder.after_tick(session)
-        if session.fell:
+        if session.fell or session.divergences:  # a diverged run ends as a fallen one does
             break
     wall = time.perf_counter() - wall_start
     if recorder is not None:
@@ -180,6 +180,7 @@ def run_scenario(
         "hierarchy": session.controller.config.hierarchy,
         "solver": session.controller.config.solver,
         "fell": session.fell,
+        "divergences": session.divergences,
         "sim_time_s": session.time,
         "wall_time_s": wall,
         "realtime_factor": session.time / wall if wall > 0 else float("inf"),

@@ -7,7 +7,7 @@ import subprocess
 import sys
 import threading
 
-from lab.server.loop import LoopConfig, SimLoop
+from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
 from lab.server.transport import DEFAULT_PORT, ServerTransport, server_config
 
 UI_STOP_TIMEOUT_S = 2.0
@@ -35,9 +35,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default: 1000)")
     p.add_argument("--fast", action="store_true", help="no sleeping: run as fast as possible")
     p.add_argument(
-        "--no-fifo",
-        action="store_true",
-        help="do not ask for SCHED_FIFO (be nice to a shared machine)",
+        "--sched",
+        choices=SCHED_CHOICES,
+        default="auto",
+        help="scheduling of the sim loop: fifo asks for SCHED_FIFO, other keeps SCHED_OTHER, auto "
+        f"(default) is fifo with {AUTO_FIFO_MIN_CPUS} or more CPUs, else other (a FIFO loop on "
+        "fewer starves the UI and a local browser)",
     )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
@@ -65,7 +68,7 @@ def serve_main(argv: list[str]) -> int:
         LoopConfig(
             rate_hz=args.rate,
             fast=args.fast,
-            fifo=not args.no_fifo,
+            sched=args.sched,
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
@@ -83,7 +86,9 @@ def serve_main(argv: list[str]) -> int:
             ui = subprocess.Popen(
                 [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--port", str(args.ui_port)]
             )
-        mode = "fast" if args.fast else f"{args.rate:g} Hz"
+        mode = "fast" if args.fast else f"{args.rate:g} Hz, SCHED_{loop.wanted_sched.upper()}"
+        if not args.fast and args.sched == "auto":
+            mode += " (auto)"
         print(f"lab serve: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}", flush=True)
         while not stop.wait(0.5):
             pass

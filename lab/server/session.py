@@ -24,7 +24,7 @@ from lab.controller.tasks import TaskGains
 from lab.description import ROBOT_NAMES, Robot, build_robot, load_description
 from lab.scenes import SCENES
 from lab.server import commands as cmd
-from lab.server.plant import MujocoPlant
+from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
 
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
@@ -36,6 +36,14 @@ FALL_CONTACT_S = 0.5
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
+# A fallen robot's joints are damped, as drives in a fall protection's damping mode: b = τ_max /
+# this speed, so the drive's full torque brakes a joint turning at it. Undamped, Solo12's 38 g
+# shanks spun at up to 900 rad/s (1 ms steps) and MuJoCo's integration diverged
+# (docs/architecture.md, "Faults").
+LIMP_DAMPING_SPEED = 10.0  # rad/s
+# s: a sim divergence this soon after the previous one pauses the session instead of resetting
+# the robot again (a diverging set-up would otherwise reset it every few ticks).
+DIVERGENCE_REPEAT_S = 1.0
 # The stack a gait that lifts feet brings along when the current one has no swing_feet task
 # (a robot's default stack is for standing): Raiola's S3, the stack of the trot scenarios.
 WALKING_PRESET = "raiola_s3"
@@ -67,6 +75,7 @@ class Session:
     def __init__(self, config: SessionConfig | None = None) -> None:
         self.config = config or SessionConfig()
         self._events: list[dict] = []
+        self.divergences = 0  # sim divergences since the session started
         self._build(self.config)
 
     # ----------------------------------------------------------------------------- set-up
@@ -104,8 +113,10 @@ class Session:
         self.controller = controller
         self._reset_state()
 
-    def _reset_state(self) -> None:
-        self.plant.reset(self.robot.q_standing)
+    def _reset_state(self, time: float = 0.0) -> None:
+        """The robot standing under control at sim time `time` (s), nothing commanded."""
+        self.plant.reset(self.robot.q_standing, time=time)
+        self.plant.set_joint_damping(0.0)
         self._set_behaviour(Balance.name)
         self.pushes: dict[str, Push] = {}
         self.velocity = np.zeros(3)
@@ -120,6 +131,7 @@ class Session:
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
         self.forces = np.zeros(self.model.nf)
+        self._last_divergence = -DIVERGENCE_REPEAT_S
 
     def _set_behaviour(self, name: str, options: dict | None = None) -> dict:
         """Start behaviour `name` from the current state, with walking `options` (step_height,
@@ -162,15 +174,35 @@ class Session:
 
     # ----------------------------------------------------------------------------- the tick
     def tick(self) -> None:
-        """Advance one control period: read state, control, write torques, one MuJoCo step."""
+        """Advance one control period: read state, control, write torques, one MuJoCo step.
+        A state that is not valid before or after the step is a divergence (`_recover`)."""
         if self.paused:
             return
         self._expire_pushes()
-        if self.fell:  # torques off until a reset, as a real robot's fall protection does
+        try:
+            self.plant.check()  # a state set from outside (fault injection) before control reads it
+            if self.fell:  # torques off until a reset, as a fall protection does; the model
+                self.model.update(*self.plant.state())  # still follows the robot (telemetry)
+            else:
+                self._control()
             self.plant.set_torques(self.tau)
             self.plant.step()
-            self.ticks += 1
+        except SimulationDiverged as divergence:
+            self._recover(divergence)
             return
+        self.ticks += 1
+        if self.ticks % FALL_CHECK_PERIOD == 0 and not self.fell and self._fallen():
+            self.fell = True
+            self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
+            self.plant.set_joint_damping(self.robot.torque_limits / LIMP_DAMPING_SPEED)
+            self.pushes.clear()
+            self.plant.clear_push()
+            self._event(
+                "fall", "the robot fell: torques off, joints damped, pushes ended until reset"
+            )
+
+    def _control(self) -> None:
+        """This tick's torques and planned contact forces: the controller's, or fallback ones."""
         q, v = self.plant.state()
         touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
@@ -186,13 +218,26 @@ class Session:
             self.qp_failures += 1
             self._report_failure(error)
         self.control_us = (time.perf_counter() - start) * 1e6
-        self.plant.set_torques(self.tau)
-        self.plant.step()
-        self.ticks += 1
-        if self.ticks % FALL_CHECK_PERIOD == 0 and not self.fell and self._fallen():
-            self.fell = True
-            self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
-            self._event("fall", "the robot fell: torques off until reset")
+
+    def _recover(self, divergence: SimulationDiverged) -> None:
+        """After a divergence: the robot standing again at the same sim time (the clock never runs
+        backwards); a second divergence within DIVERGENCE_REPEAT_S also pauses until `reset`."""
+        repeated = divergence.time - self._last_divergence < DIVERGENCE_REPEAT_S
+        self._reset_state(time=divergence.time)
+        self._last_divergence = divergence.time
+        self.divergences += 1
+        self.paused = repeated
+        then = (
+            f"again within {DIVERGENCE_REPEAT_S:g} s: paused until reset"
+            if repeated
+            else "robot reset to standing"
+        )
+        self._event(
+            "sim_diverged",
+            f"the simulation diverged ({divergence.cause}); {then}",
+            cause=divergence.cause,
+            restored="paused" if repeated else "standing",
+        )
 
     def _report_failure(self, error: Exception) -> None:
         """One solver_failure event per FAILURE_EVENT_PERIOD at most, with the count since."""
@@ -415,6 +460,7 @@ class Session:
             "scene": self.config.scene,
             "paused": self.paused,
             "fell": self.fell,
+            "divergences": self.divergences,
             "gait": self.behaviour.name,
             "base": {
                 "position": q[:3].tolist(),
