@@ -10,9 +10,11 @@
 namespace lab {
 namespace {
 
-// ε keeps a level QP's Hessian positive definite (cascade.py REGULARIZATION); a level that the
-// solver wrongly calls infeasible is tried once more with the larger one.
+// eps of the proximal term that keeps a level QP's Hessian positive definite (cascade.py
+// REGULARIZATION); a level that the solver wrongly calls infeasible is tried once more with the
+// larger one. The second proximal solve starts at the first one's optimum: its term vanishes.
 constexpr double kRegularization = 1e-8;
+constexpr int kProximalSolves = 2;
 constexpr double kRetryRegularization = 1e-6;
 constexpr double kFeasibilityTol = 1e-9;  // a step that violates no row by more is taken as is
 constexpr double kZeroRowTol = 1e-10;     // a kept inequality with no freedom left is dropped
@@ -61,13 +63,72 @@ Eigen::VectorXd stacked(const Eigen::VectorXd& top, const Eigen::VectorXd& botto
   return out;
 }
 
-/// The step u in the null space for one level (eqs. 9-11), given its least-squares step; the
-/// slacks are implicit in the cost. Sets `status`.
+/// Rows of G with freedom left (squared norm above kZeroRowTol^2), and their bounds.
+void rows_with_freedom(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, Eigen::MatrixXd& G_free,
+                       Eigen::VectorXd& h_free) {
+  std::vector<Eigen::Index> free;
+  for (Eigen::Index i = 0; i < G.rows(); ++i)
+    if (G.row(i).squaredNorm() > kZeroRowTol * kZeroRowTol) free.push_back(i);
+  G_free.resize(static_cast<Eigen::Index>(free.size()), G.cols());
+  h_free.resize(static_cast<Eigen::Index>(free.size()));
+  for (std::size_t i = 0; i < free.size(); ++i) {
+    G_free.row(static_cast<Eigen::Index>(i)) = G.row(free[i]);
+    h_free(static_cast<Eigen::Index>(i)) = h(free[i]);
+  }
+}
+
+/// A minimiser of ||Az u - r||^2 + ||v||^2 over G [u; v] <= h (eqs. 10-11), by proximal steps
+/// eps ||u - u0||^2 from the least-squares step: exact where a fixed eps ||u||^2 would leak.
+bool level_optimum(Eigen::VectorXd& u, const Eigen::MatrixXd& Az, const Eigen::VectorXd& r,
+                   const Eigen::MatrixXd& G, const Eigen::VectorXd& h, double epsilon,
+                   int& qp_solves) {
+  const Eigen::Index nz = Az.cols(), m = G.cols() - nz;
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(nz + m, nz + m);
+  P.topLeftCorner(nz, nz).noalias() = Az.transpose() * Az;
+  P.topLeftCorner(nz, nz).diagonal().array() += epsilon;
+  P.bottomRightCorner(m, m).setIdentity();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(nz + m), solution;
+  const Eigen::VectorXd Atr = Az.transpose() * r;
+  for (int i = 0; i < kProximalSolves; ++i) {
+    q.head(nz) = -Atr - epsilon * u;
+    ++qp_solves;
+    if (!solve_qp(P, q, G, h, solution)) return false;
+    u = solution.head(nz);
+  }
+  return true;
+}
+
+/// Among the optimal steps u + N w of a level (same Az u, slacks no larger than u's, carried
+/// bounds kept), the one with the smallest ||x + Z (u + N w)|| (Herzog eq. 5).
+Eigen::VectorXd smallest_in_optimal_set(const Eigen::VectorXd& u, const Eigen::MatrixXd& N,
+                                        const Eigen::MatrixXd& Cz, const Eigen::VectorXd& s,
+                                        const Eigen::MatrixXd& K, const Eigen::VectorXd& k,
+                                        const Eigen::MatrixXd& Z, const Eigen::VectorXd& x,
+                                        int& qp_solves) {
+  if (N.cols() == 0) return u;
+  const Eigen::MatrixXd ZN = Z * N;
+  // Bounds of w: each row keeps the room it has at u (>= 0: w = 0 is feasible).
+  const Eigen::MatrixXd G = stacked(Eigen::MatrixXd(Cz * N), Eigen::MatrixXd(K * N));
+  const Eigen::VectorXd h =
+      stacked(Eigen::VectorXd(s - Cz * u), Eigen::VectorXd(k - K * u)).cwiseMax(0.0);
+  Eigen::MatrixXd G_free;
+  Eigen::VectorXd h_free, w;
+  rows_with_freedom(G, h, G_free, h_free);
+  ++qp_solves;
+  const Eigen::MatrixXd P = ZN.transpose() * ZN;
+  const Eigen::VectorXd q = ZN.transpose() * (x + Z * u);
+  // On failure u is still optimal for the level; only the smallest x among its optima is lost.
+  return solve_qp(P, q, G_free, h_free, w) ? Eigen::VectorXd(u + N * w) : u;
+}
+
+/// The step u in the null space for one level (eqs. 9-11), given its least-squares step and
+/// the null space N of its equality rows; the slacks are implicit in the cost. Sets `status`.
 Eigen::VectorXd solve_level(const Eigen::VectorXd& u_ls, const Eigen::MatrixXd& Az,
-                            const Eigen::VectorXd& r, const Eigen::MatrixXd& Cz,
-                            const Eigen::VectorXd& s, const Eigen::MatrixXd& K,
-                            const Eigen::VectorXd& k, const Eigen::MatrixXd& Z,
-                            const Eigen::VectorXd& x, LevelStatus& status, int& qp_solves) {
+                            const Eigen::VectorXd& r, const Eigen::MatrixXd& N,
+                            const Eigen::MatrixXd& Cz, const Eigen::VectorXd& s,
+                            const Eigen::MatrixXd& K, const Eigen::VectorXd& k,
+                            const Eigen::MatrixXd& Z, const Eigen::VectorXd& x,
+                            LevelStatus& status, int& qp_solves) {
   // When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
   // equalities that step is u = 0, which the carried bounds always allow (k >= 0).
   if (satisfies(Cz, u_ls, s) && satisfies(K, u_ls, k)) {
@@ -81,20 +142,11 @@ Eigen::VectorXd solve_level(const Eigen::VectorXd& u_ls, const Eigen::MatrixXd& 
   G.topRightCorner(m, m) = -Eigen::MatrixXd::Identity(m, m);
   G.bottomLeftCorner(K.rows(), nz) = K;
   const Eigen::VectorXd h = stacked(s, k);
-  const Eigen::MatrixXd AtA = Az.transpose() * Az, ZtZ = Z.transpose() * Z;
-  const Eigen::VectorXd Atr = Az.transpose() * r, Ztx = Z.transpose() * x;
   for (const double epsilon : {kRegularization, kRetryRegularization}) {
-    // ||Az u - r||^2 + ||v||^2 + eps ||x + Z u||^2 (eq. 10).
-    Eigen::MatrixXd P = Eigen::MatrixXd::Zero(nz + m, nz + m);
-    P.topLeftCorner(nz, nz) = AtA + epsilon * ZtZ;
-    P.bottomRightCorner(m, m).setIdentity();
-    Eigen::VectorXd q = Eigen::VectorXd::Zero(nz + m);
-    q.head(nz) = epsilon * Ztx - Atr;
-    Eigen::VectorXd solution;
-    ++qp_solves;
-    if (solve_qp(P, q, G, h, solution)) {
+    Eigen::VectorXd u = u_ls;
+    if (level_optimum(u, Az, r, G, h, epsilon, qp_solves)) {
       status = LevelStatus::qp;
-      return solution.head(nz);
+      return smallest_in_optimal_set(u, N, Cz, s, K, k, Z, x, qp_solves);
     }
   }
   // u = 0 is feasible by construction, so this is the solver failing, not the level: the
@@ -122,17 +174,10 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
     Eigen::VectorXd u_ls;
     Eigen::MatrixXd N;
     least_squares_and_null_space(Az, r, u_ls, N);
-    // Carried rows with freedom left in Z.
-    std::vector<Eigen::Index> free;
-    for (Eigen::Index i = 0; i < K.rows(); ++i)
-      if (K.row(i).squaredNorm() > kZeroRowTol * kZeroRowTol) free.push_back(i);
-    Eigen::MatrixXd K_free(static_cast<Eigen::Index>(free.size()), K.cols());
-    Eigen::VectorXd k_free(static_cast<Eigen::Index>(free.size()));
-    for (std::size_t i = 0; i < free.size(); ++i) {
-      K_free.row(static_cast<Eigen::Index>(i)) = K.row(free[i]);
-      k_free(static_cast<Eigen::Index>(i)) = k(free[i]);
-    }
-    const Eigen::VectorXd u = solve_level(u_ls, Az, r, Cz, s, K_free, k_free, Z, x,
+    Eigen::MatrixXd K_free;  // carried rows with freedom left in Z
+    Eigen::VectorXd k_free;
+    rows_with_freedom(K, k, K_free, k_free);
+    const Eigen::VectorXd u = solve_level(u_ls, Az, r, N, Cz, s, K_free, k_free, Z, x,
                                           out.levels[depth], out.qp_solves);
     x.noalias() += Z * u;
     if (depth == last) break;
