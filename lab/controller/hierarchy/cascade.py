@@ -3,12 +3,20 @@
 Level 0 is the Newton–Euler rows, solved without a QP (§2.4). Level r then minimises its
 equality residual and the slacks of its inequalities over the optimal set of the levels above:
 
-    min_{u, v}  ‖A_r (x* + Z u) − b_r‖² + ‖v‖² + ε‖x* + Z u‖²              (eq. 10)
+    min_{u, v}  ‖A_r (x* + Z u) − b_r‖² + ‖v‖²                                (eq. 10)
     s.t.        C_r (x* + Z u) − d_r ≤ v                                   (eq. 11)
                 C_k (x* + Z u) − d_k ≤ v_k*   for every level k above      (eq. 9)
 
 where Z spans the null space of all equality rows above (eq. 8). Each level shrinks Z by the
 directions its equalities lock, and keeps its inequalities with the slack v* it reached.
+
+Strict means exactly lexicographic: a lower level never raises a higher level's cost. The level
+QP above is only positive semi-definite in u, and a regularization ε‖·‖² added to it would trade
+the level's own residual for a smaller x (with forces of hundreds of newtons the leak reached
+1e-2). So a level where an inequality binds is solved in two stages: its optimum first (the QP
+with a proximal term ε‖u − u₀‖², solved twice so that the term vanishes at the optimum), then,
+inside that level's optimal set {A_r Z u = A_r Z u*, C_r(x* + Z u) − d_r ≤ v*}, the point with
+the smallest ‖x* + Z u‖, which leaves the most room to the levels below (Herzog eq. 5).
 
 Forces of contacts out of support are zero, like the dynamics, above every level: the cascade
 drops them from Z at level 0 instead of carrying their bounds through every level.
@@ -29,8 +37,8 @@ from lab.controller.hierarchy.linalg import (
 from lab.controller.hierarchy.problem import HierarchyProblem
 from lab.controller.qp import QPFailure, solve_qp
 
-# ε: keeps the level QP's Hessian positive definite and, among the optimal steps of a level, picks
-# the one with the smallest x, which leaves the most room to the levels below (Herzog eq. 5).
+# ε of the proximal term ε‖u − u₀‖² that keeps a level QP's Hessian positive definite; the second,
+# proximal solve from the first one's optimum leaves a leak of order ε² on the level's cost.
 REGULARIZATION = 1e-8
 # A level with one or two equality rows in a null space of ten dimensions leaves its Hessian with
 # eigenvalues of ε alone; DAQP then sometimes reports a level infeasible although u = 0 is
@@ -87,7 +95,7 @@ def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
         Cz, s = _projected(level.C, level.d, Z, x)
         u_ls, N = least_squares_and_null_space(Az, r)
         free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
-        u = _solve_level(u_ls, Az, r, Cz, s, K[free], k[free], Z, x, solver)
+        u = _solve_level(u_ls, Az, r, N, Cz, s, K[free], k[free], Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
@@ -113,6 +121,7 @@ def _solve_level(
     u: np.ndarray,
     Az: np.ndarray,
     r: np.ndarray,
+    N: np.ndarray,
     Cz: np.ndarray,
     s: np.ndarray,
     Kz: np.ndarray,
@@ -121,8 +130,8 @@ def _solve_level(
     x: np.ndarray,
     solver: str,
 ) -> np.ndarray:
-    """The step in the null space for one level, given its least-squares step u (the slacks
-    are implicit in the cost)."""
+    """The step in the null space for one level, given its least-squares step u and the null
+    space N of its equality rows Az (the slacks are implicit in the cost)."""
     # When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
     # equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
     fits = (not len(s) or (Cz @ u <= s + FEASIBILITY_TOL).all()) and (
@@ -139,9 +148,10 @@ def _solve_level(
     h = np.concatenate([s, k])
     for epsilon in (REGULARIZATION, RETRY_REGULARIZATION):
         try:
-            return solve_qp(*_level_cost(Az, r, Z, x, m, epsilon), G, h, solver=solver)[:nz]
+            optimum = _level_optimum(u, Az, r, G, h, epsilon, solver)
         except QPFailure:
             continue
+        return _smallest_in_optimal_set(optimum, N, Cz, s, Kz, k, Z, x, solver)
     # u = 0 is feasible by construction, so this is the solver failing, not the level. Seen when
     # the carried bounds leave the level no freedom (a feasible set of 1e-9 about u = 0, more
     # tight rows than directions): DAQP then reports it infeasible. The level keeps the solution
@@ -149,12 +159,53 @@ def _solve_level(
     return np.zeros(nz)
 
 
-def _level_cost(
-    Az: np.ndarray, r: np.ndarray, Z: np.ndarray, x: np.ndarray, m: int, epsilon: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """P and q of ‖Az u − r‖² + ‖v‖² + ε‖x + Z u‖² over (u, v), v being m slacks (eq. 10)."""
-    nz = Az.shape[1]
+PROXIMAL_SOLVES = 2  # the second solve starts at the first one's optimum: its ε term vanishes
+
+
+def _level_optimum(
+    u: np.ndarray,
+    Az: np.ndarray,
+    r: np.ndarray,
+    G: np.ndarray,
+    h: np.ndarray,
+    epsilon: float,
+    solver: str,
+) -> np.ndarray:
+    """A minimiser of ‖Az u − r‖² + ‖v‖² over G [u; v] ≤ h (eqs. 10–11), by proximal steps
+    ε‖u − u₀‖² from the least-squares step u: exact where a fixed ε‖u‖² would leak."""
+    nz, m = Az.shape[1], G.shape[1] - Az.shape[1]
     P = np.zeros((nz + m, nz + m))
-    P[:nz, :nz] = Az.T @ Az + epsilon * Z.T @ Z
+    P[:nz, :nz] = Az.T @ Az + epsilon * np.eye(nz)
     P[nz:, nz:] = np.eye(m)
-    return P, np.concatenate([epsilon * Z.T @ x - Az.T @ r, np.zeros(m)])
+    q = np.zeros(nz + m)
+    for _ in range(PROXIMAL_SOLVES):
+        q[:nz] = -Az.T @ r - epsilon * u
+        u = solve_qp(P, q, G, h, solver=solver)[:nz]
+    return u
+
+
+def _smallest_in_optimal_set(
+    u: np.ndarray,
+    N: np.ndarray,
+    Cz: np.ndarray,
+    s: np.ndarray,
+    Kz: np.ndarray,
+    k: np.ndarray,
+    Z: np.ndarray,
+    x: np.ndarray,
+    solver: str,
+) -> np.ndarray:
+    """Among the optimal steps u + N w of a level (same Az u, slacks no larger than u's, carried
+    bounds kept), the one with the smallest ‖x + Z (u + N w)‖ (Herzog eq. 5)."""
+    if N.shape[1] == 0:
+        return u
+    ZN = Z @ N
+    # Bounds of w: each row keeps the room it has at u (≥ 0: w = 0 is feasible).
+    G = np.concatenate((Cz @ N, Kz @ N))
+    h = np.maximum(np.concatenate((s - Cz @ u, k - Kz @ u)), 0.0)
+    free = (G * G).sum(axis=1) > ZERO_ROW_TOL**2
+    try:
+        w = solve_qp(ZN.T @ ZN, ZN.T @ (x + Z @ u), G[free], h[free], solver=solver)
+    except QPFailure:
+        return u  # still optimal for the level; only the smallest x among its optima is lost
+    return u + N @ w
