@@ -1,6 +1,8 @@
 // Strict priorities as a cascade of QPs with null-space reduction (Herzog 2016, §2.2);
 // mirrors lab/controller/hierarchy/cascade.py, whose docstring derives each step.
 
+#include <algorithm>
+#include <utility>
 #include <vector>
 
 #include "hierarchy/linalg.hpp"
@@ -12,9 +14,11 @@ namespace {
 
 // eps of the proximal term that keeps a level QP's Hessian positive definite (cascade.py
 // REGULARIZATION); a level that the solver wrongly calls infeasible is tried once more with the
-// larger one. The second proximal solve starts at the first one's optimum: its term vanishes.
+// larger one. Each proximal solve starts at the last one's optimum, until the level's A Z u
+// settles (cascade.py PROXIMAL_SOLVES, PROXIMAL_TOL): the term then vanishes.
 constexpr double kRegularization = 1e-8;
-constexpr int kProximalSolves = 2;
+constexpr int kProximalSolves = 8;
+constexpr double kProximalTol = 1e-10;
 constexpr double kRetryRegularization = 1e-6;
 constexpr double kFeasibilityTol = 1e-9;  // a step that violates no row by more is taken as is
 constexpr double kZeroRowTol = 1e-10;     // a kept inequality with no freedom left is dropped
@@ -89,11 +93,14 @@ bool level_optimum(Eigen::VectorXd& u, const Eigen::MatrixXd& Az, const Eigen::V
   P.bottomRightCorner(m, m).setIdentity();
   Eigen::VectorXd q = Eigen::VectorXd::Zero(nz + m), solution;
   const Eigen::VectorXd Atr = Az.transpose() * r;
+  Eigen::VectorXd w = Az * u;
   for (int i = 0; i < kProximalSolves; ++i) {
     q.head(nz) = -Atr - epsilon * u;
     ++qp_solves;
     if (!solve_qp(P, q, G, h, solution)) return false;
     u = solution.head(nz);
+    const Eigen::VectorXd previous = std::exchange(w, Az * u);
+    if ((w - previous).norm() <= kProximalTol * (1.0 + w.norm())) break;
   }
   return true;
 }
@@ -118,7 +125,14 @@ Eigen::VectorXd smallest_in_optimal_set(const Eigen::VectorXd& u, const Eigen::M
   const Eigen::MatrixXd P = ZN.transpose() * ZN;
   const Eigen::VectorXd q = ZN.transpose() * (x + Z * u);
   // On failure u is still optimal for the level; only the smallest x among its optima is lost.
-  return solve_qp(P, q, G_free, h_free, w) ? Eigen::VectorXd(u + N * w) : u;
+  if (!solve_qp(P, q, G_free, h_free, w)) return u;
+  // The solver's tolerance may overstep a row the level's optimum already sits on: step back
+  // along w until every row is within its room again (w = 0 always is).
+  const Eigen::VectorXd rate = G_free * w;
+  double step = 1.0;
+  for (Eigen::Index i = 0; i < rate.size(); ++i)
+    if (rate(i) > h_free(i)) step = std::min(step, h_free(i) / rate(i));
+  return u + step * (N * w);
 }
 
 /// The step u in the null space for one level (eqs. 9-11), given its least-squares step and
