@@ -14,15 +14,21 @@ import pinocchio as pin
 import pytest
 
 from lab.controller.behaviours.balance import standing_references
-from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel
-from lab.controller.native import NOT_BUILT, NativeController, native_available, send_references
+from lab.controller.native import (
+    NOT_BUILT,
+    NativeController,
+    kernel_for,
+    native_available,
+    send_references,
+)
 from lab.controller.stack import Stack
 from lab.controller.walk_references import WalkReferences
 from lab.description import ROBOT_NAMES, build_robot, load_description
 from lab.server.session import Session, SessionConfig
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
+from tests.test_controller import controller_for
 
 _kernel = pytest.importorskip(
     "lab._kernel", reason="the native kernel is not built (./dev builds it)"
@@ -32,34 +38,9 @@ ROWS_TOL = 1e-9  # relative to the entries' scale: the same pinocchio calls, oth
 STATES = 6  # random states per robot
 
 
-def python_controller(name: str) -> tuple[WholeBodyController, object]:
-    description = load_description(name)
-    robot = build_robot(description)
-    model = RobotModel(robot.model, robot.contacts)
-    config = ControllerConfig(
-        Stack.of(description.stack),
-        dict(description.gains),
-        limits=ContactLimits(friction=description.friction),
-        kernel="python",
-    )
-    refs = standing_references(model, robot.q_standing)
-    return WholeBodyController(model, refs, config, robot.torque_limits), robot
-
-
 def kernel_of(controller: WholeBodyController) -> "_kernel.Kernel":
     """A kernel with the controller's model, limits and gains."""
-    robot, limits = controller.robot, controller.config.limits
-    joints = controller.constraints["joint_limits"]
-    kernel = _kernel.Kernel(
-        robot.model.saveToString(),
-        [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
-        controller.constraints["torque_limits"].torque_limits,
-        joints.lower,
-        joints.upper,
-        limits.friction,
-        limits.normal_min,
-        limits.normal_max,
-    )
+    kernel = kernel_for(controller)
     for name, task in controller.tasks.items():
         kernel.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
     return kernel
@@ -124,7 +105,7 @@ def assert_rows_equal(native: tuple, python: tuple, what: str) -> None:
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
 def test_the_kernel_loads_the_same_model(name: str) -> None:
-    controller, robot = python_controller(name)
+    controller, robot = controller_for(name)
     kernel = kernel_of(controller)
     model = robot.model
     assert (kernel.nq, kernel.nv) == (model.nq, model.nv)
@@ -137,7 +118,7 @@ def test_the_kernel_loads_the_same_model(name: str) -> None:
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
 def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
-    controller, robot = python_controller(name)
+    controller, robot = controller_for(name)
     kernel = kernel_of(controller)
     model = controller.robot
     assert sorted(kernel.known_names()) == sorted(controller.known_names)
@@ -167,7 +148,7 @@ def stacks_of(name: str) -> list[tuple[str, list[list[str]]]]:
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
 def test_the_hierarchy_problem_of_every_stack_agrees(name: str) -> None:
-    controller, robot = python_controller(name)
+    controller, robot = controller_for(name)
     kernel = kernel_of(controller)
     model = controller.robot
     rng = np.random.default_rng(5)
@@ -197,7 +178,7 @@ def test_the_hierarchy_problem_of_every_stack_agrees(name: str) -> None:
 
 
 def test_bad_input_raises_a_clear_error_and_changes_nothing() -> None:
-    controller, robot = python_controller("anymal")
+    controller, robot = controller_for("anymal")
     kernel = kernel_of(controller)
     q, v = robot.q_standing, np.zeros(robot.model.nv)
     with pytest.raises(ValueError, match="q has non-finite"):
@@ -328,7 +309,7 @@ def weighted_cost(problem, x: np.ndarray) -> float:
 def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
     states = recorded_states(name)
     for stack_name, levels in stacks_of(name):
-        controller, _ = python_controller(name)
+        controller, _ = controller_for(name)
         kernel = kernel_of(controller)
         controller.set_stack(Stack.of(levels))
         kernel.set_stack(levels)

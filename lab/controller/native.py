@@ -11,7 +11,8 @@ and the method; otherwise the Python one runs and `kernel_note` says why (never 
 
 import numpy as np
 
-from lab.controller.controller import ControlOutput, WholeBodyController
+from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
+from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
 from lab.controller.stack import Stack
@@ -36,9 +37,21 @@ def native_available() -> bool:
     return not NOT_BUILT
 
 
-def default_kernel() -> str:
-    """`native` when it is built, else `python`."""
-    return "native" if native_available() else "python"
+def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
+    """A native kernel on the controller's very model (pinocchio's serialization), with its
+    contacts and limits; stack, gains and references are set separately."""
+    robot, limits = controller.robot, controller.config.limits
+    joint_limits = controller.constraints["joint_limits"]
+    return _kernel.Kernel(
+        robot.model.saveToString(),
+        [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
+        controller.constraints["torque_limits"].torque_limits,
+        joint_limits.lower,
+        joint_limits.upper,
+        limits.friction,
+        limits.normal_min,
+        limits.normal_max,
+    )
 
 
 def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
@@ -66,37 +79,26 @@ def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
 class NativeController(WholeBodyController):
     """A WholeBodyController with a `kernel` choice; `kernel_ran` says which ran last."""
 
-    def __init__(self, robot, references, config, torque_limits) -> None:
-        self._native = None
-        self._unsupported = ""
-        super().__init__(robot, references, config, torque_limits)
+    def __init__(
+        self,
+        robot: RobotModel,
+        references: References,
+        config: ControllerConfig,
+        torque_limits: np.ndarray,
+    ) -> None:
         if config.kernel not in KERNELS:
             raise KeyError(f"unknown kernel {config.kernel!r} (kernels: {', '.join(KERNELS)})")
+        self._native: "_kernel.Kernel | None" = None
+        self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
+        super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._native_errors: dict[str, float] = {}
         if _kernel is not None:
-            self._native = self._build_kernel()
+            self._native = kernel_for(self)
             self._mirror_stack(config.stack)
             for name, task in self.tasks.items():
                 self._native.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
         self._synced: tuple = ()
-
-    def _build_kernel(self) -> "_kernel.Kernel":
-        robot, limits = self.robot, self.config.limits
-        joint_limits = self.constraints["joint_limits"]
-        return _kernel.Kernel(
-            robot.model.saveToString(),
-            [
-                (c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width)
-                for c in robot.contacts
-            ],
-            self.constraints["torque_limits"].torque_limits,
-            joint_limits.lower,
-            joint_limits.upper,
-            limits.friction,
-            limits.normal_min,
-            limits.normal_max,
-        )
 
     # ----------------------------------------------------------------------------- settings
     @property
@@ -128,7 +130,13 @@ class NativeController(WholeBodyController):
         except KeyError as error:  # a task written in Python only: the Python kernel runs it
             self._unsupported = error.args[0]
 
-    def set_gains(self, task, kp=None, kd=None, weight=None) -> TaskGains:
+    def set_gains(
+        self,
+        task: str,
+        kp: float | None = None,
+        kd: float | None = None,
+        weight: float | None = None,
+    ) -> TaskGains:
         gains = super().set_gains(task, kp, kd, weight)
         if self._native is not None:
             self._native.set_gains(task, gains.kp, gains.kd, gains.weight)
