@@ -191,7 +191,14 @@ NB_MODULE(_kernel, m) {
       .def(
           "tick",
           [](lab::Kernel& k, const Eigen::Ref<const Eigen::VectorXd>& q,
-             const Eigen::Ref<const Eigen::VectorXd>& v) { return tick_tuple(k, k.tick(q, v)); },
+             const Eigen::Ref<const Eigen::VectorXd>& v) {
+            const lab::TickResult* result;
+            {
+              nb::gil_scoped_release release;  // the loop's other threads run meanwhile
+              result = &k.tick(q, v);
+            }
+            return tick_tuple(k, *result);
+          },
           "q"_a, "v"_a,
           "One tick: (tau, qdd, forces, ok, message, level statuses, level residuals, "
           "qp solves, task errors).");

@@ -265,6 +265,7 @@ def test_a_native_solver_failure_falls_back_and_is_reported() -> None:
 QUADRUPEDS = ("anymal", "hyq", "solo12")
 X_TOL = 1e-6  # relative to 1 + |x|: the QP solvers' (DAQP, eiquadprog) primal tolerances
 TAU_TOL = 1e-6  # N m, where every level of the cascade was solved without a QP
+LEVEL_TOL = 1e-7  # relative: two residuals of a level are equal (eiquadprog's feasibility, 2e-8)
 # Below this lightest level weight the weighted Hessian spans more than 1e9: DAQP then stops
 # short of the optimum (hutter_table7's 7 levels reach 1e-18), so x is compared through the cost.
 WELL_CONDITIONED_WEIGHT = 1e-9
@@ -294,6 +295,22 @@ def recorded_states(name: str) -> tuple:
         run(80, "trot later")
     assert not session.fell
     return tuple(states)
+
+
+def level_residual(level, x: np.ndarray) -> float:
+    """‖A x − b‖ and the violation of C x ≤ d together: what a strict level minimises."""
+    violation = np.maximum(level.C @ x - level.d, 0.0)
+    return float(np.sqrt(np.sum((level.A @ x - level.b) ** 2) + violation @ violation))
+
+
+def lexicographically_no_worse(problem, x: np.ndarray, reference: np.ndarray) -> bool:
+    """Level by level, x's residual equals the reference's within LEVEL_TOL until the first level
+    where they differ, and there x's is the smaller."""
+    for level in problem.levels:
+        r, r_ref = level_residual(level, x), level_residual(level, reference)
+        if abs(r - r_ref) > LEVEL_TOL * (1.0 + r_ref):
+            return r < r_ref
+    return True
 
 
 def weighted_cost(problem, x: np.ndarray) -> float:
@@ -332,7 +349,11 @@ def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
                 cost, cost_native = weighted_cost(problem, x), weighted_cost(problem, x_native)
                 assert cost_native <= cost * (1 + X_TOL) + 1e-12, what
                 continue
-            scale = 1.0 + np.abs(x).max()
-            assert np.abs(x_native - x).max() <= X_TOL * scale, what
+            if np.abs(x_native - x).max() > X_TOL * (1.0 + np.abs(x).max()):
+                # Where a QP ran, DAQP may stop a level short of its optimum (1e-6-level
+                # residuals) and the levels below then move: the native x must win the first
+                # level where the two differ.
+                assert method == "cascade", what
+                assert lexicographically_no_worse(problem, x_native, x), what
             if method == "cascade" and all(s == "exact" for s in statuses):
                 assert np.abs(tau - python.tau).max() <= TAU_TOL, what
