@@ -88,7 +88,7 @@ class NativeController(WholeBodyController):
     ) -> None:
         if config.kernel not in KERNELS:
             raise KeyError(f"unknown kernel {config.kernel!r} (kernels: {', '.join(KERNELS)})")
-        self._native: "_kernel.Kernel | None" = None
+        self._native: _kernel.Kernel | None = None
         self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
