@@ -36,6 +36,21 @@ enum class LevelStatus {
   no_freedom,     // nothing left in the null space of the levels above
 };
 
+/// The name telemetry and the tests use for a level status.
+inline const char* level_status_name(LevelStatus status) {
+  switch (status) {
+    case LevelStatus::exact:
+      return "exact";
+    case LevelStatus::qp:
+      return "qp";
+    case LevelStatus::kept_above:
+      return "kept_above";
+    case LevelStatus::no_freedom:
+      return "no_freedom";
+  }
+  return "unknown";
+}
+
 /// The result of a hierarchy method: x and what happened on the way (TSID's HQPOutput).
 struct HierarchySolution {
   Eigen::VectorXd x;

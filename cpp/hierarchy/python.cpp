@@ -13,20 +13,6 @@ namespace nb = nanobind;
 namespace lab {
 namespace {
 
-const char* status_name(LevelStatus status) {
-  switch (status) {
-    case LevelStatus::exact:
-      return "exact";
-    case LevelStatus::qp:
-      return "qp";
-    case LevelStatus::kept_above:
-      return "kept_above";
-    case LevelStatus::no_freedom:
-      return "no_freedom";
-  }
-  return "unknown";
-}
-
 using LevelRows = std::tuple<Eigen::MatrixXd, Eigen::VectorXd, Eigen::MatrixXd, Eigen::VectorXd,
                              double>;
 
@@ -50,7 +36,7 @@ nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynam
   else
     throw nb::value_error(("unknown hierarchy method '" + method + "' (native: cascade, weighted)").c_str());
   std::vector<std::string> statuses;
-  for (const LevelStatus status : solution.levels) statuses.emplace_back(status_name(status));
+  for (const LevelStatus status : solution.levels) statuses.emplace_back(level_status_name(status));
   nb::dict out;
   out["x"] = solution.x;
   out["ok"] = solution.ok;
