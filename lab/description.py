@@ -57,6 +57,7 @@ class RobotDescription:
     torque_limit: float | None
     stack: tuple[tuple[str, ...], ...]
     gains: dict[str, TaskGains]
+    kernel: str | None = None  # native | python: which kernel runs the tick (None: native)
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -97,6 +98,9 @@ def load_description(name: str) -> RobotDescription:
     pairs = [_contact(name, c) for c in data["contacts"]]
     gains = {task: TaskGains(**values) for task, values in data.get("gains", {}).items()}
     torque_limit = data.get("torque_limit")
+    kernel = data.get("kernel")
+    if kernel not in (None, "native", "python"):
+        raise ValueError(f"robot {name!r}: kernel must be 'native' or 'python', got {kernel!r}")
     return RobotDescription(
         name=name,
         urdf_path=robots / data["urdf"],
@@ -110,6 +114,7 @@ def load_description(name: str) -> RobotDescription:
         torque_limit=None if torque_limit is None else float(torque_limit),
         stack=tuple(tuple(level) for level in data["stack"]),
         gains=gains,
+        kernel=kernel,
     )
 
 

@@ -110,7 +110,9 @@ def test_the_nullspace_formulation_shows_and_survives_a_scene_switch() -> None:
 
 
 def test_a_solver_failure_falls_back_counts_and_carries_on(monkeypatch) -> None:
-    session = Session(SessionConfig(robot="anymal"))
+    session = Session(
+        SessionConfig(robot="anymal", kernel="python")
+    )  # the failure is injected there
     run(session, 0.1)
 
     def failing(problem, solver):

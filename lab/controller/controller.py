@@ -39,6 +39,9 @@ class ControllerConfig:
     limits: ContactLimits = field(default_factory=ContactLimits)
     level_weight_ratio: float = 1e3  # `weighted` only: each level with tasks weighs this much less
     formulation: str = "qdd_force"  # `nullspace` only: optimization vector (Hutter 2014 §4)
+    # Which kernel computes the tick: `native` (lab._kernel, when built; see native.py) or
+    # `python` (this module). A plain WholeBodyController always runs `python`.
+    kernel: str = "native"
 
 
 @dataclass

@@ -1,8 +1,12 @@
-"""`lab bench`: controller tick and headless real-time factor per robot and hierarchy method.
+"""`lab bench`: controller tick and headless real-time factor per robot, method and kernel.
 
 A benchmark, not a test: it prints medians and p99 for a person to read and record in
 docs/performance.md. Each run stands the robot for a while, pushes it sideways (so that the QPs
-have work to do), and times every tick.
+have work to do), and times every tick; the Python and the native kernel run back to back on
+the same run, and the table gives native/python of the medians. `tick` is what the session pays
+per control period (model update, behaviour, controller); `solve` is the controller alone
+(`controller.solve()`, the native kernel's whole tick from q, v and references), repeated at
+the final state.
 """
 
 import argparse
@@ -11,15 +15,22 @@ import time
 
 import numpy as np
 
+from lab.controller.native import NOT_BUILT
 from lab.server.session import Session, SessionConfig
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos")
 METHODS = ("cascade", "weighted")
+KERNELS = ("python", "native")
 PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fraction of the weight
+SOLVE_REPEATS = 500
 
 
-def bench_one(robot: str, method: str, seconds: float) -> dict:
-    session = Session(SessionConfig(robot=robot, hierarchy=method))
+def _stats(us: np.ndarray) -> dict[str, float]:
+    return {"p50": float(np.median(us)), "p99": float(np.percentile(us, 99))}
+
+
+def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -> dict:
+    session = Session(SessionConfig(robot=robot, hierarchy=method, kernel=kernel))
     weight = session.model.mass * 9.81
     ticks = round(seconds / session.config.timestep)
     control_us = np.zeros(ticks)
@@ -32,14 +43,19 @@ def bench_one(robot: str, method: str, seconds: float) -> dict:
         session.tick()
         control_us[i] = session.control_us
     wall = time.perf_counter() - wall_start
+    solve_us = np.zeros(SOLVE_REPEATS)
+    controller = session.controller
+    for i in range(SOLVE_REPEATS):
+        start = time.perf_counter()
+        controller.solve()
+        solve_us[i] = (time.perf_counter() - start) * 1e6
     return {
         "robot": robot,
         "method": method,
+        "kernel": controller.kernel_ran,
         "ticks": ticks,
-        "controller_us": {
-            "p50": float(np.median(control_us)),
-            "p99": float(np.percentile(control_us, 99)),
-        },
+        "controller_us": _stats(control_us),
+        "solve_us": _stats(solve_us),
         "realtime_factor": session.time / wall,
         "fell": session.fell,
         "qp_failures": session.qp_failures,
@@ -52,16 +68,42 @@ def bench_main(argv: list[str]) -> int:
     parser.add_argument("--seconds", type=float, default=3.0, help="simulated seconds per run")
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOTS)
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
+    parser.add_argument("--kernels", nargs="+", default=list(KERNELS), choices=KERNELS)
     args = parser.parse_args(argv)
-    rows = [bench_one(r, m, args.seconds) for r in args.robots for m in args.methods]
+    if "native" in args.kernels and NOT_BUILT:
+        print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
+        args.kernels = ["python"]
+    rows = [
+        bench_one(r, m, args.seconds, k)
+        for r in args.robots
+        for m in args.methods
+        for k in args.kernels
+    ]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
-    print(f"{'robot':8} {'method':9} {'tick p50 µs':>12} {'tick p99 µs':>12} {'RTF':>6}  fell")
+    print(
+        f"{'robot':8} {'method':9} {'kernel':7} {'tick p50 µs':>12} {'tick p99 µs':>12} "
+        f"{'solve p50 µs':>13} {'solve p99 µs':>13} {'RTF':>6}  fell"
+    )
     for row in rows:
-        tick = row["controller_us"]
+        tick, solve = row["controller_us"], row["solve_us"]
         print(
-            f"{row['robot']:8} {row['method']:9} {tick['p50']:12.0f} {tick['p99']:12.0f} "
+            f"{row['robot']:8} {row['method']:9} {row['kernel']:7} {tick['p50']:12.0f} "
+            f"{tick['p99']:12.0f} {solve['p50']:13.1f} {solve['p99']:13.1f} "
             f"{row['realtime_factor']:6.2f}  {row['fell']}"
         )
+    pairs = {(r["robot"], r["method"], r["kernel"]): r for r in rows}
+    for robot in args.robots:
+        for method in args.methods:
+            python, native = (
+                pairs.get((robot, method, "python")),
+                pairs.get((robot, method, "native")),
+            )
+            if python and native:
+                print(
+                    f"native/python {robot:8} {method:9} tick "
+                    f"{native['controller_us']['p50'] / python['controller_us']['p50']:.2f}  solve "
+                    f"{native['solve_us']['p50'] / python['solve_us']['p50']:.2f}"
+                )
     return 0

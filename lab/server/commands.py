@@ -83,11 +83,13 @@ class SceneCommand:
 
 @dataclass(frozen=True)
 class HierarchyCommand:
-    """Switch hierarchy method (and QP solver, `nullspace` formulation when given)."""
+    """Switch hierarchy method (and QP solver, `nullspace` formulation, kernel when given);
+    a kernel alone keeps the method."""
 
-    method: str
+    method: str | None = None
     solver: str | None = None
     formulation: str | None = None
+    kernel: str | None = None
 
 
 @dataclass(frozen=True)
@@ -279,10 +281,13 @@ def _gait(f: _Fields) -> GaitCommand:
 
 
 def _hierarchy(f: _Fields) -> HierarchyCommand:
-    f.only("method", "solver", "formulation")
-    solver = f.name("solver") if f.has("solver") else None
-    formulation = f.name("formulation") if f.has("formulation") else None
-    return HierarchyCommand(method=f.name("method"), solver=solver, formulation=formulation)
+    f.only("method", "solver", "formulation", "kernel")
+    method, solver, formulation, kernel = (
+        f.name(key) if f.has(key) else None for key in ("method", "solver", "formulation", "kernel")
+    )
+    if method is None and kernel is None:
+        raise f.error("method", "is missing (give a method, a kernel or both)")
+    return HierarchyCommand(method=method, solver=solver, formulation=formulation, kernel=kernel)
 
 
 def _stack(f: _Fields) -> StackCommand:

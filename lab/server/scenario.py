@@ -1,10 +1,10 @@
 """Headless scenarios: a TOML file → a session run as fast as the CPU allows → one JSON report.
 
 A scenario names `robot`, `scene`, `duration` (s), a `[controller]` table (`hierarchy`, `solver`,
-optional `stack` — a list of levels or the name of a preset in `stacks/` — and
-`[controller.gains.<task>]` tables), `metrics` to report besides the standing ones, and
-`[[events]]`, each with a time `t` and exactly one command written with the protocol's verb and
-fields, for example
+optional `kernel` — `native` or `python` —, optional `stack` — a list of levels or the name of a
+preset in `stacks/` — and `[controller.gains.<task>]` tables), `metrics` to report besides the
+standing ones, and `[[events]]`, each with a time `t` and exactly one command written with the
+protocol's verb and fields, for example
 
     [[events]]
     t = 2.0
@@ -36,7 +36,7 @@ SCENARIO_KEYS = {
     "metrics",
     "limits",
 }
-CONTROLLER_KEYS = {"hierarchy", "solver", "stack", "gains"}
+CONTROLLER_KEYS = {"hierarchy", "solver", "stack", "gains", "kernel"}
 
 
 class ScenarioError(ValueError):
@@ -83,6 +83,7 @@ def load_scenario(path: str | Path) -> Scenario:
         scene=data.get("scene", "flat"),
         hierarchy=hierarchy,
         solver=controller.get("solver", "daqp"),
+        kernel=controller.get("kernel"),
         stack=stack,
         gains=gains,
     )
@@ -179,6 +180,7 @@ def run_scenario(
         "robot": scenario.config.robot,
         "hierarchy": session.controller.config.hierarchy,
         "solver": session.controller.config.solver,
+        "kernel": session.controller.kernel_ran,
         "fell": session.fell,
         "divergences": session.divergences,
         "sim_time_s": session.time,

@@ -61,6 +61,8 @@ def serve_main(argv: list[str]) -> int:
     except KeyError as error:
         print(f"lab serve: {error.args[0]}", file=sys.stderr)
         return 2
+    if note := session.controller.kernel_note:
+        print(f"lab serve: {note}: the Python kernel runs", file=sys.stderr)
     transport = ServerTransport(server_config(args.port, args.listen, args.connect))
     loop = SimLoop(
         session,

@@ -14,10 +14,11 @@ import pinocchio as pin
 
 from lab.controller.behaviours import BEHAVIOURS, Balance
 from lab.controller.constraints import ContactLimits
-from lab.controller.controller import ControllerConfig, WholeBodyController
+from lab.controller.controller import ControllerConfig
 from lab.controller.hierarchy import METHODS
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
 from lab.controller.tasks import TaskGains
@@ -61,6 +62,7 @@ class SessionConfig:
     stack: list[list[str]] | None = None
     gains: dict[str, dict[str, float]] = field(default_factory=dict)
     timestep: float = 1e-3
+    kernel: str | None = None  # native | python; None: the robot's, else native when built
 
 
 @dataclass
@@ -92,7 +94,7 @@ class Session:
         gains = dict(description.gains)
         for name, overrides in config.gains.items():
             gains[name] = replace(gains.get(name, TaskGains()), **overrides)
-        controller = WholeBodyController(
+        controller = NativeController(
             model,
             Balance(model, robot.q_standing).references,
             ControllerConfig(
@@ -102,6 +104,7 @@ class Session:
                 solver=config.solver,
                 formulation=config.formulation,
                 limits=ContactLimits(friction=description.friction),
+                kernel=config.kernel or description.kernel or "native",
             ),
             robot.torque_limits,
         )
@@ -322,9 +325,15 @@ class Session:
                 self._rebuild(replace(self.config, robot=name, stack=None, gains={}))
             case cmd.SceneCommand(name=name):
                 self._rebuild(replace(self.config, scene=name))
-            case cmd.HierarchyCommand(method=method, solver=solver, formulation=formulation):
+            case cmd.HierarchyCommand(
+                method=method, solver=solver, formulation=formulation, kernel=kernel
+            ):
+                if kernel is not None and kernel not in KERNELS:  # a rejection changes nothing
+                    raise KeyError(f"unknown kernel {kernel!r} (kernels: {', '.join(KERNELS)})")
+                method = method or self.controller.config.hierarchy
                 self.controller.set_hierarchy(method, solver, formulation)
-                self.config.hierarchy = method
+                self.controller.set_kernel(kernel or self.controller.config.kernel)
+                self.config.hierarchy, self.config.kernel = method, self.controller.config.kernel
                 self.config.solver = self.controller.config.solver
                 self.config.formulation = self.controller.config.formulation
                 return {"hierarchy": self._hierarchy()}
@@ -386,12 +395,14 @@ class Session:
             "methods": list(METHODS),
             "solvers": list(SOLVERS),
             "formulations": list(FORMULATIONS),
+            "kernels": list(KERNELS),
             "gaits": list(BEHAVIOURS),
             "stack_presets": list(PRESET_NAMES),
             "robot": self.config.robot,
             "scene": self.config.scene,
             "gait": self.behaviour.name,
             "hierarchy": self._hierarchy(),
+            "kernel": self.controller.config.kernel,
             "stack": self.controller.config.stack.as_lists(),
             "known": list(self.controller.known_names),
             "tasks": self._task_gains(),
@@ -475,6 +486,8 @@ class Session:
             "tasks": tasks,
             "stack": self.controller.config.stack.as_lists(),
             "hierarchy": self._hierarchy(),
+            "kernel": self.controller.kernel_ran,
+            "kernel_note": self.controller.kernel_note,
             "qp": {
                 "status": "ok" if self.qp_ok else "failed",
                 "solve_us": self.control_us,

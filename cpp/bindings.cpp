@@ -1,0 +1,205 @@
+// lab._kernel: the Python face of the native kernel (lab/controller/native.py wraps it).
+#include <nanobind/eigen/dense.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/pair.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include "controller.hpp"
+#if __has_include("hierarchy/python.hpp")
+#include "hierarchy/python.hpp"  // solve_hierarchy: the native methods on a given problem
+#define LAB_BIND_HIERARCHY
+#endif
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace {
+
+using Doubles = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
+using Flags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using ContactTuple = std::tuple<std::string, std::string, std::string, double, double, double>;
+
+/// Any array of doubles, flattened in C order.
+void copy_flat(Eigen::VectorXd& dst, const Doubles& a) {
+  dst = Eigen::Map<const Eigen::VectorXd>(a.data(), static_cast<Eigen::Index>(a.size()));
+}
+
+void copy_vector3(Eigen::Vector3d& dst, const Doubles& a, const char* what) {
+  if (a.size() != 3) throw std::invalid_argument(std::string("references: ") + what + " needs 3 entries");
+  dst = Eigen::Map<const Eigen::Vector3d>(a.data());
+}
+
+std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tuples) {
+  std::vector<lab::ContactSpec> specs;
+  for (const auto& [name, frame, kind, radius, half_length, half_width] : tuples) {
+    if (kind != "point" && kind != "flat")
+      throw std::invalid_argument("contact '" + name + "': kind must be 'point' or 'flat'");
+    specs.push_back({name, frame, kind == "point" ? lab::ContactKind::point : lab::ContactKind::flat,
+                     radius, half_length, half_width});
+  }
+  return specs;
+}
+
+nb::dict problem_dict(const lab::HierarchyProblem& problem) {
+  nb::list levels;
+  for (const auto& level : problem.levels)
+    levels.append(nb::make_tuple(Eigen::MatrixXd(level.A), Eigen::VectorXd(level.b),
+                                 Eigen::MatrixXd(level.C), Eigen::VectorXd(level.d), level.weight));
+  nb::dict out;
+  out["dynamics_A"] = Eigen::MatrixXd(problem.dynamics_A);
+  out["dynamics_b"] = Eigen::VectorXd(problem.dynamics_b);
+  out["levels"] = levels;
+  out["support"] = Eigen::Array<bool, Eigen::Dynamic, 1>(problem.support);
+  return out;
+}
+
+nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
+  const auto& solution = result.solution;
+  nb::list statuses;
+  for (auto status : solution.levels) statuses.append(lab::level_status_name(status));
+  nb::dict errors;
+  for (const auto& [name, error] : kernel.task_errors()) errors[name.c_str()] = error;
+  return nb::make_tuple(Eigen::VectorXd(result.tau), Eigen::VectorXd(result.qdd),
+                        Eigen::VectorXd(result.forces), solution.ok, solution.message, statuses,
+                        solution.residuals, solution.qp_solves, errors);
+}
+
+}  // namespace
+
+NB_MODULE(_kernel, m) {
+  m.doc() = "The native controller kernel: lab/controller's tick in C++ (see cpp/README.md).";
+
+  nb::register_exception_translator([](const std::exception_ptr& p, void*) {
+    try {
+      std::rethrow_exception(p);
+    } catch (const lab::UnknownName& e) {
+      PyErr_SetString(PyExc_KeyError, e.what());
+    }
+  });
+
+  m.attr("has_solvers") =
+#ifdef LAB_HAVE_HIERARCHY_SOLVERS
+      true;
+#else
+      false;
+#endif
+
+#ifdef LAB_BIND_HIERARCHY
+  lab::bind_hierarchy(m);
+#endif
+
+  nb::class_<lab::Kernel>(m, "Kernel")
+      .def(
+          "__init__",
+          [](lab::Kernel* self, const std::string& model, const std::vector<ContactTuple>& contacts,
+             const Eigen::VectorXd& torque_limits, const Eigen::VectorXd& lower,
+             const Eigen::VectorXd& upper, double friction, double normal_min,
+             double normal_max) {
+            new (self) lab::Kernel(model, contact_specs(contacts),
+                                   torque_limits, lower, upper,
+                                   lab::ContactLimits{friction, normal_min, normal_max});
+          },
+          "model"_a, "contacts"_a, "torque_limits"_a, "lower"_a, "upper"_a, "friction"_a,
+          "normal_min"_a, "normal_max"_a,
+          "From pinocchio's Model.saveToString(), contacts as (name, frame, kind, radius, "
+          "half_length, half_width), the actuated joints' torque and position limits and the "
+          "contact limits.")
+      .def_prop_ro("nq", [](const lab::Kernel& k) { return k.robot().nq; })
+      .def_prop_ro("nv", [](const lab::Kernel& k) { return k.robot().nv; })
+      .def_prop_ro("nf", [](const lab::Kernel& k) { return k.robot().nf; })
+      .def_prop_ro("nx", [](const lab::Kernel& k) { return k.robot().nx; })
+      .def_prop_ro("mass", [](const lab::Kernel& k) { return k.robot().mass; })
+      .def_prop_ro("method", &lab::Kernel::method)
+      .def(
+          "frame_names", [](const lab::Kernel& k) { return k.robot().frame_names(); },
+          "Names of the model's frames, in pinocchio order.")
+      .def(
+          "inertias", [](const lab::Kernel& k) { return k.robot().inertia_parameters(); },
+          "Each joint's body inertia as pinocchio's 10 dynamic parameters (one row per joint).")
+      .def("known_names", &lab::Kernel::known_names)
+      .def("set_stack", &lab::Kernel::set_stack, "levels"_a)
+      .def(
+          "set_gains",
+          [](lab::Kernel& k, const std::string& task, std::optional<double> kp,
+             std::optional<double> kd, std::optional<double> weight) {
+            const auto gains = k.set_gains(task, kp, kd, weight);
+            return std::make_tuple(gains.kp, gains.kd, gains.weight);
+          },
+          "task"_a, "kp"_a = nb::none(), "kd"_a = nb::none(), "weight"_a = nb::none())
+      .def("set_method", &lab::Kernel::set_method, "method"_a)
+      .def("set_level_weight_ratio", &lab::Kernel::set_level_weight_ratio, "ratio"_a)
+      .def(
+          "set_contact_limits",
+          [](lab::Kernel& k, double friction, double normal_min, double normal_max) {
+            k.set_contact_limits({friction, normal_min, normal_max});
+          },
+          "friction"_a, "normal_min"_a, "normal_max"_a)
+      .def("set_torque_limits", &lab::Kernel::set_torque_limits, "limits"_a)
+      .def("set_joint_limits", &lab::Kernel::set_joint_limits, "lower"_a, "upper"_a)
+      .def(
+          "set_references",
+          [](lab::Kernel& k, const Doubles& com, const Doubles& posture, double base_height,
+             const Doubles& base_rotation, const Doubles& com_velocity,
+             const Doubles& base_angular_velocity, const Flags& contact_active,
+             const Doubles& normal_force_max, const Doubles& base_linear_velocity,
+             const Doubles& foot_position, const Doubles& foot_velocity,
+             const Doubles& foot_acceleration, const Doubles& surface_normal,
+             const Doubles& force_weight, const Doubles& posture_velocity,
+             const Doubles& posture_weight) {
+            lab::References& refs = k.references();
+            copy_vector3(refs.com, com, "com");
+            copy_flat(refs.posture, posture);
+            refs.base_height = base_height;
+            if (base_rotation.size() != 9)
+              throw std::invalid_argument("references: base_rotation needs 3 x 3 entries");
+            refs.base_rotation =
+                Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(base_rotation.data());
+            copy_vector3(refs.com_velocity, com_velocity, "com_velocity");
+            copy_vector3(refs.base_angular_velocity, base_angular_velocity,
+                         "base_angular_velocity");
+            refs.contact_active = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
+                contact_active.data(), static_cast<Eigen::Index>(contact_active.size()));
+            copy_flat(refs.normal_force_max, normal_force_max);
+            copy_vector3(refs.base_linear_velocity, base_linear_velocity, "base_linear_velocity");
+            copy_flat(refs.foot_position, foot_position);
+            copy_flat(refs.foot_velocity, foot_velocity);
+            copy_flat(refs.foot_acceleration, foot_acceleration);
+            copy_flat(refs.surface_normal, surface_normal);
+            copy_flat(refs.force_weight, force_weight);
+            copy_flat(refs.posture_velocity, posture_velocity);
+            copy_flat(refs.posture_weight, posture_weight);
+            k.check_references();
+          },
+          "com"_a, "posture"_a, "base_height"_a, "base_rotation"_a, "com_velocity"_a,
+          "base_angular_velocity"_a, "contact_active"_a, "normal_force_max"_a,
+          "base_linear_velocity"_a, "foot_position"_a, "foot_velocity"_a,
+          "foot_acceleration"_a, "surface_normal"_a, "force_weight"_a, "posture_velocity"_a,
+          "posture_weight"_a,
+          "The fields of References / WalkReferences (empty arrays for the walking fields a "
+          "behaviour does not set); raises ValueError naming a field of the wrong size.")
+      .def("update", &lab::Kernel::update, "q"_a, "v"_a, "The model update alone.")
+      .def(
+          "rows", [](lab::Kernel& k, const std::string& name) { return k.rows(name); }, "name"_a,
+          "(A, b) of a task or (C, d) of a constraint at the last update, unweighted.")
+      .def(
+          "problem", [](lab::Kernel& k) { return problem_dict(k.build_problem()); },
+          "The hierarchy problem of the current stack at the last update.")
+      .def(
+          "tick",
+          [](lab::Kernel& k, const Eigen::Ref<const Eigen::VectorXd>& q,
+             const Eigen::Ref<const Eigen::VectorXd>& v) {
+            const lab::TickResult* result;
+            {
+              nb::gil_scoped_release release;  // the loop's other threads run meanwhile
+              result = &k.tick(q, v);
+            }
+            return tick_tuple(k, *result);
+          },
+          "q"_a, "v"_a,
+          "One tick: (tau, qdd, forces, ok, message, level statuses, level residuals, "
+          "qp solves, task errors).");
+}

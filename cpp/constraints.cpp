@@ -1,0 +1,150 @@
+// Inequality rows C x <= d (lab/controller/constraints.py): friction, cop, torque_limits,
+// joint_limits.
+#include <cmath>
+
+#include "tasks.hpp"
+
+namespace lab {
+namespace {
+
+/// Inner friction pyramid and normal-force bounds per contact (Raiola C_fc); a contact that is
+/// not active carries no force at all.
+class FrictionConstraint : public Constraint {
+ public:
+  explicit FrictionConstraint(const ContactLimits& limits) : limits(limits) {}
+
+  void compute(const RobotModel& robot, const References& refs) override {
+    const double mu = std::sqrt(0.5) * limits.friction;
+    const bool per_contact = refs.normal_force_max.size() > 0;
+    Eigen::Index n = 0;
+    for (std::size_t i = 0; i < robot.contacts.size(); ++i)
+      n += refs.contact_active[i] ? 6 : 2 * robot.contacts[i].force_dim();
+    reset(robot, n);
+    Eigen::Index row = 0;
+    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
+      const Eigen::Index col = robot.nv + robot.force_starts[i];
+      if (refs.contact_active[i]) {
+        for (int tangent = 0; tangent < 2; ++tangent) {
+          C(row + 2 * tangent, col + tangent) = 1.0;
+          C(row + 2 * tangent, col + 2) = -mu;
+          C(row + 2 * tangent + 1, col + tangent) = -1.0;
+          C(row + 2 * tangent + 1, col + 2) = -mu;
+        }
+        C(row + 4, col + 2) = -1.0;
+        d[row + 4] = -limits.normal_min;
+        C(row + 5, col + 2) = 1.0;
+        d[row + 5] = per_contact ? refs.normal_force_max[i] : limits.normal_max;
+        row += 6;
+      } else {
+        const int dim = robot.contacts[i].force_dim();
+        C.block(row, col, dim, dim).setIdentity();
+        C.block(row + dim, col, dim, dim) = -Eigen::MatrixXd::Identity(dim, dim);
+        row += 2 * dim;
+      }
+    }
+  }
+
+  ContactLimits limits;
+};
+
+/// Centre of pressure inside the sole rectangle, for flat feet (Herzog §4.1):
+/// |τ_x| <= W f_z and |τ_y| <= L f_z with the wrench in the sole frame.
+class CopConstraint : public Constraint {
+ public:
+  void compute(const RobotModel& robot, const References& refs) override {
+    Eigen::Index n = 0;
+    for (std::size_t i = 0; i < robot.contacts.size(); ++i)
+      if (robot.contacts[i].kind == ContactKind::flat && refs.contact_active[i]) n += 4;
+    reset(robot, n);
+    Eigen::Index row = 0;
+    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
+      const auto& contact = robot.contacts[i];
+      if (contact.kind != ContactKind::flat || !refs.contact_active[i]) continue;
+      const Eigen::Index col = robot.nv + robot.force_starts[i];
+      const std::pair<int, double> axes[2] = {{3, contact.half_width}, {4, contact.half_length}};
+      for (int k = 0; k < 2; ++k) {
+        const auto [torque_axis, half] = axes[k];
+        C(row + 2 * k, col + torque_axis) = 1.0;
+        C(row + 2 * k, col + 2) = -half;
+        C(row + 2 * k + 1, col + torque_axis) = -1.0;
+        C(row + 2 * k + 1, col + 2) = -half;
+      }
+      row += 4;
+    }
+  }
+};
+
+/// |τ| <= τ_max through τ = M_a q̈ + h_a − J_aᵀ F (Herzog eqs. 14, 16).
+class TorqueLimitConstraint : public Constraint {
+ public:
+  explicit TorqueLimitConstraint(Eigen::VectorXd limits) : limits(std::move(limits)) {}
+
+  void compute(const RobotModel& robot, const References&) override {
+    const Eigen::Index na = robot.na;
+    C.resize(2 * na, robot.nx);
+    d.resize(2 * na);
+    C.topLeftCorner(na, robot.nv) = robot.M.bottomRows(na);
+    C.topRightCorner(na, robot.nf) = -robot.Jc.rightCols(na).transpose();
+    C.bottomRows(na) = -C.topRows(na);
+    d.head(na) = limits - robot.h.tail(na);
+    d.tail(na) = limits + robot.h.tail(na);
+  }
+
+  Eigen::VectorXd limits;
+};
+
+/// Joint-acceleration bounds that stop each joint at its position limit: within the horizon T,
+/// q + q̇ T + ½ q̈ T² stays inside [q_min, q_max] (Hutter Table 6).
+class JointLimitConstraint : public Constraint {
+ public:
+  JointLimitConstraint(Eigen::VectorXd lower, Eigen::VectorXd upper)
+      : lower(std::move(lower)), upper(std::move(upper)) {}
+
+  void compute(const RobotModel& robot, const References&) override {
+    const Eigen::Index na = robot.na;
+    const double T = horizon;
+    reset(robot, 2 * na);
+    C.block(0, BASE_DOF, na, na).setIdentity();
+    C.block(na, BASE_DOF, na, na) = -Eigen::MatrixXd::Identity(na, na);
+    const auto q = robot.q.tail(na), dq = robot.v.tail(na);
+    d.head(na) = 2.0 * (upper - q - dq * T) / (T * T);
+    d.tail(na) = -(2.0 * (lower - q - dq * T) / (T * T));
+  }
+
+  Eigen::VectorXd lower, upper;
+  double horizon = 0.05;
+};
+
+}  // namespace
+
+ConstraintRegistry make_constraints(const RobotModel& robot, const ContactLimits& limits,
+                                    const Eigen::VectorXd& torque_limits,
+                                    const Eigen::VectorXd& lower, const Eigen::VectorXd& upper) {
+  ConstraintRegistry constraints;
+  constraints["friction"] = std::make_unique<FrictionConstraint>(limits);
+  constraints["torque_limits"] = std::make_unique<TorqueLimitConstraint>(torque_limits);
+  constraints["joint_limits"] = std::make_unique<JointLimitConstraint>(lower, upper);
+  for (const auto& contact : robot.contacts)
+    if (contact.kind == ContactKind::flat) {
+      constraints["cop"] = std::make_unique<CopConstraint>();
+      break;
+    }
+  return constraints;
+}
+
+void set_contact_limits(Constraint& friction, const ContactLimits& limits) {
+  dynamic_cast<FrictionConstraint&>(friction).limits = limits;
+}
+
+void set_torque_limits(Constraint& torque_limits, const Eigen::VectorXd& limits) {
+  dynamic_cast<TorqueLimitConstraint&>(torque_limits).limits = limits;
+}
+
+void set_joint_limits(Constraint& joint_limits, const Eigen::VectorXd& lower,
+                      const Eigen::VectorXd& upper) {
+  auto& constraint = dynamic_cast<JointLimitConstraint&>(joint_limits);
+  constraint.lower = lower;
+  constraint.upper = upper;
+}
+
+}  // namespace lab

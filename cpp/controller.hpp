@@ -1,0 +1,96 @@
+// Kernel: the controller tick of lab/controller/controller.py (WholeBodyController) in one call,
+// state (q, v) and references → model update → rows level by level as the stack says →
+// hierarchy method → x = [q̈, F] → τ = M_a q̈ + h_a − J_aᵀ F (Herzog eq. 14).
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "hierarchy/problem.hpp"
+#include "model.hpp"
+#include "references.hpp"
+#include "tasks.hpp"
+
+namespace lab {
+
+/// A name the kernel does not know (a task, constraint or method); Python sees a KeyError.
+class UnknownName : public std::out_of_range {
+ public:
+  using std::out_of_range::out_of_range;
+};
+
+/// What one tick produced.
+struct TickResult {
+  Eigen::VectorXd tau, qdd, forces;
+  HierarchySolution solution;
+};
+
+/// The name Python sees for a level's status.
+const char* level_status_name(LevelStatus status);
+
+class Kernel {
+ public:
+  /// `model`: pinocchio's Model.saveToString() of the Python side's model.
+  Kernel(const std::string& model, std::vector<ContactSpec> contacts,
+         const Eigen::VectorXd& torque_limits, const Eigen::VectorXd& lower,
+         const Eigen::VectorXd& upper, const ContactLimits& limits);
+  Kernel(const Kernel&) = delete;
+  Kernel& operator=(const Kernel&) = delete;
+
+  /// Tasks, then constraints, in name order.
+  std::vector<std::string> known_names() const;
+  /// Use a new stack from the next tick on; throws (naming the problem) and keeps the old one.
+  void set_stack(const std::vector<std::vector<std::string>>& levels);
+  TaskGains set_gains(const std::string& task, std::optional<double> kp, std::optional<double> kd,
+                      std::optional<double> weight);
+  const TaskGains& gains(const std::string& task) const;
+  void set_method(const std::string& method);
+  void set_level_weight_ratio(double ratio);
+  void set_contact_limits(const ContactLimits& limits);
+  void set_torque_limits(const Eigen::VectorXd& limits);
+  void set_joint_limits(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper);
+
+  /// The references of the next ticks; check_references() before using them.
+  References& references() { return refs_; }
+  /// Throws std::invalid_argument naming a field of the wrong size.
+  void check_references() const;
+
+  /// The model update alone (validates q and v).
+  void update(const Eigen::Ref<const Eigen::VectorXd>& q,
+              const Eigen::Ref<const Eigen::VectorXd>& v);
+  /// Rows of the current stack at the state of the last update (WholeBodyController.build_problem).
+  const HierarchyProblem& build_problem();
+  /// One whole tick: update, rows, hierarchy method, torques.
+  const TickResult& tick(const Eigen::Ref<const Eigen::VectorXd>& q,
+                         const Eigen::Ref<const Eigen::VectorXd>& v);
+  /// Norm of each stacked task's tracking error at the last rows (tasks with an error only).
+  std::vector<std::pair<std::string, double>> task_errors() const;
+
+  /// One task's or constraint's unweighted rows at the last update, for tests.
+  std::pair<Eigen::MatrixXd, Eigen::VectorXd> rows(const std::string& name);
+
+  const RobotModel& robot() const { return robot_; }
+  const std::string& method() const { return method_; }
+
+ private:
+  struct StackLevel {
+    std::vector<std::pair<std::string, Task*>> tasks;
+    std::vector<Constraint*> constraints;
+  };
+
+  Constraint& constraint(const std::string& name);
+
+  RobotModel robot_;
+  References refs_;
+  TaskRegistry tasks_;
+  ConstraintRegistry constraints_;
+  std::vector<StackLevel> stack_;
+  std::string method_ = "cascade";
+  double level_weight_ratio_ = 1e3;
+  HierarchyProblem problem_;
+  TickResult result_;
+};
+
+}  // namespace lab

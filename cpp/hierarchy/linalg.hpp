@@ -1,0 +1,51 @@
+// The small dense-algebra steps of the cascade (mirrors lab/controller/hierarchy/linalg.py):
+// everything comes from one column-pivoted QR per level.
+#pragma once
+
+#include <Eigen/Dense>
+
+namespace lab {
+
+/// Diagonal entries of R below this fraction of max(1, |R00|) do not count towards the rank.
+constexpr double kRankRtol = 1e-9;
+
+/// x solves A x = b and Z spans null(A), for A = [A1 A2] with A1 square and invertible:
+/// x = [A1^-1 b; 0], Z = [-A1^-1 A2; I]. The Newton-Euler rows have this form, A1 being the
+/// base block of M (Herzog §2.4, footnote 3). Z is not orthonormal; it spans the null space.
+/// Returns false when A1 is singular.
+bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                                              Eigen::MatrixXd& Z, Eigen::VectorXd& x);
+
+/// A column-pivoted QR of the transpose of a level's rows A (m x n): A^T P = Q [R1; 0], with
+/// R1 the `rank` rows whose diagonal exceeds kRankRtol * max(1, |R00|). Then A ~ P R1^T Q1^T.
+class RowSpaceQR {
+ public:
+  /// Factorizes A^T (A may have no rows).
+  void compute(const Eigen::MatrixXd& A);
+
+  int rank() const { return rank_; }
+
+  /// y with R1^T y = P^T b, in the least-squares sense when A has more rows than rank, so that
+  /// u = Q1 y is the minimum-norm minimiser of ||A u - b||.
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+
+  /// M Q (Q of the factorization, n x n), applied as reflectors without forming Q.
+  void apply_q_on_the_right(Eigen::MatrixXd& M) const;
+
+ private:
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_;
+  int rows_ = 0;
+  int rank_ = 0;
+};
+
+/// The minimum-norm minimiser u of ||A u - b|| and an orthonormal basis N of null(A). Rows that
+/// are zero up to round-off (a level with no freedom left) count as locked and give u = 0.
+void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                                  Eigen::VectorXd& u, Eigen::MatrixXd& N);
+
+/// One equality level of the cascade: x <- x + Z u and Z <- Z N with u and N those of
+/// least_squares_and_null_space(A Z, b - A x) (Herzog eq. 8), without forming Q or N.
+void least_squares_step(Eigen::MatrixXd& Z, Eigen::VectorXd& x, const Eigen::MatrixXd& A,
+                        const Eigen::VectorXd& b);
+
+}  // namespace lab

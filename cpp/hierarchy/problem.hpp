@@ -1,0 +1,70 @@
+// The input every hierarchy method takes, and the solution it returns (mirrors
+// lab/controller/hierarchy/problem.py).
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace lab {
+
+/// One priority level: equality rows A x = b (task weights already folded in) and
+/// inequality rows C x <= d. `weight` scales the level in the weighted method only.
+struct Level {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  Eigen::MatrixXd C;
+  Eigen::VectorXd d;
+  double weight = 1.0;
+};
+
+/// Find x = [qdd, F] with dynamics_A x = dynamics_b exactly (the Newton-Euler rows,
+/// Herzog eq. 13), then each level in turn. `support` flags the rows of F that belong to
+/// contacts in support (the others carry no force).
+struct HierarchyProblem {
+  Eigen::MatrixXd dynamics_A;
+  Eigen::VectorXd dynamics_b;
+  std::vector<Level> levels;
+  Eigen::Array<bool, Eigen::Dynamic, 1> support;
+};
+
+/// How one level was solved.
+enum class LevelStatus {
+  exact,          // least squares of its equalities; no inequality binds
+  qp,             // a QP with slacks (Herzog eqs. 9-11)
+  kept_above,     // the solver failed; the level keeps the solution of the levels above
+  no_freedom,     // nothing left in the null space of the levels above
+};
+
+/// The name telemetry and the tests use for a level status.
+inline const char* level_status_name(LevelStatus status) {
+  switch (status) {
+    case LevelStatus::exact:
+      return "exact";
+    case LevelStatus::qp:
+      return "qp";
+    case LevelStatus::kept_above:
+      return "kept_above";
+    case LevelStatus::no_freedom:
+      return "no_freedom";
+  }
+  return "unknown";
+}
+
+/// The result of a hierarchy method: x and what happened on the way (TSID's HQPOutput).
+struct HierarchySolution {
+  Eigen::VectorXd x;
+  bool ok = false;                     // false: x is not a solution (see message)
+  std::string message;                 // why not, or which levels fell back
+  std::vector<LevelStatus> levels;     // one per problem level
+  std::vector<double> residuals;       // ||A x - b|| of each level at the returned x
+  int qp_solves = 0;
+};
+
+/// Strict priorities: a cascade of QPs with null-space reduction (Herzog 2016 §2.2).
+HierarchySolution solve_cascade(const HierarchyProblem& problem);
+
+/// All levels in one weighted QP (Raiola 2020, stack S1).
+HierarchySolution solve_weighted(const HierarchyProblem& problem);
+
+}  // namespace lab

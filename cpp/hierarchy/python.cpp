@@ -1,0 +1,58 @@
+// Python bindings of the hierarchy methods alone: tests hand both kernels the same problem.
+#include <nanobind/eigen/dense.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include "hierarchy/problem.hpp"
+#include "hierarchy/python.hpp"
+
+namespace nb = nanobind;
+
+namespace lab {
+namespace {
+
+using LevelRows = std::tuple<Eigen::MatrixXd, Eigen::VectorXd, Eigen::MatrixXd, Eigen::VectorXd,
+                             double>;
+
+nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynamics_A,
+                         const Eigen::VectorXd& dynamics_b, const std::vector<LevelRows>& levels,
+                         const Eigen::Array<bool, Eigen::Dynamic, 1>& support) {
+  HierarchyProblem problem{dynamics_A, dynamics_b, {}, support};
+  const Eigen::Index nx = dynamics_A.cols();
+  if (dynamics_b.size() != dynamics_A.rows())
+    throw nb::value_error("dynamics_b must have one entry per row of dynamics_A");
+  for (const auto& [A, b, C, d, weight] : levels) {
+    if (A.cols() != nx || C.cols() != nx || A.rows() != b.size() || C.rows() != d.size())
+      throw nb::value_error("a level's rows do not match x or their right-hand side");
+    problem.levels.push_back(Level{A, b, C, d, weight});
+  }
+  HierarchySolution solution;
+  if (method == "cascade")
+    solution = solve_cascade(problem);
+  else if (method == "weighted")
+    solution = solve_weighted(problem);
+  else
+    throw nb::value_error(("unknown hierarchy method '" + method + "' (native: cascade, weighted)").c_str());
+  std::vector<std::string> statuses;
+  for (const LevelStatus status : solution.levels) statuses.emplace_back(level_status_name(status));
+  nb::dict out;
+  out["x"] = solution.x;
+  out["ok"] = solution.ok;
+  out["message"] = solution.message;
+  out["levels"] = statuses;
+  out["residuals"] = solution.residuals;
+  out["qp_solves"] = solution.qp_solves;
+  return out;
+}
+
+}  // namespace
+
+void bind_hierarchy(nb::module_& m) {
+  m.def("solve_hierarchy", &solve_hierarchy, nb::arg("method"), nb::arg("dynamics_A"),
+        nb::arg("dynamics_b"), nb::arg("levels"), nb::arg("support"),
+        "Solve one HierarchyProblem with a native method: levels are (A, b, C, d, weight).");
+}
+
+}  // namespace lab

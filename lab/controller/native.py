@@ -1,0 +1,189 @@
+"""NativeController: the WholeBodyController whose tick can run in the native kernel.
+
+`lab._kernel` (C++, cpp/) computes the same tick as `WholeBodyController.solve` in one call:
+pinocchio's model update on the same model (passed through pinocchio's own serialization), the
+rows of every task and constraint, the `cascade` or `weighted` method, the torques. This class
+keeps the Python controller as the source of truth for the stack, the gains, the limits and the
+references, mirrors them into the kernel, and picks per tick which kernel runs:
+`config.kernel == "native"` runs the native one when it is built and has every name of the stack
+and the method; otherwise the Python one runs and `kernel_note` says why (never a silent mix).
+"""
+
+import numpy as np
+
+from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
+from lab.controller.model import RobotModel
+from lab.controller.qp import QPFailure
+from lab.controller.references import References
+from lab.controller.stack import Stack
+from lab.controller.tasks import TaskGains
+
+try:
+    from lab import _kernel
+except ImportError as error:  # not built: the lab runs on the Python kernel
+    _kernel = None
+    NOT_BUILT = f"the native kernel is not built ({error})"
+else:
+    NOT_BUILT = "" if _kernel.has_solvers else "the native kernel was built without its solvers"
+
+KERNELS = ("native", "python")
+NATIVE_METHODS = ("cascade", "weighted")
+_EMPTY = np.zeros(0)
+_EMPTY.flags.writeable = False
+
+
+def native_available() -> bool:
+    """Whether `lab._kernel` is built with its hierarchy solvers."""
+    return not NOT_BUILT
+
+
+def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
+    """A native kernel on the controller's very model (pinocchio's serialization), with its
+    contacts and limits; stack, gains and references are set separately."""
+    robot, limits = controller.robot, controller.config.limits
+    joint_limits = controller.constraints["joint_limits"]
+    return _kernel.Kernel(
+        robot.model.saveToString(),
+        [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
+        controller.constraints["torque_limits"].torque_limits,
+        joint_limits.lower,
+        joint_limits.upper,
+        limits.friction,
+        limits.normal_min,
+        limits.normal_max,
+    )
+
+
+def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
+    """Copy the fields of `refs` (References or WalkReferences) into the kernel."""
+    kernel.set_references(
+        refs.com,
+        refs.posture,
+        refs.base_height,
+        refs.base_rotation,
+        refs.com_velocity,
+        refs.base_angular_velocity,
+        refs.contact_active,
+        refs.normal_force_max,
+        refs.base_linear_velocity,
+        getattr(refs, "foot_position", _EMPTY),
+        getattr(refs, "foot_velocity", _EMPTY),
+        getattr(refs, "foot_acceleration", _EMPTY),
+        getattr(refs, "surface_normal", _EMPTY),
+        getattr(refs, "force_weight", _EMPTY),
+        getattr(refs, "posture_velocity", _EMPTY),
+        getattr(refs, "posture_weight", _EMPTY),
+    )
+
+
+class NativeController(WholeBodyController):
+    """A WholeBodyController with a `kernel` choice; `kernel_ran` says which ran last."""
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        references: References,
+        config: ControllerConfig,
+        torque_limits: np.ndarray,
+    ) -> None:
+        if config.kernel not in KERNELS:
+            raise KeyError(f"unknown kernel {config.kernel!r} (kernels: {', '.join(KERNELS)})")
+        self._native: _kernel.Kernel | None = None
+        self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
+        super().__init__(robot, references, config, torque_limits)
+        self.kernel_ran = "python"
+        self._native_errors: dict[str, float] = {}
+        if _kernel is not None:
+            self._native = kernel_for(self)
+            self._mirror_stack(config.stack)
+            for name, task in self.tasks.items():
+                self._native.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
+        self._synced: tuple = ()
+
+    # ----------------------------------------------------------------------------- settings
+    @property
+    def kernel_note(self) -> str:
+        """Why the requested native kernel does not run the current stack ('' when it does)."""
+        if self.config.kernel != "native":
+            return ""
+        if NOT_BUILT:
+            return NOT_BUILT
+        if self.config.hierarchy not in NATIVE_METHODS:
+            return f"the native kernel has no method {self.config.hierarchy!r}"
+        return self._unsupported
+
+    def set_kernel(self, kernel: str) -> None:
+        """Run the next ticks on `kernel` (native or python); raises KeyError for another name."""
+        if kernel not in KERNELS:
+            raise KeyError(f"unknown kernel {kernel!r} (kernels: {', '.join(KERNELS)})")
+        self.config.kernel = kernel
+
+    def set_stack(self, stack: Stack) -> None:
+        super().set_stack(stack)
+        if self._native is not None:
+            self._mirror_stack(stack)
+
+    def _mirror_stack(self, stack: Stack) -> None:
+        try:
+            self._native.set_stack(stack.as_lists())
+            self._unsupported = ""
+        except KeyError as error:  # a task written in Python only: the Python kernel runs it
+            self._unsupported = error.args[0]
+
+    def set_gains(
+        self,
+        task: str,
+        kp: float | None = None,
+        kd: float | None = None,
+        weight: float | None = None,
+    ) -> TaskGains:
+        gains = super().set_gains(task, kp, kd, weight)
+        if self._native is not None:
+            self._native.set_gains(task, gains.kp, gains.kd, gains.weight)
+        return gains
+
+    # ----------------------------------------------------------------------------- the tick
+    def solve(self) -> ControlOutput:
+        """Torques at the state of the last RobotModel.update, from the kernel the config picks;
+        raises QPFailure when the hierarchy has no solution."""
+        if self.config.kernel == "python" or self.kernel_note:
+            self.kernel_ran = "python"
+            return super().solve()
+        native = self._native
+        self._sync_limits()
+        if native.method != self.config.hierarchy:
+            native.set_method(self.config.hierarchy)
+        send_references(native, self.references)
+        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors = native.tick(
+            self.robot.q, self.robot.v
+        )
+        self.kernel_ran = "native"
+        self._native_errors = errors
+        if not ok:
+            raise QPFailure(f"native {self.config.hierarchy}: {message}")
+        return ControlOutput(tau, qdd, forces)
+
+    def _sync_limits(self) -> None:
+        """Mirror limits the Python constraints were given since the last tick (scenario
+        overrides replace the arrays; friction and the level weight ratio are numbers)."""
+        joints = self.constraints["joint_limits"]
+        limits = self.config.limits
+        arrays = (self.constraints["torque_limits"].torque_limits, joints.lower, joints.upper)
+        numbers = (limits.friction, limits.normal_min, limits.normal_max)
+        numbers += (self.config.level_weight_ratio,)
+        if (
+            self._synced
+            and self._synced[1] == numbers
+            and all(a is b for a, b in zip(self._synced[0], arrays, strict=True))
+        ):
+            return
+        self._native.set_torque_limits(arrays[0])
+        self._native.set_joint_limits(arrays[1], arrays[2])
+        self._native.set_contact_limits(*numbers[:3])
+        self._native.set_level_weight_ratio(numbers[3])
+        self._synced = (arrays, numbers)
+
+    def task_errors(self) -> dict[str, float]:
+        if self.kernel_ran == "native":
+            return dict(self._native_errors)
+        return super().task_errors()

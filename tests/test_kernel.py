@@ -1,0 +1,359 @@
+"""The native kernel (lab._kernel) against the Python controller, its oracle.
+
+Same model (pinocchio's serialization), same rows for every task and constraint on random states
+and references of every robot, the same hierarchy problem for every stack preset, and clear
+errors for bad input. Skipped as a whole when the kernel is not built.
+"""
+
+import copy
+import functools
+import json
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from lab.controller.behaviours.balance import standing_references
+from lab.controller.controller import ControllerConfig, WholeBodyController
+from lab.controller.model import RobotModel
+from lab.controller.native import (
+    NOT_BUILT,
+    NativeController,
+    kernel_for,
+    native_available,
+    send_references,
+)
+from lab.controller.stack import Stack
+from lab.controller.walk_references import WalkReferences
+from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.server.session import Session, SessionConfig
+from lab.stack_presets import PRESET_NAMES, load_stack_preset
+from tests.test_controller import controller_for
+
+_kernel = pytest.importorskip(
+    "lab._kernel", reason="the native kernel is not built (./dev builds it)"
+)
+
+ROWS_TOL = 1e-9  # relative to the entries' scale: the same pinocchio calls, other float order
+STATES = 6  # random states per robot
+
+
+def kernel_of(controller: WholeBodyController) -> "_kernel.Kernel":
+    """A kernel with the controller's model, limits and gains."""
+    kernel = kernel_for(controller)
+    for name, task in controller.tasks.items():
+        kernel.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
+    return kernel
+
+
+def random_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    q = robot.q_standing.copy()
+    q[7:] += rng.uniform(-0.2, 0.2, len(q) - 7)
+    q[:3] += rng.uniform(-0.1, 0.1, 3)
+    q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(*rng.uniform(-0.3, 0.3, 3))).coeffs()
+    return q, rng.normal(0.0, 0.5, robot.model.nv)
+
+
+def random_references(model: RobotModel, rng: np.random.Generator, walk: bool) -> WalkReferences:
+    """References with every field set; `walk=False` leaves the walking fields empty."""
+    n = len(model.contacts)
+    active = rng.random(n) < 0.5
+    active[rng.integers(n)] = True
+    refs = WalkReferences(
+        com=model.com + rng.normal(0.0, 0.05, 3),
+        posture=model.q[7:] + rng.normal(0.0, 0.1, model.na),
+        base_height=float(model.q[2] + rng.normal(0.0, 0.05)),
+        base_rotation=pin.rpy.rpyToMatrix(*rng.uniform(-0.3, 0.3, 3)),
+        com_velocity=rng.normal(0.0, 0.2, 3),
+        base_angular_velocity=rng.normal(0.0, 0.2, 3),
+        contact_active=active,
+        normal_force_max=rng.uniform(100.0, 900.0, n) if rng.random() < 0.5 else np.zeros(0),
+        base_linear_velocity=rng.normal(0.0, 0.3, 3),
+    )
+    if walk:
+        normals = rng.normal(0.0, 0.3, (n, 3)) + np.array([0.0, 0.0, 1.0])
+        weights = rng.uniform(0.0, 1.0, n)
+        weights[rng.random(n) < 0.4] = np.nan
+        posture_weight = rng.uniform(0.0, 1.0, n)
+        posture_weight[rng.random(n) < 0.3] = 0.0
+        refs.foot_position = model.contact_positions + rng.normal(0.0, 0.05, (n, 3))
+        refs.foot_velocity = rng.normal(0.0, 0.3, (n, 3))
+        refs.foot_acceleration = rng.normal(0.0, 1.0, (n, 3))
+        refs.surface_normal = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+        refs.force_weight = weights
+        refs.posture_velocity = rng.normal(0.0, 0.3, model.na)
+        refs.posture_weight = posture_weight
+    return refs
+
+
+def random_gains(controller: WholeBodyController, kernel, rng: np.random.Generator) -> None:
+    """Nonzero gains on every task (the robots' own leave most of them zero), both sides."""
+    for name in controller.tasks:
+        kp, kd = rng.uniform(1.0, 400.0, 2)
+        weight = 1.0 if rng.random() < 0.5 else float(rng.uniform(1e-3, 10.0))
+        controller.set_gains(name, kp, kd, weight)
+        kernel.set_gains(name, kp, kd, weight)
+
+
+def assert_rows_equal(native: tuple, python: tuple, what: str) -> None:
+    for got, want in zip(native, python, strict=True):
+        want = np.asarray(want, dtype=float)
+        assert got.shape == want.shape, f"{what}: shape {got.shape} != {want.shape}"
+        scale = 1.0 + (np.abs(want).max() if want.size else 0.0)
+        np.testing.assert_allclose(got, want, rtol=0.0, atol=ROWS_TOL * scale, err_msg=what)
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_the_kernel_loads_the_same_model(name: str) -> None:
+    controller, robot = controller_for(name)
+    kernel = kernel_of(controller)
+    model = robot.model
+    assert (kernel.nq, kernel.nv) == (model.nq, model.nv)
+    assert kernel.nf == controller.robot.nf and kernel.nx == controller.robot.nx
+    assert kernel.frame_names() == [frame.name for frame in model.frames]
+    inertias = np.array([inertia.toDynamicParameters() for inertia in model.inertias])
+    np.testing.assert_allclose(kernel.inertias(), inertias, rtol=1e-12, atol=1e-12)
+    assert kernel.mass == pytest.approx(controller.robot.mass, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
+    controller, robot = controller_for(name)
+    kernel = kernel_of(controller)
+    model = controller.robot
+    assert sorted(kernel.known_names()) == sorted(controller.known_names)
+    rng = np.random.default_rng(12)
+    for i in range(STATES):
+        q, v = random_state(robot, rng)
+        model.update(q, v)
+        kernel.update(q, v)
+        refs = random_references(model, rng, walk=i % 2 == 0)
+        send_references(kernel, refs)
+        random_gains(controller, kernel, rng)
+        for task_name, task in controller.tasks.items():
+            python = task.rows(model, refs)
+            native = kernel.rows(task_name)
+            assert_rows_equal(native, python, f"{name} state {i}: task {task_name}")
+        for constraint_name, constraint in controller.constraints.items():
+            python = constraint.rows(model, refs)
+            native = kernel.rows(constraint_name)
+            assert_rows_equal(native, python, f"{name} state {i}: {constraint_name}")
+
+
+def stacks_of(name: str) -> list[tuple[str, list[list[str]]]]:
+    """The robot's default stack and every preset."""
+    default = [list(level) for level in load_description(name).stack]
+    return [("default", default)] + [(p, load_stack_preset(p).levels) for p in PRESET_NAMES]
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_the_hierarchy_problem_of_every_stack_agrees(name: str) -> None:
+    controller, robot = controller_for(name)
+    kernel = kernel_of(controller)
+    model = controller.robot
+    rng = np.random.default_rng(5)
+    for stack_name, levels in stacks_of(name):
+        controller.set_stack(Stack.of(levels))
+        kernel.set_stack(levels)
+        for i in range(2):
+            q, v = random_state(robot, rng)
+            model.update(q, v)
+            kernel.update(q, v)
+            controller.references = random_references(model, rng, walk=i == 0)
+            send_references(kernel, controller.references)
+            random_gains(controller, kernel, rng)
+            python = controller.build_problem()
+            native = kernel.problem()
+            what = f"{name} {stack_name} state {i}"
+            assert_rows_equal(
+                (native["dynamics_A"], native["dynamics_b"]),
+                (python.dynamics_A, python.dynamics_b),
+                what,
+            )
+            assert len(native["levels"]) == len(python.levels)
+            for k, (got, want) in enumerate(zip(native["levels"], python.levels, strict=True)):
+                assert_rows_equal(got[:4], (want.A, want.b, want.C, want.d), f"{what} level {k}")
+                assert got[4] == pytest.approx(want.weight, rel=1e-15)
+            np.testing.assert_array_equal(native["support"], python.terms.support)
+
+
+def test_bad_input_raises_a_clear_error_and_changes_nothing() -> None:
+    controller, robot = controller_for("anymal")
+    kernel = kernel_of(controller)
+    q, v = robot.q_standing, np.zeros(robot.model.nv)
+    with pytest.raises(ValueError, match="q has non-finite"):
+        kernel.update(np.full_like(q, np.nan), v)
+    with pytest.raises(ValueError, match="v has 3 entries"):
+        kernel.update(q, np.zeros(3))
+    with pytest.raises(KeyError, match="no task or constraint 'nope'"):
+        kernel.set_stack([["contact"], ["nope"]])
+    with pytest.raises(ValueError, match="level 2 is empty"):
+        kernel.set_stack([["contact"], []])
+    with pytest.raises(KeyError, match="unknown task"):
+        kernel.set_gains("nope", 1.0)
+    with pytest.raises(KeyError, match="no hierarchy method 'nullspace'"):
+        kernel.set_method("nullspace")
+    refs = controller.references
+    with pytest.raises(ValueError, match="posture has 3 entries"):
+        send_references(kernel, WalkReferences(com=refs.com, posture=np.zeros(3), base_height=0.5))
+    with pytest.raises(ValueError, match="not a serialized pinocchio model"):
+        _kernel.Kernel("garbage", [], np.zeros(0), np.zeros(0), np.zeros(0), 0.8, 0.0, 1e3)
+    # The kernel still works after every rejected call.
+    kernel.update(q, v)
+    send_references(kernel, refs)
+    A, b = kernel.rows("posture")
+    assert A.shape == (robot.model.nv - 6, kernel.nx) and np.all(np.isfinite(b))
+
+
+def test_a_stack_the_kernel_lacks_runs_on_python_and_says_so() -> None:
+    description = load_description("anymal")
+    robot = build_robot(description)
+    model = RobotModel(robot.model, robot.contacts)
+    config = ControllerConfig(Stack.of(description.stack), dict(description.gains))
+    controller = NativeController(
+        model, standing_references(model, robot.q_standing), config, robot.torque_limits
+    )
+    controller.set_hierarchy("nullspace")
+    controller.compute(robot.q_standing, np.zeros(robot.model.nv))
+    assert controller.kernel_ran == "python"
+    assert "nullspace" in controller.kernel_note or NOT_BUILT
+
+
+def test_a_session_runs_native_by_default_and_switches_live() -> None:
+    session = Session(SessionConfig(robot="anymal"))
+    for _ in range(20):
+        session.tick()
+    telemetry = session.telemetry()
+    assert (telemetry["kernel"], telemetry["kernel_note"]) == ("native", "")
+    assert session.qp_ok
+    before = json.dumps(session.info(), sort_keys=True)
+    reply = session.handle("hierarchy", {"kernel": "fast"})
+    assert not reply["ok"] and "unknown kernel 'fast'" in reply["error"]
+    assert json.dumps(session.info(), sort_keys=True) == before
+    assert session.handle("hierarchy", {"kernel": "python"})["ok"]
+    session.tick()
+    assert session.telemetry()["kernel"] == "python"
+    assert session.info()["kernel"] == "python"
+    assert session.handle("hierarchy", {"method": "weighted", "kernel": "native"})["ok"]
+    session.tick()
+    assert session.telemetry()["kernel"] == "native"
+    assert session.controller.config.hierarchy == "weighted"
+
+
+def test_a_method_the_kernel_lacks_runs_on_python_and_says_so() -> None:
+    session = Session(SessionConfig(robot="anymal"))
+    assert session.handle("hierarchy", {"method": "nullspace"})["ok"]
+    session.tick()
+    telemetry = session.telemetry()
+    assert telemetry["kernel"] == "python"
+    assert "no method 'nullspace'" in telemetry["kernel_note"]
+
+
+def test_a_native_solver_failure_falls_back_and_is_reported() -> None:
+    session = Session(SessionConfig(robot="anymal", hierarchy="weighted"))
+    # A normal force at least 200 N and at most 100 N: the weighted QP (hard limits) is infeasible.
+    limits = session.controller.config.limits
+    limits.normal_min, limits.normal_max = 200.0, 100.0
+    for _ in range(5):
+        session.tick()
+    assert session.telemetry()["kernel"] == "native"
+    assert session.qp_failures == 5 and not session.qp_ok
+    events = [e for e in session.pop_events() if e["type"] == "solver_failure"]
+    assert events and "native weighted" in events[0]["message"]
+
+
+QUADRUPEDS = ("anymal", "hyq", "solo12")
+X_TOL = 1e-6  # relative to 1 + |x|: the QP solvers' (DAQP, eiquadprog) primal tolerances
+TAU_TOL = 1e-6  # N m, where every level of the cascade was solved without a QP
+LEVEL_TOL = 1e-7  # relative: two residuals of a level are equal (eiquadprog's feasibility, 2e-8)
+# Below this lightest level weight the weighted Hessian spans more than 1e9: DAQP then stops
+# short of the optimum (hutter_table7's 7 levels reach 1e-18), so x is compared through the cost.
+WELL_CONDITIONED_WEIGHT = 1e-9
+
+
+@functools.cache
+def recorded_states(name: str) -> tuple:
+    """(tag, q, v, references) from a Python-kernel session: standing, pushed, trotting."""
+    session = Session(SessionConfig(robot=name, kernel="python"))
+    states = []
+
+    def run(ticks: int, tag: str) -> None:
+        for _ in range(ticks):
+            session.tick()
+        model = session.model
+        refs = copy.deepcopy(session.controller.references)
+        states.append((tag, model.q.copy(), model.v.copy(), refs))
+
+    run(100, "standing")
+    push = [0.0, 0.15 * session.model.mass * 9.81, 0.0]
+    session.handle("push", {"body": session.robot.base_link, "force": push, "duration": 0.1})
+    run(60, "push")
+    if name in QUADRUPEDS:
+        session.handle("gait", {"name": "trot"})
+        session.handle("velocity", {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0})
+        run(150, "trot")
+        run(80, "trot later")
+    assert not session.fell
+    return tuple(states)
+
+
+def level_residual(level, x: np.ndarray) -> float:
+    """‖A x − b‖ and the violation of C x ≤ d together: what a strict level minimises."""
+    violation = np.maximum(level.C @ x - level.d, 0.0)
+    return float(np.sqrt(np.sum((level.A @ x - level.b) ** 2) + violation @ violation))
+
+
+def lexicographically_no_worse(problem, x: np.ndarray, reference: np.ndarray) -> bool:
+    """Level by level, x's residual equals the reference's within LEVEL_TOL until the first level
+    where they differ, and there x's is the smaller."""
+    for level in problem.levels:
+        r, r_ref = level_residual(level, x), level_residual(level, reference)
+        if abs(r - r_ref) > LEVEL_TOL * (1.0 + r_ref):
+            return r < r_ref
+    return True
+
+
+def weighted_cost(problem, x: np.ndarray) -> float:
+    """The weighted method's objective (hierarchy/weighted.py)."""
+    lightest = min(level.weight for level in problem.levels)
+    cost = sum(level.weight * np.sum((level.A @ x - level.b) ** 2) for level in problem.levels)
+    return float(cost + 1e-9 * lightest * x @ x)
+
+
+@pytest.mark.skipif(not native_available(), reason=NOT_BUILT or "native kernel built")
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+@pytest.mark.parametrize("method", ["cascade", "weighted"])
+def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
+    states = recorded_states(name)
+    for stack_name, levels in stacks_of(name):
+        controller, _ = controller_for(name)
+        kernel = kernel_of(controller)
+        controller.set_stack(Stack.of(levels))
+        kernel.set_stack(levels)
+        controller.set_hierarchy(method)
+        kernel.set_method(method)
+        for tag, q, v, refs in states:
+            what = f"{name} {stack_name} {method} {tag}"
+            controller.references = refs
+            controller.robot.update(q, v)
+            send_references(kernel, refs)
+            python = controller.solve()
+            tau, qdd, forces, ok, message, statuses, _, _, _ = kernel.tick(q, v)
+            assert ok, f"{what}: {message}"
+            x, x_native = np.r_[python.qdd, python.forces], np.r_[qdd, forces]
+            problem = controller.build_problem()
+            lightest = min(level.weight for level in problem.levels)
+            if method == "weighted" and lightest < WELL_CONDITIONED_WEIGHT:
+                for level in problem.levels:  # hard inequalities, and a cost no worse
+                    assert np.all(level.C @ x_native <= level.d + X_TOL * (1 + abs(level.d))), what
+                cost, cost_native = weighted_cost(problem, x), weighted_cost(problem, x_native)
+                assert cost_native <= cost * (1 + X_TOL) + 1e-12, what
+                continue
+            if np.abs(x_native - x).max() > X_TOL * (1.0 + np.abs(x).max()):
+                # Where a QP ran, DAQP may stop a level short of its optimum (1e-6-level
+                # residuals) and the levels below then move: the native x must win the first
+                # level where the two differ.
+                assert method == "cascade", what
+                assert lexicographically_no_worse(problem, x_native, x), what
+            if method == "cascade" and all(s == "exact" for s in statuses):
+                assert np.abs(tau - python.tau).max() <= TAU_TOL, what
