@@ -38,6 +38,7 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "pause",
         "resume",
         "gait",
+        "momentum",
     }
 
 

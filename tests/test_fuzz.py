@@ -75,6 +75,7 @@ FIELD_VALUES = {
     "step_height": numbers,
     "cycle_time": numbers,
     "footholds": st.sampled_from(["raiola", "raibert", "other"]),
+    "mode": st.sampled_from(["pd", "lqr", "pid"]),
 }
 
 

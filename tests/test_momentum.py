@@ -139,3 +139,12 @@ def test_talos_balances_a_herzog_push_under_table_2(mode: str) -> None:
     assert not session.fell and session.qp_failures == 0
     assert worst < 0.03
     assert np.linalg.norm(session.model.com[:2] - start[:2]) < 0.005
+
+
+def test_the_momentum_law_is_chosen_live_and_a_bad_one_changes_nothing() -> None:
+    session = Session(SessionConfig(robot="talos"))
+    assert session.info()["momentum_modes"] == ["pd", "lqr"]
+    assert session.handle("momentum", {"mode": "pd"}) == {"ok": True, "momentum": {"mode": "pd"}}
+    reply = session.handle("momentum", {"mode": "pid"})
+    assert not reply["ok"] and "pid" in reply["error"] and "lqr" in reply["error"]
+    assert session.telemetry()["momentum_control"] == {"mode": "pd"}

@@ -112,6 +112,13 @@ class GainsCommand:
 
 
 @dataclass(frozen=True)
+class MomentumCommand:
+    """Choose the momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
+
+    mode: str
+
+
+@dataclass(frozen=True)
 class ResetCommand:
     """Put the robot back at its standing posture and clear pushes and velocity commands."""
 
@@ -150,6 +157,7 @@ Command = (
     | PauseCommand
     | ResumeCommand
     | GaitCommand
+    | MomentumCommand
 )
 
 
@@ -331,6 +339,11 @@ def _gains(f: _Fields) -> GainsCommand:
     return GainsCommand(task=task, kp=kp, kd=kd, weight=weight)
 
 
+def _momentum(f: _Fields) -> MomentumCommand:
+    f.only("mode")
+    return MomentumCommand(mode=f.name("mode"))
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -344,6 +357,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "pause": _no_fields(PauseCommand),
     "resume": _no_fields(ResumeCommand),
     "gait": _gait,
+    "momentum": _momentum,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

@@ -18,6 +18,7 @@ from lab.controller.controller import ControllerConfig
 from lab.controller.hierarchy import METHODS
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.momentum import MOMENTUM_MODES
 from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
@@ -361,7 +362,14 @@ class Session:
                     if getattr(gait, key) is not None
                 }
                 return self._set_behaviour(name, options)
+            case cmd.MomentumCommand(mode=mode):
+                self.controller.tasks["momentum"].set_mode(mode)  # ValueError names the modes
+                return {"momentum": self._momentum()}
         return {}
+
+    def _momentum(self) -> dict:
+        """The momentum task's feedback law (Herzog 2016 §3)."""
+        return {"mode": self.controller.tasks["momentum"].mode}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
@@ -395,12 +403,14 @@ class Session:
             "methods": list(METHODS),
             "solvers": list(SOLVERS),
             "formulations": list(FORMULATIONS),
+            "momentum_modes": list(MOMENTUM_MODES),
             "kernels": list(KERNELS),
             "gaits": list(BEHAVIOURS),
             "stack_presets": list(PRESET_NAMES),
             "robot": self.config.robot,
             "scene": self.config.scene,
             "gait": self.behaviour.name,
+            "momentum": self._momentum(),
             "hierarchy": self._hierarchy(),
             "kernel": self.controller.config.kernel,
             "stack": self.controller.config.stack.as_lists(),
@@ -485,6 +495,7 @@ class Session:
             "cop": {"feet": feet_cop, "net": net_cop},
             "tasks": tasks,
             "stack": self.controller.config.stack.as_lists(),
+            "momentum_control": self._momentum(),
             "hierarchy": self._hierarchy(),
             "kernel": self.controller.kernel_ran,
             "kernel_note": self.controller.kernel_note,
