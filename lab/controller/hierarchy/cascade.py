@@ -28,6 +28,8 @@ has then reached its unconstrained optimum with zero slack, which is the strict 
 otherwise does it run the QPs level by level.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from lab.controller.hierarchy.linalg import (
@@ -96,7 +98,8 @@ def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
         Cz, s = _projected(level.C, level.d, Z, x)
         u_ls, N = least_squares_and_null_space(Az, r)
         free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
-        u = _solve_level(u_ls, Az, r, N, Cz, s, K[free], k[free], Z, x, solver)
+        rows = _LevelRows(Az, r, N, Cz, s, K[free], k[free])
+        u = _solve_level(u_ls, rows, Z, x, solver)
         x = x + Z @ u
         if depth == last:
             break
@@ -118,21 +121,27 @@ def _projected(
     return A @ Z, b - A @ x
 
 
+@dataclass(frozen=True)
+class _LevelRows:
+    """One level in the null-space coordinates u of the levels above (x = x* + Z u): its
+    equalities Az u = r with their null space N, its inequalities Cz u ≤ s, and the carried
+    inequalities K u ≤ k of the levels above that still have freedom in Z."""
+
+    Az: np.ndarray
+    r: np.ndarray
+    N: np.ndarray
+    Cz: np.ndarray
+    s: np.ndarray
+    K: np.ndarray
+    k: np.ndarray
+
+
 def _solve_level(
-    u: np.ndarray,
-    Az: np.ndarray,
-    r: np.ndarray,
-    N: np.ndarray,
-    Cz: np.ndarray,
-    s: np.ndarray,
-    Kz: np.ndarray,
-    k: np.ndarray,
-    Z: np.ndarray,
-    x: np.ndarray,
-    solver: str,
+    u: np.ndarray, rows: _LevelRows, Z: np.ndarray, x: np.ndarray, solver: str
 ) -> np.ndarray:
-    """The step in the null space for one level, given its least-squares step u and the null
-    space N of its equality rows Az (the slacks are implicit in the cost)."""
+    """The step in the null space for one level, given its least-squares step u (the slacks
+    are implicit in the cost)."""
+    Az, r, Cz, s, Kz, k = rows.Az, rows.r, rows.Cz, rows.s, rows.K, rows.k
     # When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
     # equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
     fits = (not len(s) or (Cz @ u <= s + FEASIBILITY_TOL).all()) and (
@@ -152,7 +161,7 @@ def _solve_level(
             optimum = _level_optimum(u, Az, r, G, h, epsilon, solver)
         except QPFailure:
             continue
-        return _smallest_in_optimal_set(optimum, N, Cz, s, Kz, k, Z, x, solver)
+        return _smallest_in_optimal_set(optimum, rows, Z, x, solver)
     # u = 0 is feasible by construction, so this is the solver failing, not the level. Seen when
     # the carried bounds leave the level no freedom (a feasible set of 1e-9 about u = 0, more
     # tight rows than directions): DAQP then reports it infeasible. The level keeps the solution
@@ -194,24 +203,17 @@ def _level_optimum(
 
 
 def _smallest_in_optimal_set(
-    u: np.ndarray,
-    N: np.ndarray,
-    Cz: np.ndarray,
-    s: np.ndarray,
-    Kz: np.ndarray,
-    k: np.ndarray,
-    Z: np.ndarray,
-    x: np.ndarray,
-    solver: str,
+    u: np.ndarray, rows: _LevelRows, Z: np.ndarray, x: np.ndarray, solver: str
 ) -> np.ndarray:
     """Among the optimal steps u + N w of a level (same Az u, slacks no larger than u's, carried
     bounds kept), the one with the smallest ‖x + Z (u + N w)‖ (Herzog eq. 5)."""
+    N = rows.N
     if N.shape[1] == 0:
         return u
     ZN = Z @ N
     # Bounds of w: each row keeps the room it has at u (≥ 0: w = 0 is feasible).
-    G = np.concatenate((Cz @ N, Kz @ N))
-    h = np.maximum(np.concatenate((s - Cz @ u, k - Kz @ u)), 0.0)
+    G = np.concatenate((rows.Cz @ N, rows.K @ N))
+    h = np.maximum(np.concatenate((rows.s - rows.Cz @ u, rows.k - rows.K @ u)), 0.0)
     free = (G * G).sum(axis=1) > ZERO_ROW_TOL**2
     G, h = G[free], h[free]
     try:
