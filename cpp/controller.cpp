@@ -234,14 +234,4 @@ std::pair<Eigen::MatrixXd, Eigen::VectorXd> Kernel::rows(const std::string& name
   throw UnknownName("the native kernel has no task or constraint '" + name + "'");
 }
 
-const char* level_status_name(LevelStatus status) {
-  switch (status) {
-    case LevelStatus::exact: return "exact";
-    case LevelStatus::qp: return "qp";
-    case LevelStatus::kept_above: return "kept_above";
-    case LevelStatus::no_freedom: return "no_freedom";
-  }
-  return "unknown";
-}
-
 }  // namespace lab

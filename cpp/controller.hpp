@@ -27,9 +27,6 @@ struct TickResult {
   HierarchySolution solution;
 };
 
-/// The name Python sees for a level's status.
-const char* level_status_name(LevelStatus status);
-
 class Kernel {
  public:
   /// `model`: pinocchio's Model.saveToString() of the Python side's model.

@@ -26,6 +26,7 @@ from lab.controller.native import (
 from lab.controller.stack import Stack
 from lab.controller.walk_references import WalkReferences
 from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
 from tests.test_controller import controller_for
@@ -357,3 +358,11 @@ def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
                 assert lexicographically_no_worse(problem, x_native, x), what
             if method == "cascade" and all(s == "exact" for s in statuses):
                 assert np.abs(tau - python.tau).max() <= TAU_TOL, what
+
+
+def test_a_scenario_picks_its_kernel(tmp_path) -> None:
+    path = tmp_path / "python_kernel.toml"
+    path.write_text('robot = "solo12"\nduration = 0.05\n[controller]\nkernel = "python"\n')
+    assert run_scenario(load_scenario(path))["kernel"] == "python"
+    path.write_text('robot = "solo12"\nduration = 0.05\n')
+    assert run_scenario(load_scenario(path))["kernel"] == "native"

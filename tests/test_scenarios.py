@@ -79,6 +79,7 @@ def test_lab_run_prints_one_json_report() -> None:
         ("duration = 1.0\n[[events]]\nt = 0.5\nreset = {}\npause = {}\n", "exactly one"),
         ("duration = 1.0\n[[events]]\nt = 0.5\nfly = {}\n", "fly"),
         ('duration = 1.0\n[controller]\nmethod = "cascade"\n', "method"),
+        ('duration = 1.0\n[controller]\nkernel = "fast"\n', "kernel must be one of"),
     ],
 )
 def test_a_malformed_scenario_names_its_problem(tmp_path: Path, text: str, needle: str) -> None:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.controller.native import KERNELS
 from lab.server.commands import CommandError, parse_command
 from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
@@ -78,12 +79,15 @@ def load_scenario(path: str | Path) -> Scenario:
     if not isinstance(duration, int | float) or not duration > 0:
         raise ScenarioError(f"{path}: duration must be a positive number of seconds")
     stack, hierarchy, gains = _stack(path, controller)
+    kernel = controller.get("kernel")
+    if kernel not in (None, *KERNELS):
+        raise ScenarioError(f"{path}: [controller] kernel must be one of {KERNELS}, got {kernel!r}")
     config = SessionConfig(
         robot=data.get("robot", "anymal"),
         scene=data.get("scene", "flat"),
         hierarchy=hierarchy,
         solver=controller.get("solver", "daqp"),
-        kernel=controller.get("kernel"),
+        kernel=kernel,
         stack=stack,
         gains=gains,
     )
