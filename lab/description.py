@@ -172,18 +172,9 @@ def _contact_heights(model: pin.Model, q: np.ndarray, contacts: tuple[ContactSpe
     )
 
 
-def build_robot(desc: RobotDescription) -> Robot:
-    """Build the pinocchio model (free flyer, locked joints removed, contact frames added)."""
-    full = pin.buildModelFromUrdf(str(desc.urdf_path), pin.JointModelFreeFlyer())
-    q_ref = _reference_posture(full, desc)
-    missing = [j for j in desc.locked_joints if not full.existJointName(j)]
-    if missing:
-        raise KeyError(f"robot {desc.name!r}: locked joints {missing} are not in the URDF")
-    locked_ids = [full.getJointId(j) for j in desc.locked_joints]
-    locked_positions = {
-        j: float(q_ref[full.joints[full.getJointId(j)].idx_q]) for j in desc.locked_joints
-    }
-    model = pin.buildReducedModel(full, locked_ids, q_ref) if locked_ids else full
+def add_frames(model: pin.Model, desc: RobotDescription) -> None:
+    """Add the description's contact frames (`added_frames`) to `model`, in place; every model of
+    the robot (the controller's, the drawing's) names the same frames."""
     for frame in desc.added_frames:
         if not model.existFrame(frame.parent):
             raise KeyError(f"robot {desc.name!r}: no frame {frame.parent!r} for {frame.name!r}")
@@ -199,6 +190,21 @@ def build_robot(desc: RobotDescription) -> Robot:
                 pin.FrameType.OP_FRAME,
             )
         )
+
+
+def build_robot(desc: RobotDescription) -> Robot:
+    """Build the pinocchio model (free flyer, locked joints removed, contact frames added)."""
+    full = pin.buildModelFromUrdf(str(desc.urdf_path), pin.JointModelFreeFlyer())
+    q_ref = _reference_posture(full, desc)
+    missing = [j for j in desc.locked_joints if not full.existJointName(j)]
+    if missing:
+        raise KeyError(f"robot {desc.name!r}: locked joints {missing} are not in the URDF")
+    locked_ids = [full.getJointId(j) for j in desc.locked_joints]
+    locked_positions = {
+        j: float(q_ref[full.joints[full.getJointId(j)].idx_q]) for j in desc.locked_joints
+    }
+    model = pin.buildReducedModel(full, locked_ids, q_ref) if locked_ids else full
+    add_frames(model, desc)
     added = {frame.name: frame for frame in desc.added_frames}
     foot_links, foot_offsets = [], []
     for c in desc.contacts:

@@ -16,10 +16,15 @@ import pytest
 
 from lab.controller.behaviours.balance import standing_references
 from lab.controller.controller import ControllerConfig, WholeBodyController
-from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.hierarchy import METHODS, HierarchyProblem, Level, nullspace
 from lab.controller.hierarchy.cascade import solve_cascade
 from lab.controller.hierarchy.formulations import FORMULATIONS
-from lab.controller.hierarchy.nullspace import hierarchical_least_squares, solve_nullspace
+from lab.controller.hierarchy.nullspace import (
+    ActiveSetCapWarning,
+    active_set_least_squares,
+    hierarchical_least_squares,
+    solve_nullspace,
+)
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack
 from lab.controller.tasks import TaskGains
@@ -229,3 +234,23 @@ def test_knee_and_hip_limits_converge_to_the_lexicographic_optimum(anymal) -> No
     assert np.all(np.abs(c.robot.joint_torques(x)) <= limits + AGREE_TOL)
     lexicographic = np.linalg.norm(motion.A @ solve_cascade(problem) - motion.b)
     assert np.linalg.norm(motion.A @ x - motion.b) <= lexicographic + CASCADE_QP_TOL
+
+
+def test_the_active_set_cap_stops_at_a_feasible_point_and_says_so(monkeypatch) -> None:
+    """The release example above needs four hierarchy solves (one, an activation, a release
+    trial, and the step); capped at three the search stops at the activation's point, which
+    holds every bound, and reports the cap; uncapped it reaches the optimum."""
+    C = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    limits = Level(np.zeros((0, 2)), np.zeros(0), C, np.ones(3))
+    objective = Level(np.eye(2), np.array([3.0, -1.0]), np.zeros((0, 2)), np.zeros(0))
+    full = active_set_least_squares([limits, objective], 2)
+    assert not full.capped and np.allclose(full.z, [1.0, -1.0], atol=1e-12)
+    capped = active_set_least_squares([limits, objective], 2, cap=full.projections - 1)
+    assert capped.capped and capped.feasible
+    assert np.all(C @ capped.z <= 1.0 + 1e-12)
+    assert capped.projections <= full.projections - 1
+    still_activating = active_set_least_squares([limits, objective], 2, cap=1)
+    assert still_activating.capped and not still_activating.feasible
+    monkeypatch.setattr(nullspace, "MAX_PROJECTIONS", 1)
+    with pytest.warns(ActiveSetCapWarning, match="cap of 1 hierarchy solves"):
+        hierarchical_least_squares([limits, objective], 2)

@@ -1,9 +1,11 @@
 """The browser lab in a real headless Chromium against a real `lab serve` (sim + UI processes).
 
-One server and one browser are shared by the tests in file order (ANYmal first, the robot switch
-last) to keep the file to about a minute.
+One server and one browser are shared by the tests in file order (ANYmal first, then typed
+numbers, then a switch to every robot and every scene the dropdowns offer, ANYmal on flat last).
 """
 
+import math
+import socket
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,6 +15,8 @@ import pytest
 from browser import CHROMIUM, CHROMIUM_ARGS, LabServe
 
 from lab.client import LabClient
+from lab.description import ROBOT_NAMES
+from lab.scenes import SCENES
 from lab.stack_presets import load_stack_preset
 
 playwright_api = pytest.importorskip("playwright.sync_api")
@@ -213,11 +217,176 @@ def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
     expect(page.get_by_label("Hierarchy", exact=True).first).to_have_value("weighted")
 
 
-def test_choosing_another_robot_switches_it(page, lab: LabClient) -> None:
-    before = dark_pixels(page)
-    choose(page, "Robot", "solo12")
-    lab.wait_telemetry(lambda m: m["robot"] == "solo12", timeout=30.0)
-    page.get_by_text("solo12", exact=True).first.wait_for()
-    page.get_by_label("Robot", exact=True).first.wait_for()
-    after = wait_dark_pixels(page, lambda n: 300 < n < 0.7 * before)
-    assert 300 < after < 0.7 * before, (before, after)  # a smaller robot replaced ANYmal
+def slider_box(pg, label: str):
+    """The number box beside a viser slider (the slider's label points at the slider)."""
+    slider = pg.locator("label", has_text=label).first.get_attribute("for")
+    return pg.locator(f"[id='{slider}']").locator("xpath=..").locator("input:not([type=hidden])")
+
+
+def type_keys(box, text: str, delay_ms: float) -> None:
+    """Focus `box` (no scrolling: a loaded software-rendered page can take a minute to scroll),
+    select what it holds and type `text` over it."""
+    box.focus()
+    box.page.keyboard.press("Control+A")
+    box.page.keyboard.type(text, delay=delay_ms)
+
+
+def type_number(box, text: str) -> None:
+    """Type like a user: replace the number, leave the box (the browser clamps on leaving)."""
+    type_keys(box, text, delay_ms=60)
+    box.page.keyboard.press("Tab")
+    time.sleep(1.0)  # a user's pause between typing and clicking
+
+
+class Pushes:
+    """Every push the server reports in telemetry, as (|force| N, longest remaining s)."""
+
+    def __init__(self, lab: LabClient) -> None:
+        self.seen: dict[float, float] = {}
+        lab.subscribe_telemetry(self._record)
+
+    def _record(self, tel: dict) -> None:
+        for push in tel["pushes"]:
+            norm = round(math.hypot(*push["force"]), 6)
+            self.seen[norm] = max(self.seen.get(norm, 0.0), push["remaining"])
+
+    def wait(self, norm: float, timeout: float = 20.0) -> float:
+        """The longest remaining time seen of a push of `norm` N."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if round(norm, 6) in self.seen:
+                time.sleep(0.3)  # later messages of the same push
+                return self.seen[round(norm, 6)]
+            time.sleep(0.05)
+        raise AssertionError(f"no push of {norm} N reached the server; seen {self.seen}")
+
+
+@pytest.fixture(scope="module")
+def pushes(lab: LabClient) -> Pushes:
+    return Pushes(lab)
+
+
+def event_log(pg) -> str:
+    return pg.get_by_text("Events, newest first").first.locator("xpath=..").inner_text()
+
+
+def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: Pushes) -> None:
+    type_number(slider_box(page, "Magnitude [N]"), "500")
+    type_number(slider_box(page, "Duration [ms]"), "300")
+    page.get_by_role("button", name="front", exact=True).click(no_wait_after=True)
+    remaining = pushes.wait(500.0)
+    assert 0.0 < remaining <= 0.3 + 1e-9, remaining  # 300 ms, as typed
+    page.get_by_text("pushed front: 500 N for 300 ms").first.wait_for()
+    lab.command("reset")
+
+
+def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
+    choose(page, "Task", "com")
+    for label, text in (("kp", "123.5"), ("kd", "7"), ("weight", "2.5e-3")):
+        type_number(page.get_by_label(label, exact=True).first, text)
+    page.get_by_role("button", name="Apply gains", exact=True).click(no_wait_after=True)
+    end = time.monotonic() + 10.0
+    com = {}
+    while time.monotonic() < end:
+        com = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
+        if com["kp"] == 123.5:
+            break
+        time.sleep(0.1)
+    assert (com["kp"], com["kd"], com["weight"]) == (123.5, 7.0, 0.0025), com
+    page.get_by_text("com: kp 123.5, kd 7, weight 0.0025 applied").first.wait_for()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [("-5", "kp = -5 is below the limit 0"), ("1e9", "kp = 1e+09 is above the limit 100000")],
+)
+def test_out_of_range_gains_are_refused_naming_the_limit(page, lab, text, message) -> None:
+    choose(page, "Task", "com")
+    before = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
+    type_number(page.get_by_label("kp", exact=True).first, text)
+    page.get_by_role("button", name="Apply gains", exact=True).click(no_wait_after=True)
+    page.get_by_text(message).first.wait_for()  # in the panel
+    assert message in event_log(page)  # and in the event log
+    after = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
+    assert after == before  # nothing was sent
+
+
+def test_a_push_magnitude_above_the_slider_is_clamped_with_a_message(page, pushes) -> None:
+    box = slider_box(page, "Magnitude [N]")
+    type_number(box, "700")
+    page.get_by_text("Magnitude 700 N is above the limit 600 N").first.wait_for()
+    assert box.input_value() == "600"
+    page.get_by_role("button", name="left", exact=True).click(no_wait_after=True)
+    pushes.wait(600.0)
+
+
+def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pushes) -> None:
+    """Viser drops a typed number that a click follows within its 50 ms throttle: the panel
+    refuses such a click, or the push it sends is the number the box then shows."""
+    box = slider_box(page, "Magnitude [N]")
+    pushes.seen.clear()
+    type_keys(box, "432", delay_ms=0)
+    page.get_by_role("button", name="back", exact=True).click(no_wait_after=True)
+    time.sleep(3.0)
+    shown = float(box.input_value())
+    sent = list(pushes.seen)
+    if sent:
+        assert sent == [shown], (sent, shown)
+    else:
+        page.get_by_text("Nothing sent: check the box and press again").first.wait_for()
+    lab.command("reset")
+
+
+def ui_alive(page, serve: LabServe) -> None:
+    """The UI process serves HTTP, streams to the page, and logged no error of its own."""
+    socket.create_connection(("127.0.0.1", serve.ui_port), timeout=5.0).close()
+    n0 = len(page.ws_frames)
+    page.wait_for_timeout(1500)
+    assert len(page.ws_frames) > n0, "the page gets no more updates"
+    assert "UI error" not in event_log(page), event_log(page)
+
+
+def wait_drawn(page, robot: str) -> None:
+    """The status line names `robot` (from live telemetry, no longer loading) and the view shows
+    a robot."""
+    status = page.get_by_text(f"{robot} on", exact=False).first
+    playwright_api.expect(status).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+    playwright_api.expect(page.get_by_text("Loading")).to_have_count(0, timeout=PAGE_TIMEOUT_MS)
+    assert wait_dark_pixels(page, lambda n: n > 300, timeout=60.0) > 300
+
+
+def test_the_dropdowns_offer_every_robot_and_scene(page, lab: LabClient) -> None:
+    info = lab.command("info")
+    assert (info["robots"], info["scenes"]) == (list(ROBOT_NAMES), list(SCENES))
+    for label, names in (("Robot", ROBOT_NAMES), ("Scene", SCENES)):
+        page.get_by_label(label, exact=True).first.click(no_wait_after=True)
+        for name in names:
+            page.get_by_role("option", name=name, exact=True).wait_for()
+        page.keyboard.press("Escape")
+
+
+@pytest.mark.parametrize("robot", [r for r in ROBOT_NAMES if r != "anymal"] + ["anymal"])
+def test_every_robot_switches_draws_takes_a_push_and_the_ui_lives(
+    page, lab: LabClient, serve: LabServe, pushes: Pushes, robot: str
+) -> None:
+    choose(page, "Robot", robot)
+    lab.wait_telemetry(lambda m: m["robot"] == robot, timeout=60.0)
+    wait_drawn(page, robot)
+    type_number(slider_box(page, "Magnitude [N]"), "100")
+    pushes.seen.clear()
+    page.get_by_role("button", name="front", exact=True).click(no_wait_after=True)
+    pushes.wait(100.0)
+    ui_alive(page, serve)
+
+
+@pytest.mark.parametrize("scene", [s for s in SCENES if s != "flat"] + ["flat"])
+def test_every_scene_switches_draws_takes_a_push_and_the_ui_lives(
+    page, lab: LabClient, serve: LabServe, pushes: Pushes, scene: str
+) -> None:
+    choose(page, "Scene", scene)
+    lab.wait_telemetry(lambda m: m["scene"] == scene, timeout=60.0)
+    wait_drawn(page, "anymal")
+    pushes.seen.clear()
+    page.get_by_role("button", name="right", exact=True).click(no_wait_after=True)
+    pushes.wait(100.0)
+    ui_alive(page, serve)

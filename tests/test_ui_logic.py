@@ -1,17 +1,22 @@
-"""Pure logic of the browser lab: stack edits, joystick mapping, colours, drag spring, buffers."""
+"""Pure logic of the browser lab: stack edits, joystick mapping, colours, drag spring, buffers,
+typed numbers, the event log, the status line; and the drawn robot's frames against the sim's."""
 
 import math
 
 import numpy as np
 import pytest
 
+from lab.description import ROBOT_NAMES, build_robot, load_description
 from lab.ui import stack_edit as se
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
+from lab.ui.event_log import EventLog
 from lab.ui.gaits import gait_options
 from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
+from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
 from lab.ui.plot_buffer import RollingBuffer
+from lab.ui.status import RealtimeFactor, status_markdown, warnings_of
 
 STACK = [["contacts"], ["base_orientation", "com"], ["posture"]]
 
@@ -149,3 +154,152 @@ def test_support_polygon_hull_and_degenerate_cases():
     yaw90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     corners = sole_corners(np.array([1.0, 0.0, 0.0]), yaw90, 0.1, 0.05)
     assert polygon_bounds(corners) == pytest.approx((0.95, 1.05, -0.1, 0.1))
+
+
+GAIN = NumberRange("kp", 0.0, 1e5)
+
+
+@pytest.mark.parametrize(
+    ("text", "value"), [("100", 100.0), (" 1e3 ", 1000.0), ("0", 0.0), ("2.5e-3", 0.0025)]
+)
+def test_typed_numbers_are_read_exactly_as_typed(text: str, value: float) -> None:
+    assert GAIN.parse(text) == value
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("-5", "kp = -5 is below the limit 0"),
+        ("1e9", "kp = 1e+09 is above the limit 100000"),
+        ("1000000000", "kp = 1e+09 is above the limit 100000"),
+        ("nan", "kp must be a finite number"),
+        ("inf", "kp must be a finite number"),
+        ("12abc", "kp: '12abc' is not a number"),
+        ("", "kp: '' is not a number"),
+    ],
+)
+def test_out_of_range_or_malformed_numbers_are_refused_naming_the_limit(
+    text: str, message: str
+) -> None:
+    with pytest.raises(NumberError) as error:
+        GAIN.parse(text)
+    assert message in str(error.value)
+
+
+def test_open_lower_bound_and_units_in_messages() -> None:
+    weight = NumberRange("weight", 0.0, 1e8, lo_open=True)
+    with pytest.raises(NumberError, match="weight = 0 must be above 0"):
+        weight.check(0.0)
+    assert weight.check(1e-8) == 1e-8
+    push = NumberRange("Magnitude", 10.0, 600.0, "N")
+    with pytest.raises(NumberError, match="Magnitude = 5 N is below the limit 10 N"):
+        push.check(5.0)
+
+
+@pytest.mark.parametrize("value", [1e9, 100.0, 0.001, 1e-5, 123456789.0, 0.1 + 0.2, 1e-8])
+def test_a_number_box_shows_text_that_reads_back_to_the_same_number(value: float) -> None:
+    assert float(format_number(value)) == value
+
+
+def test_event_log_is_newest_first_and_counts_repeats() -> None:
+    log = EventLog(size=3)
+    log.add("info", "reset", wall=0.0)
+    log.add("error", "fall", wall=1.0)
+    log.add("error", "fall", wall=2.0)
+    assert [e.text for e in log.entries()] == ["fall", "reset"]
+    assert "fall (×2)" in log.markdown().splitlines()[2]
+    for k in range(3):
+        log.add("warning", f"w{k}", wall=3.0 + k)
+    assert [e.text for e in log.entries()] == ["w2", "w1", "w0"]  # bounded
+    with pytest.raises(ValueError, match="'loud'"):
+        log.add("loud", "x")
+
+
+def test_realtime_factor_restarts_with_the_sim_clock() -> None:
+    rtf = RealtimeFactor(window_s=2.0)
+    for k in range(20):  # 1 s of sim per 1 s of wall
+        rtf.add(0.1 * k, 50.0 + 0.1 * k, ("anymal", "flat"))
+    assert rtf.value() == pytest.approx(1.0)
+    rtf.add(2.0, 0.0, ("anymal", "flat"))  # reset: the sim clock went back to 0
+    assert math.isnan(rtf.value())  # one sample: no statistic yet, never -25
+    rtf.add(2.5, 0.25, ("anymal", "flat"))
+    assert rtf.value() == pytest.approx(0.5)
+    rtf.add(3.0, 0.3, ("talos", "flat"))  # a switch starts again even if the clock went on
+    assert math.isnan(rtf.value())
+
+
+def _telemetry(**changes) -> dict:
+    tel = {
+        "t": 1.0,
+        "robot": "talos",
+        "scene": "flat",
+        "gait": "stand",
+        "paused": False,
+        "fell": False,
+        "hierarchy": {"method": "nullspace", "solver": "daqp", "formulation": "qdd_force"},
+        "qp": {"status": "ok", "solve_us": 400.0, "failures": 0},
+        "loop": {"rate_hz": 1000.0, "realtime": True, "on_time_fraction": 1.0},
+    }
+    tel.update(changes)
+    return tel
+
+
+def test_status_line_names_the_running_robot_and_is_ok_only_when_all_is_well() -> None:
+    text = status_markdown(_telemetry(), rtf=1.0, fps=30.0)
+    assert text.startswith("**talos** on flat")
+    assert "(ok)" in text and "⚠" not in text
+    assert warnings_of(_telemetry()) == {}
+
+
+def test_status_line_warns_of_slow_ticks_fallbacks_falls_and_a_slow_sim() -> None:
+    slow = _telemetry(qp={"status": "ok", "solve_us": 80_000.0, "failures": 0})
+    text = status_markdown(slow, rtf=0.01, fps=30.0)
+    assert "(ok)" not in text and "(**slow**)" in text
+    assert "80.0 ms per tick, over the 1.0 ms period" in text
+    assert "0.01× real time" in text
+    # the recent typical time decides, not one tick
+    assert "slow" not in warnings_of(slow, control_us=500.0)
+    failed = _telemetry(qp={"status": "failed", "solve_us": 100.0, "failures": 3}, fell=True)
+    assert set(warnings_of(failed)) == {"fallback", "fell"}
+    assert "(**fallback**)" in status_markdown(failed, rtf=1.0, fps=30.0)
+    # after Reset the telemetry says not fallen: nothing stale is left
+    assert "fell" not in status_markdown(_telemetry(), rtf=1.0, fps=30.0)
+    paused = _telemetry(paused=True)
+    assert "behind" not in warnings_of(paused, rtf=0.0)  # a paused sim is not slow
+
+
+@pytest.fixture(scope="module")
+def viser_server():
+    import viser
+    from ports import free_port
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    yield server
+    server.stop()
+
+
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_the_drawn_robot_has_every_contact_frame_where_the_sim_has_it(viser_server, name) -> None:
+    """The overlays look contact frames up in the drawing's model (Talos's sole centres are
+    frames the description adds): each must exist there and sit where the controller's is."""
+    import pinocchio as pin
+
+    from lab.ui.robot_view import RobotView
+
+    desc = load_description(name)
+    robot = build_robot(desc)
+    view = RobotView(viser_server, desc)
+    try:
+        q = robot.q_standing
+        view.set_state(q[:3], q[3:7], dict(zip(robot.joint_names, q[7:], strict=True)))
+        data = robot.model.createData()
+        pin.framesForwardKinematics(robot.model, data, q)
+        for contact in desc.contacts:
+            sim = data.oMf[robot.model.getFrameId(contact.frame)]
+            drawn = view.frame_placement(contact.frame)
+            assert np.allclose(drawn.translation, sim.translation, atol=1e-9), contact.frame
+            assert np.allclose(drawn.rotation, sim.rotation, atol=1e-9), contact.frame
+        with pytest.raises(KeyError, match="no frame 'nope'"):
+            view.frame_placement("nope")
+    finally:
+        view.remove()

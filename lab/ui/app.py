@@ -4,16 +4,23 @@ It talks to the sim process only through Zenoh (`lab.ui.link`); it reads robot d
 scene builders (static data) but never imports the controller or the session.
 """
 
+import functools
 import math
 import threading
 import time
+import traceback
+from collections import deque
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import ParamSpec
 
 import numpy as np
 import viser
 
 from lab.description import load_description
 from lab.ui.drag_push import Spring, spring_force
+from lab.ui.event_log import EventLog
 from lab.ui.joystick import VelocityCommand
 from lab.ui.link import Link
 from lab.ui.overlays import OVERLAYS, Overlays
@@ -21,6 +28,7 @@ from lab.ui.ownership import ControlOwnership
 from lab.ui.panel import ControlPanel
 from lab.ui.plots import Plots
 from lab.ui.robot_view import RobotView
+from lab.ui.status import RealtimeFactor, status_markdown, warnings_of
 from lab.ui.terrain_view import TerrainView
 
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
@@ -35,6 +43,21 @@ DRAG_PUSH_S = 0.25  # duration of each drag push; refreshed every REFRESH_S whil
 INFO_CHANGING_VERBS = frozenset(
     ("stack", "gains", "hierarchy", "robot", "scene", "reset", "pause", "resume", "gait")
 )
+CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow tick is judged
+ERROR_RETRY_S = 1.0  # after an exception in the render loop, wait this long before the next frame
+P = ParamSpec("P")
+
+
+@dataclass
+class _FrameClock:
+    """When the render loop last did each of its periodic jobs (monotonic s)."""
+
+    next_frame: float
+    overlay: float = 0.0
+    refresh: float = 0.0
+    plot: float = 0.0
+    status: float = 0.0
+    frames_at_status: int = 0
 
 
 def _yaw(quat_xyzw: list[float]) -> float:
@@ -63,13 +86,19 @@ class LabApp:
         self._velocity = VelocityCommand()
         self._drag: tuple[str, np.ndarray, np.ndarray] | None = None  # link, local point, pointer
         self._spring = Spring()
-        self._rtf_window: list[tuple[float, float]] = []
+        self._rtf = RealtimeFactor()
+        self._control_us: deque[float] = deque(maxlen=CONTROL_WINDOW)
         self.frames_drawn = 0
         self._draw_fps = 0.0
-        self._last_error = ""
+        self._loading: str | None = None  # the robot whose meshes are being converted
+        self.log = EventLog()
+        self._warnings: set[str] = set()  # kinds of status warnings in effect
+        self._log_shown = -1
 
         gui = self.server.gui
         self.status = gui.add_markdown("Waiting for the lab server…", order=0)
+        with gui.add_folder("Event log", order=7):
+            self.log_view = gui.add_markdown(self.log.markdown())
         with gui.add_folder("Overlays", order=10):
             for name in OVERLAYS:
                 box = gui.add_checkbox(name, name != "friction cones")
@@ -77,8 +106,43 @@ class LabApp:
                 box.on_update(lambda e, n=name: self._toggle_overlay(n, e.target.value))
         self._plot_folder = gui.add_folder("Plots", order=11)
         self.plots = Plots(gui, self._plot_folder)
-        self.server.on_client_connect(self._connect)
-        self.server.on_client_disconnect(self._disconnect)
+        self.server.on_client_connect(self.guard(self._connect))
+        self.server.on_client_disconnect(self.guard(self._disconnect))
+
+    # ---- errors and the event log -------------------------------------------------------------
+    def guard(self, callback: Callable[P, object]) -> Callable[P, None]:
+        """`callback` for a viser event: an exception in it is shown in the page and logged, and
+        the UI keeps serving (viser would only print it)."""
+
+        @functools.wraps(callback)
+        def guarded(*args: P.args, **kwargs: P.kwargs) -> None:
+            try:
+                callback(*args, **kwargs)
+            except Exception as error:  # any bug in a callback: report it, keep serving
+                self.report_exception(getattr(callback, "__name__", "callback"), error)
+
+        return guarded
+
+    def report_exception(self, where: str, error: Exception) -> None:
+        """An exception in the UI process: into the event log and the UI's output, not fatal."""
+        print(f"lab ui: error in {where}:", flush=True)
+        traceback.print_exception(error)
+        self.report("error", f"UI error in {where}: {type(error).__name__}: {error}")
+
+    def report(self, level: str, text: str, client: viser.ClientHandle | None = None) -> None:
+        """Add a line to the page's event log; with `client`, also pop it up in that browser."""
+        self.log.add(level, text)
+        if client is not None:
+            colour = {"error": "red", "warning": "yellow"}.get(level, "blue")
+            title = text.split(":", 1)[0] if ":" in text else level.capitalize()
+            client.add_notification(
+                title, text, color=colour, auto_close_seconds=8.0, with_close_button=True
+            )
+
+    def _show_log(self) -> None:
+        if self.log.version != self._log_shown:
+            self._log_shown = self.log.version
+            self.log_view.content = self.log.markdown()
 
     # ---- browsers and control ----------------------------------------------------------------
     def _connect(self, client: viser.ClientHandle) -> None:
@@ -136,11 +200,8 @@ class LabApp:
         return reply
 
     def notify_error(self, client: viser.ClientHandle, verb: str, error: str) -> None:
-        self._last_error = f"{verb}: {error}"
         print(f"lab ui: {verb} from browser {client.client_id} not applied: {error}", flush=True)
-        client.add_notification(
-            f"Rejected: {verb}", error, color="red", auto_close_seconds=6.0, with_close_button=True
-        )
+        self.report("error", f"{verb} rejected: {error}", client)
 
     def refresh_info(self) -> bool:
         reply = self.link.request("info")
@@ -211,34 +272,42 @@ class LabApp:
             self.overlays.set_visible(name, visible)
 
     def _load_robot(self, name: str) -> None:
-        desc = load_description(name)
+        """Replace the drawn robot. The name is taken first: a robot that fails to load is
+        reported once, not retried every frame."""
+        self._robot_name, self._drag = name, None
         for old in (self.overlays, self.robot_view):
             if old is not None:
                 old.remove()
-        self.robot_view = RobotView(
-            self.server, desc.urdf_path, desc.package_dirs, on_drag=self._on_drag,
-            srdf=desc.srdf_path, posture=desc.posture,
-        )  # fmt: skip
-        view = self.robot_view
-        self.overlays = Overlays(
-            self.server, desc.contacts, desc.friction,
-            lambda frame: view.frame_placement(frame).rotation,
-        )  # fmt: skip
-        for overlay, visible in self._overlay_visible.items():
-            self.overlays.set_visible(overlay, visible)
-        self._robot_name = name
-        self._drag = None
+        self.robot_view = self.overlays = None
+        self._loading = name
+        self.status.content = f"**Loading {name}**: converting its meshes…  \n…  \n…"
+        start = time.monotonic()
+        try:
+            desc = load_description(name)
+            view = RobotView(self.server, desc, on_drag=self.guard(self._on_drag))
+            self.robot_view = view
+            self.overlays = Overlays(
+                self.server, desc.contacts, desc.friction,
+                lambda frame: view.frame_placement(frame).rotation,
+            )  # fmt: skip
+            for overlay, visible in self._overlay_visible.items():
+                self.overlays.set_visible(overlay, visible)
+        finally:
+            self._loading = None
+        print(f"lab ui: {name} loaded in {time.monotonic() - start:.1f} s", flush=True)
 
     def _load_scene(self, name: str, friction: float) -> None:
         if self.terrain is not None:
             self.terrain.remove()
+            self.terrain = None
         self.terrain = TerrainView(self.server, name, friction)
-        self._scene_name = name
 
     def _draw_state(self, state: dict) -> None:
         if state["robot"] != self._robot_name:
             self._load_robot(state["robot"])
             self.refresh_info()
+        if self.robot_view is None:
+            return
         joints = dict(zip(state["joints"]["names"], state["joints"]["positions"], strict=True))
         self.robot_view.set_state(state["base"]["position"], state["base"]["quaternion"], joints)
         self.server.flush()  # send this pose now rather than at viser's next 60 Hz window
@@ -248,113 +317,117 @@ class LabApp:
         batch = self.link.telemetry()
         for tel in batch:
             self.plots.record(tel)
+            self._control_us.append(tel["qp"]["solve_us"])
         if not batch:
             return None
         tel = batch[-1]
         self.telemetry = tel
-        self._rtf_window.append((time.monotonic(), tel["t"]))
-        while len(self._rtf_window) > 2 and self._rtf_window[0][0] < time.monotonic() - 2.0:
-            self._rtf_window.pop(0)
+        self._rtf.add(time.monotonic(), tel["t"], (tel["robot"], tel["scene"]))
         return tel
 
-    def _realtime_factor(self) -> float:
-        if len(self._rtf_window) < 2:
-            return float("nan")
-        (w0, t0), (w1, t1) = self._rtf_window[0], self._rtf_window[-1]
-        return (t1 - t0) / (w1 - w0) if w1 > w0 else float("nan")
-
     def _status_text(self) -> str:
-        tel = self.telemetry
-        if tel is None:
+        if self._loading is not None:
+            return f"**Loading {self._loading}**: converting its meshes…  \n…  \n…"
+        if self.telemetry is None:
             return "Waiting for telemetry from the lab server…"
-        loop = tel.get("loop", {})
-        qp = tel["qp"]
-        flags = " · **paused**" if tel["paused"] else ""
-        flags += " · **fell**: torques off until Reset" if tel["fell"] else ""
-        hierarchy = tel["hierarchy"]
-        method = hierarchy["method"]
-        if method == "nullspace":
-            method += f" ({hierarchy['formulation']})"
-        text = (
-            f"**{tel['robot']}** on {tel['scene']} · {tel['gait']} · {method}/"
-            f"{hierarchy['solver']}{flags}  \n"
-            f"t {tel['t']:.2f} s · RTF {self._realtime_factor():.2f} · on-time "
-            f"{100.0 * loop.get('on_time_fraction', float('nan')):.2f} % · QP "
-            f"{qp['solve_us']:.0f} µs ({qp['status']}) · failures {qp['failures']} · view "
-            f"{self._draw_fps:.0f} fps"
+        if self.robot_view is None:
+            return f"**{self.telemetry['robot']}** could not be drawn: see the event log"
+        return status_markdown(
+            self.telemetry, self._rtf.value(), self._draw_fps, self._typical_control_us()
         )
-        if self._last_error:
-            text += f"  \nLast error: {self._last_error}"
-        return text
+
+    def _typical_control_us(self) -> float | None:
+        """The median controller time per tick over the last CONTROL_WINDOW messages."""
+        return float(np.median(self._control_us)) if self._control_us else None
 
     def _handle_events(self) -> None:
         for event in self.link.events():
-            if event["type"] == "rejected_command":
-                self._last_error = f"{event.get('verb', '?')}: {event.get('error', '')}"
-            elif event["type"] in ("fall", "solver_failure"):
-                self._last_error = event["message"]
-            if event["type"] in ("session_rebuilt", "reset"):
+            kind = event.get("type", "?")
+            level = "info" if kind in ("session_rebuilt", "reset", "preset") else "warning"
+            if kind in ("fall", "solver_failure", "rejected_command", "sim_diverged"):
+                level = "error"
+            message = event.get("message", kind)
+            self.log.add(level, f"t {event.get('t', float('nan')):.2f} s · {kind}: {message}")
+            if kind in ("session_rebuilt", "reset"):
                 self.refresh_info()
 
+    def _log_status_changes(self, tel: dict) -> None:
+        """A warning of the status line (slow ticks, fallbacks, a fall) into the log when it
+        starts."""
+        now = warnings_of(tel, self._typical_control_us(), self._rtf.value())
+        for kind, text in now.items():
+            if kind not in self._warnings:
+                self.log.add("warning", f"t {tel['t']:.2f} s · {text}")
+        self._warnings = set(now)
+
     def run(self, stop: threading.Event) -> None:
-        """The render loop: draw state, overlays, plots and status until `stop` is set."""
+        """The render loop: draw state, overlays, plots and status until `stop` is set. An
+        exception in one frame is shown in the page and the loop goes on."""
         while not stop.is_set() and not self.refresh_info():
             self.status.content = "Waiting for the lab server (no reply to `info`)…"
             stop.wait(0.5)
-        last_plot = last_refresh = last_overlay = 0.0
-        last_status, frames_at_status = time.monotonic(), 0
-        next_frame = time.monotonic()
+        clock = _FrameClock(time.monotonic())
         while not stop.is_set():
-            now = time.monotonic()
-            tel = self._take_telemetry()  # plots keep recording while nobody watches
-            state = self.link.latest_state()
-            # With no browser connected only a robot switch is drawn: the UI then costs the
-            # machine almost nothing, and the sim loop beside it keeps its schedule.
-            watched = bool(self.server.get_clients())
-            if state is not None and (watched or state["robot"] != self._robot_name):
-                self._draw_state(state)
-            if not watched:
-                stop.wait(FRAME_S)
+            try:
+                watched = self._frame(time.monotonic(), clock)
+            except Exception as error:  # a bug in one frame must not end the UI
+                self.report_exception("the render loop", error)
+                self._show_log()
+                stop.wait(ERROR_RETRY_S)
+                clock.next_frame = time.monotonic()
                 continue
-            if tel is not None and self.overlays is not None and now - last_overlay >= OVERLAY_S:
-                last_overlay = now
-                if (tel["scene"], tel["robot"]) != (self._scene_name, self._robot_name) and (
-                    tel["robot"] == self._robot_name
-                ):
-                    self._load_scene(tel["scene"], load_description(tel["robot"]).friction)
-                info = self.info
-                if info is not None and (tel["stack"], tel["gait"]) != (
-                    info["stack"],
-                    info["gait"],
-                ):
-                    self.refresh_info()  # someone else changed the stack or the gait
-                self.overlays.update(tel)
-                position = np.array(tel["base"]["position"])
-                with self._lock:
-                    panels = list(self.panels.values())
-                for panel in panels:
-                    panel.follow_robot(position, self.base_yaw())
-                    panel.show_command(tel["command"])
-            self._handle_events()
-            if now - last_refresh >= REFRESH_S:
-                last_refresh = now
-                if self._drag is not None:
-                    self._drag_push()
-                elif not self._velocity.is_zero:
-                    self._send_background("velocity", self._velocity.payload())
-            if now - last_plot >= PLOT_S:
-                last_plot = now
-                self.plots.draw()
-            if now - last_status >= STATUS_S:
-                self._draw_fps = (self.frames_drawn - frames_at_status) / (now - last_status)
-                frames_at_status, last_status = self.frames_drawn, now
-                self.status.content = self._status_text()
-            next_frame += FRAME_S
-            delay = next_frame - time.monotonic()
+            clock.next_frame += FRAME_S if watched else 0.0
+            delay = clock.next_frame - time.monotonic() if watched else FRAME_S
             if delay > 0:
                 stop.wait(delay)
             else:
-                next_frame = time.monotonic()
+                clock.next_frame = time.monotonic()
+
+    def _frame(self, now: float, clock: "_FrameClock") -> bool:
+        """One pass of the render loop; whether a browser is watching."""
+        tel = self._take_telemetry()  # plots keep recording while nobody watches
+        state = self.link.latest_state()
+        # With no browser connected only a robot switch is drawn: the UI then costs the
+        # machine almost nothing, and the sim loop beside it keeps its schedule.
+        watched = bool(self.server.get_clients())
+        if state is not None and (watched or state["robot"] != self._robot_name):
+            self._draw_state(state)
+        if not watched:
+            return False
+        if tel is not None:
+            self._log_status_changes(tel)
+            if tel["robot"] == self._robot_name and tel["scene"] != self._scene_name:
+                self._scene_name = tel["scene"]  # taken first: a failing scene is not retried
+                self._load_scene(tel["scene"], load_description(tel["robot"]).friction)
+        if tel is not None and self.overlays is not None and now - clock.overlay >= OVERLAY_S:
+            clock.overlay = now
+            info = self.info
+            if info is not None and (tel["stack"], tel["gait"]) != (info["stack"], info["gait"]):
+                self.refresh_info()  # someone else changed the stack or the gait
+            if tel["robot"] == self._robot_name:
+                self.overlays.update(tel)
+            position = np.array(tel["base"]["position"])
+            with self._lock:
+                panels = list(self.panels.values())
+            for panel in panels:
+                panel.follow_robot(position, self.base_yaw())
+                panel.show_command(tel["command"])
+        self._handle_events()
+        if now - clock.refresh >= REFRESH_S:
+            clock.refresh = now
+            if self._drag is not None:
+                self._drag_push()
+            elif not self._velocity.is_zero:
+                self._send_background("velocity", self._velocity.payload())
+        if now - clock.plot >= PLOT_S:
+            clock.plot = now
+            self.plots.draw()
+        if now - clock.status >= STATUS_S:
+            self._draw_fps = (self.frames_drawn - clock.frames_at_status) / (now - clock.status)
+            clock.frames_at_status, clock.status = self.frames_drawn, now
+            self.status.content = self._status_text()
+            self._show_log()
+        return True
 
     def close(self) -> None:
         self._sender.shutdown(wait=True)

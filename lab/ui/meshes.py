@@ -1,19 +1,79 @@
-"""Visual geometry of a URDF as trimesh meshes, loaded once per file and cached.
+"""Visual geometry of a URDF as trimesh meshes, converted once per file and cached on disk.
 
-Collada (.dae) files are decoded by trimesh through pycollada at load time; STL and OBJ directly.
-Primitive shapes (box, sphere, cylinder) become trimesh primitives.
+Collada (.dae) files are decoded by trimesh through pycollada, STL and OBJ directly; textures are
+baked to colours. That conversion cost ANYmal 8–24 s of CPU on a busy 2-core machine, so each
+converted mesh (vertices, faces, colours) is kept in `cache_dir()` under the SHA-256 of the source
+file and of the conversion's version: later loads read arrays. Primitive shapes (box, sphere,
+cylinder) become trimesh primitives.
 """
 
 import functools
+import hashlib
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import trimesh
 
+CONVERSION_VERSION = b"lab.ui.meshes 1"  # change when _convert changes: old entries are not read
+
+
+def cache_dir() -> Path:
+    """`$LAB_MESH_CACHE`, else `$XDG_CACHE_HOME/wbc-lab/meshes` (default ~/.cache)."""
+    if "LAB_MESH_CACHE" in os.environ:
+        return Path(os.environ["LAB_MESH_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "wbc-lab" / "meshes"
+
+
+def _cache_file(path: str) -> Path:
+    digest = hashlib.sha256(CONVERSION_VERSION)
+    digest.update(Path(path).suffix.lower().encode())
+    digest.update(Path(path).read_bytes())
+    return cache_dir() / f"{digest.hexdigest()}.npz"
+
+
+def _save(mesh: trimesh.Trimesh, file: Path) -> None:
+    """Write atomically (a reader never sees half a file); a cache that cannot be written is
+    reported and skipped."""
+    arrays = {"vertices": mesh.vertices, "faces": mesh.faces}
+    kind = mesh.visual.kind if isinstance(mesh.visual, trimesh.visual.ColorVisuals) else None
+    if kind == "vertex":
+        arrays["vertex_colors"] = mesh.visual.vertex_colors
+    elif kind == "face":
+        arrays["face_colors"] = mesh.visual.face_colors
+    try:
+        file.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=file.parent, suffix=".tmp", delete=False) as out:
+            np.savez(out, **arrays)
+        os.replace(out.name, file)
+    except OSError as error:
+        print(f"lab ui: mesh cache not written ({error}); meshes are converted every start")
+
+
+def _load(file: Path) -> trimesh.Trimesh | None:
+    try:
+        with np.load(file) as data:
+            arrays = {key: data[key] for key in data.files}
+    except (OSError, ValueError):
+        return None  # absent or damaged: converted again and rewritten
+    return trimesh.Trimesh(process=False, **arrays)
+
 
 @functools.lru_cache(maxsize=256)
 def _mesh_file(path: str) -> trimesh.Trimesh:
+    file = _cache_file(path)
+    mesh = _load(file)
+    if mesh is None:
+        mesh = _convert(path)
+        _save(mesh, file)
+    return mesh
+
+
+def _convert(path: str) -> trimesh.Trimesh:
+    """Decode a mesh file; texture colours baked into vertex colours."""
     mesh = trimesh.load(path, force="scene").to_mesh()
     if isinstance(mesh.visual, trimesh.visual.TextureVisuals):
         # Per-vertex colours sampled from the texture: a textured GLB costs seconds of PNG encoding

@@ -9,6 +9,7 @@ acknowledged (the app calls `show_info` with the fresh `info` reply).
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,6 +18,7 @@ import viser
 from lab.ui import stack_edit
 from lab.ui.gaits import gait_options
 from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
+from lab.ui.numbers import NumberError, NumberRange, format_number
 
 if TYPE_CHECKING:
     from lab.ui.app import LabApp
@@ -36,6 +38,12 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
     "O": ("turn right", "yaw_rate", -1),
 }
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
+PUSH_FORCE_RANGE = NumberRange("Magnitude", 10.0, 600.0, "N")  # the slider's range
+PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")
+# Viser sends a typed number at most every 50 ms and a click in that window replaces the pending
+# number (its throttle keeps only the newest message): a click this soon after a typed update may
+# carry a number the box no longer shows, so it is refused with a message instead.
+TYPING_SETTLE_S = 0.4
 
 
 def _levels_markdown(levels: list[list[str]], selected: str, disabled: list[str]) -> str:
@@ -63,7 +71,7 @@ class ControlPanel:
 
         self.banner = gui.add_markdown("", order=1)
         self.take = gui.add_button("Take control", icon=viser.Icon.HAND_GRAB, order=2)
-        self.take.on_click(lambda _: app.take_control(client.client_id))
+        self.take.on_click(app.guard(lambda _: app.take_control(client.client_id)))
 
         with gui.add_folder("Robot & controller", order=3):
             self.robot = gui.add_dropdown("Robot", ("…",))
@@ -75,12 +83,16 @@ class ControlPanel:
             )
             row = gui.add_button_group("Sim", ("Reset", "Pause", "Resume"))
         self._controls += [self.robot, self.scene, self.method, self.solver, self.formulation, row]
-        self.robot.on_update(lambda e: self._switch(e, "robot", {"name": self.robot.value}))
-        self.scene.on_update(lambda e: self._switch(e, "scene", {"name": self.scene.value}))
-        self.method.on_update(self._hierarchy)
-        self.solver.on_update(self._hierarchy)
-        self.formulation.on_update(self._hierarchy)
-        row.on_click(lambda e: app.send(client, e.target.value.lower(), {}))
+        self.robot.on_update(
+            app.guard(lambda e: self._switch(e, "robot", {"name": self.robot.value}))
+        )
+        self.scene.on_update(
+            app.guard(lambda e: self._switch(e, "scene", {"name": self.scene.value}))
+        )
+        self.method.on_update(app.guard(self._hierarchy))
+        self.solver.on_update(app.guard(self._hierarchy))
+        self.formulation.on_update(app.guard(self._hierarchy))
+        row.on_click(app.guard(lambda e: app.send(client, e.target.value.lower(), {})))
 
         with gui.add_folder("Gait & velocity", order=4):
             self.gait = gui.add_dropdown(
@@ -96,41 +108,56 @@ class ControlPanel:
             self.command_text = gui.add_markdown("vx 0.00 · vy 0.00 · yaw 0.00")
             stop = gui.add_button("Stop", color="red", icon=viser.Icon.PLAYER_STOP)
         self._controls += [self.gait, self.yaw, stop]
-        self.gait.on_update(self._choose_gait)
-        self.yaw.on_update(self._yaw_changed)
-        stop.on_click(lambda _: self.stop())
+        self.gait.on_update(app.guard(self._choose_gait))
+        self.yaw.on_update(app.guard(self._yaw_changed))
+        stop.on_click(app.guard(lambda _: self.stop()))
         for key, (label, axis, direction) in HOTKEYS.items():
             cmd = gui.add_command(f"Velocity: {label}", hotkey=key)
-            cmd.on_trigger(lambda _, a=axis, d=direction: self._tap(a, d))
-        gui.add_command("Velocity: stop", hotkey="X").on_trigger(lambda _: self.stop())
+            cmd.on_trigger(app.guard(lambda _, a=axis, d=direction: self._tap(a, d)))
+        stop_key = gui.add_command("Velocity: stop", hotkey="X")
+        stop_key.on_trigger(app.guard(lambda _: self.stop()))
 
         with gui.add_folder("Push", order=5):
-            self.push_force = gui.add_slider("Magnitude [N]", 10.0, 600.0, 10.0, 150.0)
-            self.push_ms = gui.add_slider("Duration [ms]", 20.0, 1000.0, 10.0, 200.0)
+            self.push_force = gui.add_slider(
+                "Magnitude [N]", PUSH_FORCE_RANGE.lo, PUSH_FORCE_RANGE.hi, 10.0, 150.0
+            )
+            self.push_ms = gui.add_slider(
+                "Duration [ms]", PUSH_MS_RANGE.lo, PUSH_MS_RANGE.hi, 10.0, 200.0
+            )
             pushes = gui.add_button_group("Push", tuple(PUSH_DIRECTIONS))
+            self.push_note = gui.add_markdown("")
         self._controls += [self.push_force, self.push_ms, pushes]
-        pushes.on_click(lambda e: self.push(e.target.value))
+        self._typed_at: dict[str, float] = {}  # when each number field last changed
+        for handle, limits in ((self.push_force, PUSH_FORCE_RANGE), (self.push_ms, PUSH_MS_RANGE)):
+            handle.on_update(app.guard(lambda e, r=limits: self._slider_changed(e, r)))
+        pushes.on_click(app.guard(lambda e: self.push(e.target.value)))
 
         with gui.add_folder("Task stack", order=6):
             self.stack_view = gui.add_markdown("")
             self.task = gui.add_dropdown("Task", ("…",))
             moves = gui.add_button_group("Move", ("▲ level", "▼ level", "new ▲", "new ▼"))
             self.enabled = gui.add_checkbox("Enabled", True)
-            self.kp = gui.add_number("kp", 0.0, min=0.0, max=1e5, step=1.0)
-            self.kd = gui.add_number("kd", 0.0, min=0.0, max=1e5, step=0.5)
-            self.weight = gui.add_number("weight", 1.0, min=1e-8, max=1e8, step=0.001)
+            # Text boxes: the number is read as typed ("1e9", "-5") and checked against the
+            # limits of `info`, never clamped or stripped by the browser's number box.
+            hint = "a number, e.g. 100 or 1e-3; out of range is refused, naming the limit"
+            self.kp = gui.add_text("kp", "0", hint=hint)
+            self.kd = gui.add_text("kd", "0", hint=hint)
+            self.weight = gui.add_text("weight", "1", hint=hint)
             apply = gui.add_button("Apply gains")
+            self.gains_note = gui.add_markdown("")
             self.preset = gui.add_dropdown(
                 "Preset", ("…",), hint="a stack of stacks/: its levels, gains and hierarchy"
             )
             load = gui.add_button("Load preset")
         self._controls += [self.task, moves, self.enabled, self.kp, self.kd, self.weight, apply]
         self._controls += [self.preset, load]
-        self.task.on_update(lambda _: self._show_task())
-        moves.on_click(lambda e: self._move(e.target.value))
-        self.enabled.on_update(self._toggle_enabled)
-        apply.on_click(lambda _: self._apply_gains())
-        load.on_click(lambda _: self.app.send(client, "stack", {"preset": self.preset.value}))
+        self.task.on_update(app.guard(lambda _: self._show_task()))
+        moves.on_click(app.guard(lambda e: self._move(e.target.value)))
+        self.enabled.on_update(app.guard(self._toggle_enabled))
+        apply.on_click(app.guard(lambda _: self._apply_gains()))
+        for handle in (self.kp, self.kd, self.weight):
+            handle.on_update(app.guard(self._typed))
+        load.on_click(app.guard(lambda _: app.send(client, "stack", {"preset": self.preset.value})))
 
         self._follow = client.scene.add_frame("/joystick", show_axes=False)
         self.pad = client.scene.add_transform_controls(
@@ -141,7 +168,7 @@ class ControlPanel:
             translation_limits=((-0.4, 0.4), (-0.4, 0.4), (0.0, 0.0)),
             depth_test=False,
         )
-        self.pad.on_update(self._pad_moved)
+        self.pad.on_update(app.guard(self._pad_moved))
 
     # ---- ownership -------------------------------------------------------------------------
     def show_ownership(self, owner: int | None) -> None:
@@ -208,7 +235,7 @@ class ControlPanel:
                 has = task[key] is not None
                 handle.visible = has
                 if has:
-                    handle.value = float(task[key])
+                    handle.value = format_number(task[key])
         finally:
             self._syncing = was
 
@@ -284,15 +311,83 @@ class ControlPanel:
         self.pad.position = (0.0, 0.0, 0.0)
         self._set_velocity(VelocityCommand())
 
+    def _slider_changed(self, event: viser.GuiEvent, limits: NumberRange) -> None:
+        """A typed slider number above the slider's maximum: the browser clamps it on leaving the
+        box, so say so (a number below the minimum may be a prefix still being typed)."""
+        if event.client_id is None:
+            return
+        self._typed_at[limits.label] = time.monotonic()
+        self.push_note.content = ""
+        value = float(event.target.value)
+        if value > limits.hi:
+            self.note(
+                self.push_note,
+                "warning",
+                f"{limits.label} {value:g} {limits.unit} is above the limit {limits.hi:g} "
+                f"{limits.unit}: the box clamps it to {limits.hi:g} {limits.unit}",
+            )
+
+    def _typed(self, event: viser.GuiEvent) -> None:
+        if event.client_id is not None:  # typed in the browser, not set from `info`
+            self._typed_at[event.target.label] = time.monotonic()
+            self.gains_note.content = ""
+
+    def note(self, where: viser.GuiMarkdownHandle, level: str, text: str) -> None:
+        """A message under the widgets it is about, in the event log, and popped up."""
+        where.content = f"{'⚠' if level != 'info' else '✔'} {text}"
+        self.app.report(level, text, self.client if level != "info" else None)
+
+    def _settled(self, *labels: str) -> bool:
+        """False (and a message) when a number field changed too recently to be trusted."""
+        now = time.monotonic()
+        busy = [k for k in labels if now - self._typed_at.get(k, -1e9) < TYPING_SETTLE_S]
+        if not busy:
+            return True
+        where = self.push_note if busy[0] in ("Magnitude", "Duration") else self.gains_note
+        self.note(
+            where,
+            "warning",
+            f"{', '.join(busy)} changed less than {TYPING_SETTLE_S:g} s ago: the typed number may "
+            "not have reached the lab yet. Nothing sent: check the box and press again",
+        )
+        return False
+
     def push(self, direction: str) -> None:
+        if not self._settled("Magnitude", "Duration"):
+            self._show_value(self.push_force, float(self.push_force.value))
+            self._show_value(self.push_ms, float(self.push_ms.value))
+            return
+        try:
+            magnitude = PUSH_FORCE_RANGE.check(float(self.push_force.value))
+            duration_ms = PUSH_MS_RANGE.check(float(self.push_ms.value))
+        except NumberError as error:
+            self.note(self.push_note, "error", f"push not sent: {error}")
+            return
         hx, hy = PUSH_DIRECTIONS[direction]
         yaw = self.app.base_yaw()
         c, s = np.cos(yaw), np.sin(yaw)
-        magnitude = float(self.push_force.value)
         force = [magnitude * (c * hx - s * hy), magnitude * (s * hx + c * hy), 0.0]
         payload = {"body": self.app.base_body(), "force": force}
-        payload["duration"] = float(self.push_ms.value) / 1000.0
-        self.app.send(self.client, "push", payload)
+        payload["duration"] = duration_ms / 1000.0
+        reply = self.app.send(self.client, "push", payload)
+        # the boxes show exactly the numbers sent (a browser may hold another one, see above)
+        self._show_value(self.push_force, magnitude)
+        self._show_value(self.push_ms, duration_ms)
+        if reply is not None and reply.get("ok"):
+            self.note(
+                self.push_note,
+                "info",
+                f"pushed {direction}: {magnitude:g} N for {duration_ms:g} ms",
+            )
+
+    def _show_value(self, handle: viser.GuiInputHandle, value: float | str) -> None:
+        """Make the browser show `value` in `handle` even if this process already holds it."""
+        was, self._syncing = self._syncing, True
+        try:  # viser skips an assignment of the value it holds: assign another one first
+            handle.value = value + " " if isinstance(value, str) else value + 1.0
+            handle.value = value
+        finally:
+            self._syncing = was
 
     def _send_stack(self, levels: list[list[str]]) -> None:
         self.app.send(self.client, "stack", {"levels": levels})
@@ -344,12 +439,30 @@ class ControlPanel:
         )
         if task is None:
             return
-        payload: dict = {"task": task["name"], "weight": float(self.weight.value)}
-        if task["kp"] is not None:
-            payload["kp"] = float(self.kp.value)
-        if task["kd"] is not None:
-            payload["kd"] = float(self.kd.value)
-        self.app.send(self.client, "gains", payload)
+        if not self._settled("kp", "kd", "weight"):
+            return
+        limits = info.get("limits", {})
+        gain_max, weight_max = limits.get("gain", 1e5), limits.get("weight", 1e8)
+        fields = {
+            "kp": (self.kp, NumberRange("kp", 0.0, gain_max)),
+            "kd": (self.kd, NumberRange("kd", 0.0, gain_max)),
+            "weight": (self.weight, NumberRange("weight", 0.0, weight_max, lo_open=True)),
+        }
+        payload: dict = {"task": task["name"]}
+        try:
+            for key, (handle, limits) in fields.items():
+                if task[key] is not None:
+                    payload[key] = limits.parse(handle.value)
+        except NumberError as error:
+            self.note(self.gains_note, "error", f"gains of {task['name']} not applied: {error}")
+            return
+        reply = self.app.send(self.client, "gains", payload)
+        for key, value in payload.items():
+            if key != "task":  # the boxes show exactly the numbers sent
+                self._show_value(fields[key][0], format_number(value))
+        if reply is not None and reply.get("ok"):
+            sent = ", ".join(f"{k} {format_number(v)}" for k, v in payload.items() if k != "task")
+            self.note(self.gains_note, "info", f"{task['name']}: {sent} applied")
 
     def remove(self) -> None:
         self.pad.remove()

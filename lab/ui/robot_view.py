@@ -6,12 +6,12 @@ joint.
 """
 
 from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import viser
 
+from lab.description import RobotDescription, add_frames
 from lab.ui.meshes import geometry_mesh
 
 DragCallback = Callable[[viser.SceneNodeDragEvent, str], None]
@@ -25,6 +25,9 @@ def _wxyz(rotation: np.ndarray) -> np.ndarray:
 class RobotView:
     """Scene nodes of one robot under `root` (e.g. "/robot").
 
+    The model is the full URDF (locked joints included, drawn at the SRDF reference posture) with
+    the description's added contact frames, so every frame the sim's model names (a Talos sole
+    centre, an ANYmal foot centre) has a placement here too.
     `on_drag(event, link_name)` is called for drags on any visual mesh, with the name of the URDF
     link (pinocchio frame) the mesh belongs to.
     """
@@ -32,26 +35,25 @@ class RobotView:
     def __init__(
         self,
         server: viser.ViserServer,
-        urdf: Path,
-        package_dirs: Sequence[Path],
+        desc: RobotDescription,
         root: str = "/robot",
         on_drag: DragCallback | None = None,
-        srdf: Path | None = None,
-        posture: str = "standing",
     ) -> None:
-        self.model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+        urdf = str(desc.urdf_path)
+        self.model = pin.buildModelFromUrdf(urdf, pin.JointModelFreeFlyer())
         self.visual = pin.buildGeomFromUrdf(
             self.model,
-            str(urdf),
+            urdf,
             pin.GeometryType.VISUAL,
-            package_dirs=[str(p) for p in package_dirs],
+            package_dirs=[str(p) for p in desc.package_dirs],
         )
+        add_frames(self.model, desc)  # after the geometry: frames added to the model only
         self.data = self.model.createData()
         self.q = pin.neutral(self.model)
-        if srdf is not None:  # joints the server does not report (locked ones) keep this posture
-            pin.loadReferenceConfigurations(self.model, str(srdf), False)
-            if posture in self.model.referenceConfigurations:
-                self.q = np.array(self.model.referenceConfigurations[posture])
+        # joints the server does not report (locked ones) keep the reference posture
+        pin.loadReferenceConfigurations(self.model, str(desc.srdf_path), False)
+        if desc.posture in self.model.referenceConfigurations:
+            self.q = np.array(self.model.referenceConfigurations[desc.posture])
         self._server = server
         self._root = root
         self._joint_q_index = {
@@ -118,10 +120,10 @@ class RobotView:
                 frame.wxyz = _wxyz(placement.rotation)
 
     def frame_placement(self, frame: str) -> pin.SE3:
-        """World placement of a URDF frame at the last drawn state."""
+        """World placement of a URDF or added contact frame at the last drawn state."""
+        if not self.model.existFrame(frame):
+            raise KeyError(f"robot {self.model.name!r} has no frame {frame!r}")
         fid = self.model.getFrameId(frame)
-        if fid >= self.model.nframes:
-            raise KeyError(f"robot has no frame {frame!r}")
         return pin.updateFramePlacement(self.model, self.data, fid)
 
     def remove(self) -> None:
