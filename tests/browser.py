@@ -24,13 +24,9 @@ CHROMIUM_ARGS = [
     "--no-first-run",
 ]
 STARTUP_TIMEOUT_S = 60.0
-# How the tests run `lab serve` (later `args` of LabServe override them): never SCHED_FIFO, which
-# can starve the UI process and Chromium on a 2-core machine; the 1 ms control step on a 250 Hz
-# schedule (sim time at a quarter of wall time, as tests/test_server.py) and 30 drawing states
-# a second, so that the sim, the UI process and software-rendering Chromium share a loaded
-# machine. At 1 kHz and 60 states/s (SCHED_OTHER, a CPU hog on one core) 4 of 6 runs passed; the
-# 2 others, at load 15-23 from a parallel C++ build, had clicks in the page time out after 60 s.
-SERVE_OPTIONS = ("--sched", "other", "--rate", "250", "--state-hz", "30")
+# Never SCHED_FIFO for the server under test: a FIFO 1 kHz loop can starve the UI process and
+# Chromium on a 2-core machine (later LabServe args override this).
+SERVE_OPTIONS = ("--sched", "other")
 
 
 class LabServe:
