@@ -188,7 +188,7 @@ const HierarchyProblem& Kernel::build_problem() {
     level.weight = weight;
     if (!stack_[l].tasks.empty()) weight /= level_weight_ratio_;
   }
-  problem_.support = robot.force_rows_of(refs_.contact_active);
+  robot.force_rows_of(refs_.contact_active, problem_.support);
   return problem_;
 }
 

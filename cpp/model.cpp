@@ -127,12 +127,11 @@ void RobotModel::joint_torques(const Eigen::Ref<const Eigen::VectorXd>& x,
   tau.noalias() -= Jc.rightCols(na).transpose() * x.tail(nf);
 }
 
-Eigen::Array<bool, Eigen::Dynamic, 1> RobotModel::force_rows_of(
-    const Eigen::Array<bool, Eigen::Dynamic, 1>& flags) const {
-  Eigen::Array<bool, Eigen::Dynamic, 1> rows(nf);
+void RobotModel::force_rows_of(const Eigen::Array<bool, Eigen::Dynamic, 1>& flags,
+                               Eigen::Array<bool, Eigen::Dynamic, 1>& rows) const {
+  rows.resize(nf);
   for (std::size_t i = 0; i < contacts.size(); ++i)
     rows.segment(force_starts[i], contacts[i].force_dim()).setConstant(flags[i]);
-  return rows;
 }
 
 }  // namespace lab

@@ -49,9 +49,10 @@ class RobotModel {
   void joint_torques(const Eigen::Ref<const Eigen::VectorXd>& x,
                      Eigen::Ref<Eigen::VectorXd> tau) const;
 
-  /// Flags of the force rows of the contacts flagged in `flags` (np.repeat(flags, force_dims)).
-  Eigen::Array<bool, Eigen::Dynamic, 1> force_rows_of(
-      const Eigen::Array<bool, Eigen::Dynamic, 1>& flags) const;
+  /// Flags of the force rows of the contacts flagged in `flags` (np.repeat(flags, force_dims)),
+  /// into `rows`.
+  void force_rows_of(const Eigen::Array<bool, Eigen::Dynamic, 1>& flags,
+                     Eigen::Array<bool, Eigen::Dynamic, 1>& rows) const;
 
   /// Names of the model's frames, in pinocchio order.
   std::vector<std::string> frame_names() const;

@@ -63,7 +63,8 @@ class ForceInterpolationTask : public Task {
     for (Eigen::Index i = 0; i < n_contacts; ++i)
       changing[i] = std::isfinite(refs.force_weight[i]) && refs.contact_active[i];
     if (!changing.any()) return reset(robot, 0);
-    const auto support = contact_rows(robot, refs.contact_active);
+    std::vector<Eigen::Index> support, index;
+    contact_rows(robot, refs.contact_active, support);
     Eigen::MatrixXd base(BASE_DOF, static_cast<Eigen::Index>(support.size()));
     for (std::size_t k = 0; k < support.size(); ++k)
       base.col(k) = robot.Jc.row(support[k]).head<BASE_DOF>().transpose();
@@ -72,7 +73,7 @@ class ForceInterpolationTask : public Task {
         base.completeOrthogonalDecomposition().solve(robot.h.head<BASE_DOF>());
     Eigen::VectorXd optimal = Eigen::VectorXd::Zero(robot.nf);
     for (std::size_t k = 0; k < support.size(); ++k) optimal[support[k]] = solved[k];
-    const auto index = contact_rows(robot, changing);
+    contact_rows(robot, changing, index);
     reset(robot, static_cast<Eigen::Index>(index.size()));
     Eigen::Index row = 0;
     for (Eigen::Index i = 0; i < n_contacts; ++i) {

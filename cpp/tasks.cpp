@@ -9,9 +9,8 @@
 namespace lab {
 
 void Task::reset(const RobotModel& robot, Eigen::Index n) {
-  A.setZero(n, robot.nx);
+  A.setZero(n, robot.nx);  // no allocation while n stays the same
   b.setZero(n);
-  error.resize(0);
 }
 
 void Constraint::reset(const RobotModel& robot, Eigen::Index n) {
@@ -19,13 +18,12 @@ void Constraint::reset(const RobotModel& robot, Eigen::Index n) {
   d.setZero(n);
 }
 
-std::vector<Eigen::Index> contact_rows(const RobotModel& robot,
-                                       const Eigen::Array<bool, Eigen::Dynamic, 1>& flags) {
-  std::vector<Eigen::Index> rows;
+void contact_rows(const RobotModel& robot, const Eigen::Array<bool, Eigen::Dynamic, 1>& flags,
+                  std::vector<Eigen::Index>& rows) {
+  rows.clear();
   for (std::size_t i = 0; i < robot.contacts.size(); ++i)
     if (flags[i])
       for (int k = 0; k < robot.contacts[i].force_dim(); ++k) rows.push_back(robot.force_starts[i] + k);
-  return rows;
 }
 
 void write_jacobian_rows(const RobotModel& robot, const std::vector<Eigen::Index>& index,
@@ -39,14 +37,17 @@ namespace {
 class ContactTask : public Task {
  public:
   void compute(const RobotModel& robot, const References& refs) override {
-    const auto index = contact_rows(robot, refs.contact_active);
-    const auto n = static_cast<Eigen::Index>(index.size());
+    contact_rows(robot, refs.contact_active, index_);
+    const auto n = static_cast<Eigen::Index>(index_.size());
     reset(robot, n);
-    write_jacobian_rows(robot, index, A);
+    write_jacobian_rows(robot, index_, A);
     error.noalias() = A.leftCols(robot.nv) * robot.v;
-    for (Eigen::Index r = 0; r < n; ++r) b[r] = -robot.Jc_dot_v[index[r]];
+    for (Eigen::Index r = 0; r < n; ++r) b[r] = -robot.Jc_dot_v[index_[r]];
     if (gains.kd != 0.0) b -= gains.kd * error;
   }
+
+ private:
+  std::vector<Eigen::Index> index_;
 };
 
 /// Base angular acceleration in world axes tracks ω̇ = kp log(R_ref Rᵀ) + kd (ω_ref − ω).

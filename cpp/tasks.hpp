@@ -32,7 +32,7 @@ class Task {
   Eigen::VectorXd error;
 
  protected:
-  /// n zero rows over x, and an empty error.
+  /// n zero rows over x (the error is the task's to set; a task without one leaves it empty).
   void reset(const RobotModel& robot, Eigen::Index n);
 };
 
@@ -79,8 +79,9 @@ void set_torque_limits(Constraint& torque_limits, const Eigen::VectorXd& limits)
 void set_joint_limits(Constraint& joint_limits, const Eigen::VectorXd& lower,
                       const Eigen::VectorXd& upper);
 
-/// The rows of F that belong to the contacts flagged in `flags` (tasks.py contact_rows).
-std::vector<Eigen::Index> contact_rows(const RobotModel& robot,
-                                       const Eigen::Array<bool, Eigen::Dynamic, 1>& flags);
+/// The rows of F that belong to the contacts flagged in `flags` (tasks.py contact_rows), into
+/// `rows` (reused from tick to tick: no allocation once it has grown).
+void contact_rows(const RobotModel& robot, const Eigen::Array<bool, Eigen::Dynamic, 1>& flags,
+                  std::vector<Eigen::Index>& rows);
 
 }  // namespace lab

@@ -22,15 +22,20 @@ bool has_swing(const References& refs) { return refs.foot_position.size() > 0; }
 class SwingFeetTask : public Task {
  public:
   void compute(const RobotModel& robot, const References& refs) override {
-    if (!has_swing(refs)) return reset(robot, 0);
-    const auto feet = swinging(robot, refs.contact_active);
-    const auto index = contact_rows(robot, feet);
-    const auto n = static_cast<Eigen::Index>(index.size());
+    Eigen::Index n = 0;
+    if (has_swing(refs)) {
+      feet_ = swinging(robot, refs.contact_active);
+      contact_rows(robot, feet_, index_);
+      n = static_cast<Eigen::Index>(index_.size());
+    }
+    const auto& index = index_;
+    const auto& feet = feet_;
     reset(robot, n);
+    error.resize(n);
     if (n == 0) return;
     write_jacobian_rows(robot, index, A);
-    const Eigen::VectorXd velocity = A.leftCols(robot.nv) * robot.v;
-    error.resize(n);
+    velocity_.noalias() = A.leftCols(robot.nv) * robot.v;
+    const Eigen::VectorXd& velocity = velocity_;
     Eigen::Index row = 0;
     for (Eigen::Index i = 0; i < feet.size(); ++i) {
       if (!feet[i]) continue;
@@ -44,6 +49,11 @@ class SwingFeetTask : public Task {
       }
     }
   }
+
+ private:
+  Eigen::Array<bool, Eigen::Dynamic, 1> feet_;  // swinging point feet
+  std::vector<Eigen::Index> index_;             // their rows of Jc
+  Eigen::VectorXd velocity_;                    // their velocities J v
 };
 
 /// The horizontal CoM alone (Table 6, P3): the first two rows of `com`.
@@ -69,7 +79,8 @@ class MovingPostureTask : public Task {
     if (legs_.empty()) legs_ = leg_joints(robot);  // at the first tick, as the Python task
     const auto n_legs = static_cast<Eigen::Index>(legs_.size());
     // Each joint's weight: the last leg that moves it, 0 on a swinging leg, 1 outside the legs.
-    Eigen::VectorXd weight = Eigen::VectorXd::Ones(robot.na);
+    Eigen::VectorXd& weight = weight_;
+    weight.setOnes(robot.na);
     const bool walk_weights = refs.posture_weight.size() == n_legs;
     for (Eigen::Index i = 0; i < n_legs; ++i)
       for (Eigen::Index j : legs_[i]) weight[j] = walk_weights ? refs.posture_weight[i] : 1.0;
@@ -110,6 +121,7 @@ class MovingPostureTask : public Task {
   }
 
   std::vector<std::vector<Eigen::Index>> legs_;
+  Eigen::VectorXd weight_;  // of each actuated joint this tick
 };
 
 }  // namespace

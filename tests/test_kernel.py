@@ -339,8 +339,12 @@ def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
             controller.robot.update(q, v)
             send_references(kernel, refs)
             python = controller.solve()
-            tau, qdd, forces, ok, message, statuses, _, _, _ = kernel.tick(q, v)
+            tau, qdd, forces, ok, message, statuses, _, _, errors = kernel.tick(q, v)
             assert ok, f"{what}: {message}"
+            python_errors = controller.task_errors()
+            assert errors.keys() == python_errors.keys(), what
+            for task, error in errors.items():
+                assert error == pytest.approx(python_errors[task], rel=ROWS_TOL, abs=ROWS_TOL)
             x, x_native = np.r_[python.qdd, python.forces], np.r_[qdd, forces]
             problem = controller.build_problem()
             lightest = min(level.weight for level in problem.levels)
