@@ -9,6 +9,8 @@ references, mirrors them into the kernel, and picks per tick which kernel runs:
 and the method; otherwise the Python one runs and `kernel_note` says why (never a silent mix).
 """
 
+import contextlib
+
 import numpy as np
 
 from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
@@ -97,7 +99,7 @@ class NativeController(WholeBodyController):
             self._native = kernel_for(self)
             self._mirror_stack(config.stack)
             for name, task in self.tasks.items():
-                self._native.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
+                self._mirror_gains(name, task.gains)
         self._synced: tuple = ()
 
     # ----------------------------------------------------------------------------- settings
@@ -139,8 +141,14 @@ class NativeController(WholeBodyController):
     ) -> TaskGains:
         gains = super().set_gains(task, kp, kd, weight)
         if self._native is not None:
-            self._native.set_gains(task, gains.kp, gains.kd, gains.weight)
+            self._mirror_gains(task, gains)
         return gains
+
+    def _mirror_gains(self, task: str, gains: TaskGains) -> None:
+        """Copy a task's gains into the kernel; a task written in Python only (the kernel raises
+        KeyError for it) runs on the Python kernel, whose stack check says so."""
+        with contextlib.suppress(KeyError):
+            self._native.set_gains(task, gains.kp, gains.kd, gains.weight)
 
     # ----------------------------------------------------------------------------- the tick
     def solve(self) -> ControlOutput:
