@@ -133,3 +133,27 @@ def test_bad_input_is_rejected_with_a_named_reason(verb: str, payload: object, n
         parse_command(verb, payload)
     assert needle in str(err.value)
     assert str(err.value).startswith(verb) or "unknown command" in str(err.value)
+
+
+@pytest.mark.parametrize("field", ["kp", "kd", "weight"])
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [
+        (-5, "is out of range"),
+        (1e9, "is out of range"),
+        (math.nan, "must be finite"),
+        (math.inf, "must be finite"),
+    ],
+)
+def test_gains_out_of_range_or_non_finite_are_rejected_naming_the_limit(
+    field: str, value: float, expected: str
+) -> None:
+    """What the UI's gain boxes refuse the server refuses too, for every client: the error names
+    the field and, for a finite value, the range with its limit (the UI once clamped silently)."""
+    with pytest.raises(CommandError) as error:
+        parse_command("gains", {"task": "com", field: value})
+    message = str(error.value)
+    assert f"'{field}'" in message and expected in message
+    if math.isfinite(value):
+        limit = WEIGHT_MAX if field == "weight" else GAIN_MAX
+        assert f"{limit:g}]" in message

@@ -5,6 +5,7 @@ numbers, then a switch to every robot and every scene the dropdowns offer, ANYma
 """
 
 import math
+import re
 import socket
 import time
 from collections.abc import Iterator
@@ -223,6 +224,18 @@ def slider_box(pg, label: str):
     return pg.locator(f"[id='{slider}']").locator("xpath=..").locator("input:not([type=hidden])")
 
 
+def text_box(pg, label: str):
+    """A viser text box: its label's `for` names no element, so go through the label's row."""
+    row = pg.locator("label").filter(has_text=re.compile(f"^{label}$")).first
+    return row.locator("xpath=../../..").locator("input")
+
+
+def press(pg, button: str) -> None:
+    """Click a panel button by its DOM click event: a mouse click waits for a rendered frame,
+    which a software-rendered page on a loaded machine may not produce for a minute."""
+    pg.get_by_role("button", name=button, exact=True).dispatch_event("click")
+
+
 def type_keys(box, text: str, delay_ms: float) -> None:
     """Focus `box` (no scrolling: a loaded software-rendered page can take a minute to scroll),
     select what it holds and type `text` over it."""
@@ -273,7 +286,7 @@ def event_log(pg) -> str:
 def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: Pushes) -> None:
     type_number(slider_box(page, "Magnitude [N]"), "500")
     type_number(slider_box(page, "Duration [ms]"), "300")
-    page.get_by_role("button", name="front", exact=True).click(no_wait_after=True)
+    press(page, "front")
     remaining = pushes.wait(500.0)
     assert 0.0 < remaining <= 0.3 + 1e-9, remaining  # 300 ms, as typed
     page.get_by_text("pushed front: 500 N for 300 ms").first.wait_for()
@@ -283,8 +296,8 @@ def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: P
 def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
     choose(page, "Task", "com")
     for label, text in (("kp", "123.5"), ("kd", "7"), ("weight", "2.5e-3")):
-        type_number(page.get_by_label(label, exact=True).first, text)
-    page.get_by_role("button", name="Apply gains", exact=True).click(no_wait_after=True)
+        type_number(text_box(page, label), text)
+    press(page, "Apply gains")
     end = time.monotonic() + 10.0
     com = {}
     while time.monotonic() < end:
@@ -303,8 +316,8 @@ def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
 def test_out_of_range_gains_are_refused_naming_the_limit(page, lab, text, message) -> None:
     choose(page, "Task", "com")
     before = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
-    type_number(page.get_by_label("kp", exact=True).first, text)
-    page.get_by_role("button", name="Apply gains", exact=True).click(no_wait_after=True)
+    type_number(text_box(page, "kp"), text)
+    press(page, "Apply gains")
     page.get_by_text(message).first.wait_for()  # in the panel
     assert message in event_log(page)  # and in the event log
     after = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
@@ -316,7 +329,7 @@ def test_a_push_magnitude_above_the_slider_is_clamped_with_a_message(page, pushe
     type_number(box, "700")
     page.get_by_text("Magnitude 700 N is above the limit 600 N").first.wait_for()
     assert box.input_value() == "600"
-    page.get_by_role("button", name="left", exact=True).click(no_wait_after=True)
+    press(page, "left")
     pushes.wait(600.0)
 
 
@@ -326,7 +339,7 @@ def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pu
     box = slider_box(page, "Magnitude [N]")
     pushes.seen.clear()
     type_keys(box, "432", delay_ms=0)
-    page.get_by_role("button", name="back", exact=True).click(no_wait_after=True)
+    press(page, "back")
     time.sleep(3.0)
     shown = float(box.input_value())
     sent = list(pushes.seen)
@@ -365,28 +378,28 @@ def test_the_dropdowns_offer_every_robot_and_scene(page, lab: LabClient) -> None
         page.keyboard.press("Escape")
 
 
+def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot: str) -> None:
+    """Choose `value` in `dropdown`, wait until the sim runs it and `robot` is drawn, push, and
+    check the UI is alive."""
+    choose(page, dropdown, value)
+    lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
+    wait_drawn(page, robot)
+    type_number(slider_box(page, "Magnitude [N]"), "100")
+    pushes.seen.clear()
+    press(page, "front")
+    pushes.wait(100.0)
+    ui_alive(page, serve)
+
+
 @pytest.mark.parametrize("robot", [r for r in ROBOT_NAMES if r != "anymal"] + ["anymal"])
 def test_every_robot_switches_draws_takes_a_push_and_the_ui_lives(
     page, lab: LabClient, serve: LabServe, pushes: Pushes, robot: str
 ) -> None:
-    choose(page, "Robot", robot)
-    lab.wait_telemetry(lambda m: m["robot"] == robot, timeout=60.0)
-    wait_drawn(page, robot)
-    type_number(slider_box(page, "Magnitude [N]"), "100")
-    pushes.seen.clear()
-    page.get_by_role("button", name="front", exact=True).click(no_wait_after=True)
-    pushes.wait(100.0)
-    ui_alive(page, serve)
+    switch_draw_push(page, lab, serve, pushes, "Robot", robot, robot)
 
 
 @pytest.mark.parametrize("scene", [s for s in SCENES if s != "flat"] + ["flat"])
 def test_every_scene_switches_draws_takes_a_push_and_the_ui_lives(
     page, lab: LabClient, serve: LabServe, pushes: Pushes, scene: str
 ) -> None:
-    choose(page, "Scene", scene)
-    lab.wait_telemetry(lambda m: m["scene"] == scene, timeout=60.0)
-    wait_drawn(page, "anymal")
-    pushes.seen.clear()
-    page.get_by_role("button", name="right", exact=True).click(no_wait_after=True)
-    pushes.wait(100.0)
-    ui_alive(page, serve)
+    switch_draw_push(page, lab, serve, pushes, "Scene", scene, "anymal")
