@@ -91,9 +91,23 @@ def wait_dark_pixels(pg, predicate, timeout: float = 30.0) -> int:
     return n
 
 
+OPEN_DROPDOWN_TRIES = 3
+OPEN_DROPDOWN_WAIT_MS = 20_000
+
+
 def choose(pg, label: str, option: str) -> None:
-    pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
-    pg.get_by_role("option", name=option, exact=True).click(no_wait_after=True)
+    """Open dropdown `label` and pick `option`. A click that lands while the panel re-renders
+    leaves the dropdown closed (seen once in a fresh-clone run: the option never appeared),
+    so the dropdown is clicked again, at most OPEN_DROPDOWN_TRIES times, until it lists it."""
+    wanted = pg.get_by_role("option", name=option, exact=True)
+    for _ in range(OPEN_DROPDOWN_TRIES):
+        pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
+        try:
+            wanted.wait_for(timeout=OPEN_DROPDOWN_WAIT_MS)
+            break
+        except playwright_api.TimeoutError:
+            continue
+    wanted.click(no_wait_after=True)
 
 
 def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
