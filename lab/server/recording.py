@@ -22,6 +22,7 @@ from mcap.writer import Writer
 
 from lab.server.limits import apply_limits
 from lab.server.session import Session, SessionConfig
+from lab.server.transport import encode
 
 TOPICS = {
     "telemetry": "lab/telemetry",
@@ -121,7 +122,7 @@ class Recorder:
 
     def _write(self, kind: str, t: float, message: dict) -> None:
         stamp = max(0, round(t * 1e9))
-        data = json.dumps(message, default=_jsonable).encode()
+        data = encode(message)  # the transport's encoder: non-finite floats as null, valid JSON
         self._sequence += 1
         self._writer.add_message(self._channels[kind], stamp, data, stamp, self._sequence)
 
@@ -135,14 +136,6 @@ class Recorder:
 
     def __exit__(self, *_: object) -> None:
         self.close()
-
-
-def _jsonable(value: object) -> object:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"{type(value).__name__} is not JSON serializable")
 
 
 def session_metadata(session: Session, limits: dict) -> dict[str, str]:
