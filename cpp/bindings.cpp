@@ -57,6 +57,78 @@ nb::dict problem_dict(const lab::HierarchyProblem& problem) {
   return out;
 }
 
+/// The Python RobotModel's preallocated arrays (lab/controller/model.py), which the kernel's model
+/// update fills in place: one pinocchio pass serves the Python behaviours and the kernel's rows.
+class ModelMirror {
+ public:
+  using Out = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
+
+  ModelMirror(const lab::RobotModel& robot, const nb::dict& arrays) {
+    const auto nv = static_cast<std::size_t>(robot.nv), nf = static_cast<std::size_t>(robot.nf);
+    const auto nc = robot.contacts.size();
+    q_ = take(arrays, "q", {static_cast<std::size_t>(robot.nq)});
+    v_ = take(arrays, "v", {nv});
+    M_ = take(arrays, "M", {nv, nv});
+    h_ = take(arrays, "h", {nv});
+    Jc_ = take(arrays, "Jc", {nf, nv});
+    Jc_dot_v_ = take(arrays, "Jc_dot_v", {nf});
+    com_ = take(arrays, "com", {3});
+    com_velocity_ = take(arrays, "com_velocity", {3});
+    com_drift_ = take(arrays, "com_drift", {3});
+    Jcom_ = take(arrays, "Jcom", {3, nv});
+    centroidal_map_ = take(arrays, "centroidal_map", {6, nv});
+    base_rotation_ = take(arrays, "base_rotation", {3, 3});
+    contact_positions_ = take(arrays, "contact_positions", {nc, 3});
+    contact_rotations_ = take(arrays, "contact_rotations", {nc, 3, 3});
+  }
+
+  /// Copy the model's state of the last update into the arrays.
+  void fill(const lab::RobotModel& robot) {
+    vector(q_) = robot.q;
+    vector(v_) = robot.v;
+    matrix(M_) = robot.M;
+    vector(h_) = robot.h;
+    matrix(Jc_) = robot.Jc;
+    vector(Jc_dot_v_) = robot.Jc_dot_v;
+    vector(com_) = robot.com;
+    vector(com_velocity_) = robot.com_velocity;
+    vector(com_drift_) = robot.com_drift;
+    matrix(Jcom_) = robot.Jcom;
+    matrix(centroidal_map_) = robot.centroidal_map;
+    matrix(base_rotation_) = robot.base_rotation;
+    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
+      const auto k = static_cast<Eigen::Index>(i);
+      matrix(contact_positions_).row(k) = robot.contact_positions[i].transpose();
+      Eigen::Map<RowMajor>(contact_rotations_.data() + 9 * i, 3, 3) = robot.contact_rotations[i];
+    }
+  }
+
+ private:
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+  static Out take(const nb::dict& arrays, const char* name, std::vector<std::size_t> shape) {
+    if (!arrays.contains(name))
+      throw std::invalid_argument(std::string("mirror_model: no array '") + name + "'");
+    Out array;
+    if (!nb::try_cast(arrays[name], array))
+      throw std::invalid_argument(std::string("mirror_model: '") + name +
+                                  "' is not a writable C-contiguous float64 array");
+    bool same = array.ndim() == shape.size();
+    for (std::size_t i = 0; same && i < shape.size(); ++i) same = array.shape(i) == shape[i];
+    if (!same) throw std::invalid_argument(std::string("mirror_model: '") + name + "' has the wrong shape");
+    return array;
+  }
+  static Eigen::Map<Eigen::VectorXd> vector(Out& a) {
+    return {a.data(), static_cast<Eigen::Index>(a.size())};
+  }
+  static Eigen::Map<RowMajor> matrix(Out& a) {
+    return {a.data(), static_cast<Eigen::Index>(a.shape(0)), static_cast<Eigen::Index>(a.shape(1))};
+  }
+
+  Out q_, v_, M_, h_, Jc_, Jc_dot_v_, com_, com_velocity_, com_drift_, Jcom_, centroidal_map_,
+      base_rotation_, contact_positions_, contact_rotations_;
+};
+
 nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
   const auto& solution = result.solution;
   nb::list statuses;
@@ -181,7 +253,30 @@ NB_MODULE(_kernel, m) {
           "posture_weight"_a,
           "The fields of References / WalkReferences (empty arrays for the walking fields a "
           "behaviour does not set); raises ValueError naming a field of the wrong size.")
-      .def("update", &lab::Kernel::update, "q"_a, "v"_a, "The model update alone.")
+      .def(
+          "mirror_model",
+          [](lab::Kernel& k, const nb::dict& arrays) {
+            k.on_update = [mirror = ModelMirror(k.robot(), arrays)](
+                              const lab::RobotModel& robot) mutable { mirror.fill(robot); };
+          },
+          "arrays"_a,
+          "Arrays by name (q, v, M, h, Jc, Jc_dot_v, com, com_velocity, com_drift, Jcom, "
+          "centroidal_map, base_rotation, contact_positions, contact_rotations) that every "
+          "update fills in place, as RobotModel.update does; raises ValueError naming a missing "
+          "or misshapen one.")
+      .def("update", &lab::Kernel::update, "q"_a, "v"_a,
+           "The model update alone (and the mirrored arrays, when given).")
+      .def(
+          "solve",
+          [](lab::Kernel& k) {
+            const lab::TickResult* result;
+            {
+              nb::gil_scoped_release release;
+              result = &k.solve();
+            }
+            return tick_tuple(k, *result);
+          },
+          "Rows, method and torques at the state of the last update; the same tuple as tick.")
       .def(
           "rows", [](lab::Kernel& k, const std::string& name) { return k.rows(name); }, "name"_a,
           "(A, b) of a task or (C, d) of a constraint at the last update, unweighted.")

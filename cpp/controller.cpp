@@ -140,6 +140,8 @@ void Kernel::update(const Eigen::Ref<const Eigen::VectorXd>& q,
   check_finite(q, "q", robot_.nq);
   check_finite(v, "v", robot_.nv);
   robot_.update(q, v);
+  updated_ = true;
+  if (on_update) on_update(robot_);
 }
 
 const HierarchyProblem& Kernel::build_problem() {
@@ -194,9 +196,14 @@ const HierarchyProblem& Kernel::build_problem() {
 
 const TickResult& Kernel::tick(const Eigen::Ref<const Eigen::VectorXd>& q,
                                const Eigen::Ref<const Eigen::VectorXd>& v) {
-  if (stack_.empty()) throw std::logic_error("the kernel has no stack: call set_stack first");
-  check_references();
   update(q, v);
+  return solve();
+}
+
+const TickResult& Kernel::solve() {
+  if (stack_.empty()) throw std::logic_error("the kernel has no stack: call set_stack first");
+  if (!updated_) throw std::logic_error("the kernel has no state: call update first");
+  check_references();
   const HierarchyProblem& problem = build_problem();
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
   result_.solution = method_ == "cascade" ? solve_cascade(problem) : solve_weighted(problem);

@@ -3,6 +3,7 @@
 // hierarchy method → x = [q̈, F] → τ = M_a q̈ + h_a − J_aᵀ F (Herzog eq. 14).
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -59,7 +60,9 @@ class Kernel {
               const Eigen::Ref<const Eigen::VectorXd>& v);
   /// Rows of the current stack at the state of the last update (WholeBodyController.build_problem).
   const HierarchyProblem& build_problem();
-  /// One whole tick: update, rows, hierarchy method, torques.
+  /// Rows, hierarchy method and torques at the state of the last update.
+  const TickResult& solve();
+  /// One whole tick: update, then solve().
   const TickResult& tick(const Eigen::Ref<const Eigen::VectorXd>& q,
                          const Eigen::Ref<const Eigen::VectorXd>& v);
   /// Norm of each stacked task's tracking error at the last rows (tasks with an error only).
@@ -69,6 +72,9 @@ class Kernel {
   std::pair<Eigen::MatrixXd, Eigen::VectorXd> rows(const std::string& name);
 
   const RobotModel& robot() const { return robot_; }
+
+  /// Called after every model update (the bindings fill the Python model's arrays with it).
+  std::function<void(const RobotModel&)> on_update;
   const std::string& method() const { return method_; }
 
  private:
@@ -88,6 +94,7 @@ class Kernel {
   double level_weight_ratio_ = 1e3;
   HierarchyProblem problem_;
   TickResult result_;
+  bool updated_ = false;  // solve() needs a state
 };
 
 }  // namespace lab

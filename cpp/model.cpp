@@ -56,6 +56,7 @@ RobotModel::RobotModel(const std::string& serialized_model, std::vector<ContactS
   com_velocity.setZero();
   com_drift.setZero();
   Jcom = Eigen::MatrixXd::Zero(3, nv);
+  centroidal_map.setZero(6, nv);
   base_rotation.setIdentity();
   contact_positions.assign(contacts.size(), Eigen::Vector3d::Zero());
   contact_rotations.assign(contacts.size(), Eigen::Matrix3d::Identity());
@@ -96,6 +97,7 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
   com_velocity = data.vcom[0];
   com_drift = data.acom[0];
   Jcom = data.Jcom;
+  centroidal_map = data.Ag;
   base_rotation = Eigen::Quaterniond(q.segment<4>(3)).toRotationMatrix();
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const auto fid = frame_ids[i];

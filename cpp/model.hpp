@@ -75,6 +75,7 @@ class RobotModel {
   Eigen::VectorXd Jc_dot_v;
   Eigen::Vector3d com, com_velocity, com_drift;
   Eigen::MatrixXd Jcom;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> centroidal_map;  // A_G: h_G = A_G v (Herzog eq. 19)
   Eigen::Matrix3d base_rotation;
   std::vector<Eigen::Vector3d> contact_positions;
   std::vector<Eigen::Matrix3d> contact_rotations;

@@ -121,6 +121,37 @@ def test_the_kernel_loads_the_same_model(name: str) -> None:
     assert kernel.mass == pytest.approx(controller.robot.mass, rel=1e-12)
 
 
+@pytest.mark.parametrize("name", ["anymal", "talos"])
+def test_the_kernels_model_update_fills_the_python_models_arrays(name: str) -> None:
+    """One pinocchio pass serves both sides: what the kernel writes into the Python model's arrays
+    is what RobotModel.update computes at the same state, frame placements included."""
+    controller, robot = controller_for(name)
+    kernel = kernel_of(controller)
+    mirrored = controller.robot
+    kernel.mirror_model(mirrored.arrays())
+    reference = RobotModel(robot.model, robot.contacts)
+    rng = np.random.default_rng(7)
+    for _ in range(STATES):
+        q, v = random_state(robot, rng)
+        kernel.update(q, v)
+        mirrored.filled_elsewhere()
+        reference.update(q, v)
+        for field, array in reference.arrays().items():
+            scale = 1.0 + np.abs(array).max()
+            np.testing.assert_allclose(
+                getattr(mirrored, field), array, rtol=0, atol=ROWS_TOL * scale, err_msg=field
+            )
+        np.testing.assert_allclose(
+            mirrored.centroidal_momentum(), reference.data.hg.vector, atol=1e-9
+        )
+        base = robot.base_link
+        np.testing.assert_allclose(
+            mirrored.frame_position(base), reference.frame_position(base), atol=1e-12
+        )
+    with pytest.raises(ValueError, match="'Jc' has the wrong shape"):
+        kernel.mirror_model({**mirrored.arrays(), "Jc": np.zeros((2, 2))})
+
+
 @pytest.mark.parametrize("name", ROBOT_NAMES)
 def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
     controller, robot = controller_for(name)

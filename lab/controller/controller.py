@@ -129,6 +129,10 @@ class WholeBodyController:
         self.config.hierarchy, self.config.solver = method, solver
         self.config.formulation = formulation
 
+    def update(self, q: np.ndarray, v: np.ndarray) -> None:
+        """Read the state (q, v): the model update the next `solve` works at."""
+        self.robot.update(q, v)
+
     def build_problem(self) -> HierarchyProblem:
         """Rows of the current stack at the state of the last RobotModel.update."""
         robot, refs = self.robot, self.references

@@ -63,12 +63,17 @@ class RobotModel:
         self.contact_rotations = np.zeros((len(self.contacts), 3, 3))
         self.centroidal_map = np.zeros((6, self.nv))  # A_G: h = A_G v (Herzog eq. 19)
         self._centroidal_drift: np.ndarray | None = None
+        # Which pass filled the arrays last: "python" (update) or "native" (a kernel's update
+        # through `arrays()`, which leaves `data` behind: frame_position redoes the placements).
+        self.updated_by = "python"
+        self._placements_current = False
 
     def update(self, q: np.ndarray, v: np.ndarray) -> None:
         """Recompute everything at state (q, v) in one pinocchio pass."""
         model, data = self.model, self.data
         self.q[:] = q
         self.v[:] = v
+        self.updated_by, self._placements_current = "python", True
         # computeAllTerms: M, nle, joint Jacobians, CoM (+Jacobian), centroidal map, and the
         # drift accelerations (q̈ = 0) of every joint, which give J̇v below.
         pin.computeAllTerms(model, data, q, v)
@@ -99,6 +104,25 @@ class RobotModel:
                 acc = pin.getFrameClassicalAcceleration(model, data, fid, frame)
                 self.Jc_dot_v[rows] = acc.vector
 
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The preallocated arrays update() fills, by name: a native kernel's model update fills
+        the same ones in place (then call `filled_elsewhere`)."""
+        names = ("q", "v", "M", "h", "Jc", "Jc_dot_v", "com", "com_velocity", "com_drift", "Jcom")
+        names += ("centroidal_map", "base_rotation", "contact_positions", "contact_rotations")
+        return {name: getattr(self, name) for name in names}
+
+    def filled_elsewhere(self) -> None:
+        """The arrays now hold a state a native kernel's update wrote (see `arrays`)."""
+        self.updated_by, self._placements_current = "native", False
+        self._centroidal_drift = None
+
+    def frame_position(self, frame: str) -> np.ndarray:
+        """Position of a model frame (a body or a foot) in world axes at the current state."""
+        if not self._placements_current:
+            pin.framesForwardKinematics(self.model, self.data, self.q)
+            self._placements_current = True
+        return self.data.oMf[self.model.getFrameId(frame)].translation.copy()
+
     @property
     def base_position(self) -> np.ndarray:
         return self.q[:3]
@@ -112,8 +136,8 @@ class RobotModel:
         return self.base_rotation @ self.v[:3]
 
     def centroidal_momentum(self) -> np.ndarray:
-        """[linear; angular] momentum about the CoM, world axes (valid after update)."""
-        return np.array(self.data.hg.vector)
+        """[linear; angular] momentum about the CoM, world axes: h_G = A_G v (Herzog eq. 19)."""
+        return self.centroidal_map @ self.v
 
     def centroidal_drift(self) -> np.ndarray:
         """Ȧ_G v, the rate of change of the centroidal momentum at q̈ = 0 (Herzog eq. 20), world

@@ -97,6 +97,7 @@ class NativeController(WholeBodyController):
         self._native_errors: dict[str, float] = {}
         if _kernel is not None:
             self._native = kernel_for(self)
+            self._native.mirror_model(robot.arrays())
             self._mirror_stack(config.stack)
             for name, task in self.tasks.items():
                 self._mirror_gains(name, task.gains)
@@ -151,10 +152,22 @@ class NativeController(WholeBodyController):
             self._native.set_gains(task, gains.kp, gains.kd, gains.weight)
 
     # ----------------------------------------------------------------------------- the tick
+    def _runs_native(self) -> bool:
+        return self.config.kernel == "native" and not self.kernel_note
+
+    def update(self, q: np.ndarray, v: np.ndarray) -> None:
+        """Read the state (q, v) with the model update of the kernel that runs next: the native
+        one fills the Python model's arrays too, so behaviours read the same pass."""
+        if not self._runs_native():
+            super().update(q, v)
+            return
+        self._native.update(q, v)
+        self.robot.filled_elsewhere()
+
     def solve(self) -> ControlOutput:
-        """Torques at the state of the last RobotModel.update, from the kernel the config picks;
-        raises QPFailure when the hierarchy has no solution."""
-        if self.config.kernel == "python" or self.kernel_note:
+        """Torques at the state of the last update, from the kernel the config picks; raises
+        QPFailure when the hierarchy has no solution."""
+        if not self._runs_native():
             self.kernel_ran = "python"
             return super().solve()
         native = self._native
@@ -162,9 +175,13 @@ class NativeController(WholeBodyController):
         if native.method != self.config.hierarchy:
             native.set_method(self.config.hierarchy)
         send_references(native, self.references)
-        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors = native.tick(
-            self.robot.q, self.robot.v
+        # The kernel's own state is current when the last update went through it.
+        result = (
+            native.solve()
+            if self.robot.updated_by == "native"
+            else native.tick(self.robot.q, self.robot.v)
         )
+        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors = result
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:

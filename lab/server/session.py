@@ -211,7 +211,7 @@ class Session:
         touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
         try:
-            self.model.update(q, v)
+            self.controller.update(q, v)
             self.behaviour.update(self.time, self.model, self.velocity, touching)
             out = self.controller.solve()
             if not np.all(np.isfinite(out.tau)):
@@ -519,8 +519,7 @@ class Session:
         }
 
     def _body_position(self, body: str) -> np.ndarray:
-        frame = self.model.model.getFrameId(body)
-        return self.model.data.oMf[frame].translation.copy()
+        return self.model.frame_position(body)
 
     def drawing_state(self) -> dict:
         q, _ = self.plant.state()
