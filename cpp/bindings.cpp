@@ -29,7 +29,8 @@ void copy_flat(Eigen::VectorXd& dst, const Doubles& a) {
 }
 
 void copy_vector3(Eigen::Vector3d& dst, const Doubles& a, const char* what) {
-  if (a.size() != 3) throw std::invalid_argument(std::string("references: ") + what + " needs 3 entries");
+  if (a.size() != 3)
+    throw std::invalid_argument(std::string("references: ") + what + " needs 3 entries");
   dst = Eigen::Map<const Eigen::Vector3d>(a.data());
 }
 
@@ -38,8 +39,9 @@ std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tup
   for (const auto& [name, frame, kind, radius, half_length, half_width] : tuples) {
     if (kind != "point" && kind != "flat")
       throw std::invalid_argument("contact '" + name + "': kind must be 'point' or 'flat'");
-    specs.push_back({name, frame, kind == "point" ? lab::ContactKind::point : lab::ContactKind::flat,
-                     radius, half_length, half_width});
+    specs.push_back({name, frame,
+                     kind == "point" ? lab::ContactKind::point : lab::ContactKind::flat, radius,
+                     half_length, half_width});
   }
   return specs;
 }
@@ -115,7 +117,8 @@ class ModelMirror {
                                   "' is not a writable C-contiguous float64 array");
     bool same = array.ndim() == shape.size();
     for (std::size_t i = 0; same && i < shape.size(); ++i) same = array.shape(i) == shape[i];
-    if (!same) throw std::invalid_argument(std::string("mirror_model: '") + name + "' has the wrong shape");
+    if (!same)
+      throw std::invalid_argument(std::string("mirror_model: '") + name + "' has the wrong shape");
     return array;
   }
   static Eigen::Map<Eigen::VectorXd> vector(Out& a) {
@@ -169,10 +172,8 @@ NB_MODULE(_kernel, m) {
           "__init__",
           [](lab::Kernel* self, const std::string& model, const std::vector<ContactTuple>& contacts,
              const Eigen::VectorXd& torque_limits, const Eigen::VectorXd& lower,
-             const Eigen::VectorXd& upper, double friction, double normal_min,
-             double normal_max) {
-            new (self) lab::Kernel(model, contact_specs(contacts),
-                                   torque_limits, lower, upper,
+             const Eigen::VectorXd& upper, double friction, double normal_min, double normal_max) {
+            new (self) lab::Kernel(model, contact_specs(contacts), torque_limits, lower, upper,
                                    lab::ContactLimits{friction, normal_min, normal_max});
           },
           "model"_a, "contacts"_a, "torque_limits"_a, "lower"_a, "upper"_a, "friction"_a,
@@ -228,8 +229,8 @@ NB_MODULE(_kernel, m) {
             refs.base_height = base_height;
             if (base_rotation.size() != 9)
               throw std::invalid_argument("references: base_rotation needs 3 x 3 entries");
-            refs.base_rotation =
-                Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(base_rotation.data());
+            refs.base_rotation = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
+                base_rotation.data());
             copy_vector3(refs.com_velocity, com_velocity, "com_velocity");
             copy_vector3(refs.base_angular_velocity, base_angular_velocity,
                          "base_angular_velocity");
@@ -248,9 +249,8 @@ NB_MODULE(_kernel, m) {
           },
           "com"_a, "posture"_a, "base_height"_a, "base_rotation"_a, "com_velocity"_a,
           "base_angular_velocity"_a, "contact_active"_a, "normal_force_max"_a,
-          "base_linear_velocity"_a, "foot_position"_a, "foot_velocity"_a,
-          "foot_acceleration"_a, "surface_normal"_a, "force_weight"_a, "posture_velocity"_a,
-          "posture_weight"_a,
+          "base_linear_velocity"_a, "foot_position"_a, "foot_velocity"_a, "foot_acceleration"_a,
+          "surface_normal"_a, "force_weight"_a, "posture_velocity"_a, "posture_weight"_a,
           "The fields of References / WalkReferences (empty arrays for the walking fields a "
           "behaviour does not set); raises ValueError naming a field of the wrong size.")
       .def(

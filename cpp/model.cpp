@@ -1,13 +1,12 @@
 #include "model.hpp"
 
 #include <pinocchio/algorithm/compute-all-terms.hpp>
+#include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/joint-configuration.hpp>
 #include <pinocchio/multibody/data.hpp>
 #include <pinocchio/multibody/model.hpp>
-#include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/serialization/archive.hpp>
 #include <pinocchio/serialization/model.hpp>
-
 #include <stdexcept>
 
 namespace lab {

@@ -6,10 +6,9 @@
 // force in world axes, a flat foot's wrench in its sole frame).
 #pragma once
 
-#include <pinocchio/multibody/fwd.hpp>  // only the declarations: task files compile Eigen alone
-
 #include <Eigen/Dense>
 #include <memory>
+#include <pinocchio/multibody/fwd.hpp>  // only the declarations: task files compile Eigen alone
 #include <string>
 #include <vector>
 

@@ -23,7 +23,8 @@ void contact_rows(const RobotModel& robot, const Eigen::Array<bool, Eigen::Dynam
   rows.clear();
   for (std::size_t i = 0; i < robot.contacts.size(); ++i)
     if (flags[i])
-      for (int k = 0; k < robot.contacts[i].force_dim(); ++k) rows.push_back(robot.force_starts[i] + k);
+      for (int k = 0; k < robot.contacts[i].force_dim(); ++k)
+        rows.push_back(robot.force_starts[i] + k);
 }
 
 void write_jacobian_rows(const RobotModel& robot, const std::vector<Eigen::Index>& index,

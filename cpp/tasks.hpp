@@ -60,10 +60,10 @@ using TaskRegistry = std::map<std::string, std::unique_ptr<Task>>;
 using ConstraintRegistry = std::map<std::string, std::unique_ptr<Constraint>>;
 
 // Each module adds its tasks, under the names of the Python registry.
-void add_tasks(TaskRegistry& tasks);         // tasks.cpp
-void add_trunk_tasks(TaskRegistry& tasks);   // trunk_tasks.cpp
-void add_objectives(TaskRegistry& tasks);    // objectives.cpp
-void add_walk_tasks(TaskRegistry& tasks);    // walk_tasks.cpp
+void add_tasks(TaskRegistry& tasks);        // tasks.cpp
+void add_trunk_tasks(TaskRegistry& tasks);  // trunk_tasks.cpp
+void add_objectives(TaskRegistry& tasks);   // objectives.cpp
+void add_walk_tasks(TaskRegistry& tasks);   // walk_tasks.cpp
 
 /// Every task of the Python TASK_TYPES.
 TaskRegistry make_tasks();

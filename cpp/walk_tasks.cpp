@@ -6,8 +6,8 @@ namespace lab {
 namespace {
 
 /// Flags of the point feet out of contact.
-Eigen::Array<bool, Eigen::Dynamic, 1> swinging(const RobotModel& robot,
-                                               const Eigen::Array<bool, Eigen::Dynamic, 1>& active) {
+Eigen::Array<bool, Eigen::Dynamic, 1> swinging(
+    const RobotModel& robot, const Eigen::Array<bool, Eigen::Dynamic, 1>& active) {
   Eigen::Array<bool, Eigen::Dynamic, 1> out(active.size());
   for (Eigen::Index i = 0; i < active.size(); ++i)
     out[i] = robot.contacts[i].kind == ContactKind::point && !active[i];
@@ -44,8 +44,8 @@ class SwingFeetTask : public Task {
         const double e = refs.foot_position[c] - robot.contact_positions[i][k];
         const double de = refs.foot_velocity[c] - velocity[row];
         error[row] = e;
-        b[row] = refs.foot_acceleration[c] + gains.kp * e + gains.kd * de -
-                 robot.Jc_dot_v[index[row]];
+        b[row] =
+            refs.foot_acceleration[c] + gains.kp * e + gains.kd * de - robot.Jc_dot_v[index[row]];
       }
     }
   }

@@ -141,8 +141,8 @@ Eigen::VectorXd solve_level(const Eigen::VectorXd& u_ls, const Eigen::MatrixXd& 
                             const Eigen::VectorXd& r, const Eigen::MatrixXd& N,
                             const Eigen::MatrixXd& Cz, const Eigen::VectorXd& s,
                             const Eigen::MatrixXd& K, const Eigen::VectorXd& k,
-                            const Eigen::MatrixXd& Z, const Eigen::VectorXd& x,
-                            LevelStatus& status, int& qp_solves) {
+                            const Eigen::MatrixXd& Z, const Eigen::VectorXd& x, LevelStatus& status,
+                            int& qp_solves) {
   // When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
   // equalities that step is u = 0, which the carried bounds always allow (k >= 0).
   if (satisfies(Cz, u_ls, s) && satisfies(K, u_ls, k)) {
@@ -191,8 +191,8 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
     Eigen::MatrixXd K_free;  // carried rows with freedom left in Z
     Eigen::VectorXd k_free;
     rows_with_freedom(K, k, K_free, k_free);
-    const Eigen::VectorXd u = solve_level(u_ls, Az, r, N, Cz, s, K_free, k_free, Z, x,
-                                          out.levels[depth], out.qp_solves);
+    const Eigen::VectorXd u =
+        solve_level(u_ls, Az, r, N, Cz, s, K_free, k_free, Z, x, out.levels[depth], out.qp_solves);
     x.noalias() += Z * u;
     if (depth == last) break;
     if (s.size()) {

@@ -30,10 +30,10 @@ struct HierarchyProblem {
 
 /// How one level was solved.
 enum class LevelStatus {
-  exact,          // least squares of its equalities; no inequality binds
-  qp,             // a QP with slacks (Herzog eqs. 9-11)
-  kept_above,     // the solver failed; the level keeps the solution of the levels above
-  no_freedom,     // nothing left in the null space of the levels above
+  exact,       // least squares of its equalities; no inequality binds
+  qp,          // a QP with slacks (Herzog eqs. 9-11)
+  kept_above,  // the solver failed; the level keeps the solution of the levels above
+  no_freedom,  // nothing left in the null space of the levels above
 };
 
 /// The name telemetry and the tests use for a level status.
@@ -54,10 +54,10 @@ inline const char* level_status_name(LevelStatus status) {
 /// The result of a hierarchy method: x and what happened on the way (TSID's HQPOutput).
 struct HierarchySolution {
   Eigen::VectorXd x;
-  bool ok = false;                     // false: x is not a solution (see message)
-  std::string message;                 // why not, or which levels fell back
-  std::vector<LevelStatus> levels;     // one per problem level
-  std::vector<double> residuals;       // ||A x - b|| of each level at the returned x
+  bool ok = false;                  // false: x is not a solution (see message)
+  std::string message;              // why not, or which levels fell back
+  std::vector<LevelStatus> levels;  // one per problem level
+  std::vector<double> residuals;    // ||A x - b|| of each level at the returned x
   int qp_solves = 0;
 };
 

@@ -1,4 +1,6 @@
 // Python bindings of the hierarchy methods alone: tests hand both kernels the same problem.
+#include "hierarchy/python.hpp"
+
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/string.h>
@@ -6,15 +8,14 @@
 #include <nanobind/stl/vector.h>
 
 #include "hierarchy/problem.hpp"
-#include "hierarchy/python.hpp"
 
 namespace nb = nanobind;
 
 namespace lab {
 namespace {
 
-using LevelRows = std::tuple<Eigen::MatrixXd, Eigen::VectorXd, Eigen::MatrixXd, Eigen::VectorXd,
-                             double>;
+using LevelRows =
+    std::tuple<Eigen::MatrixXd, Eigen::VectorXd, Eigen::MatrixXd, Eigen::VectorXd, double>;
 
 nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynamics_A,
                          const Eigen::VectorXd& dynamics_b, const std::vector<LevelRows>& levels,
@@ -34,7 +35,8 @@ nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynam
   else if (method == "weighted")
     solution = solve_weighted(problem);
   else
-    throw nb::value_error(("unknown hierarchy method '" + method + "' (native: cascade, weighted)").c_str());
+    throw nb::value_error(
+        ("unknown hierarchy method '" + method + "' (native: cascade, weighted)").c_str());
   std::vector<std::string> statuses;
   for (const LevelStatus status : solution.levels) statuses.emplace_back(level_status_name(status));
   nb::dict out;
