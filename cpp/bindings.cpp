@@ -140,7 +140,7 @@ nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
   for (const auto& [name, error] : kernel.task_errors()) errors[name.c_str()] = error;
   return nb::make_tuple(Eigen::VectorXd(result.tau), Eigen::VectorXd(result.qdd),
                         Eigen::VectorXd(result.forces), solution.ok, solution.message, statuses,
-                        solution.residuals, solution.qp_solves, errors);
+                        solution.residuals, solution.qp_solves, errors, solution.level_seconds);
 }
 
 }  // namespace
@@ -296,5 +296,5 @@ NB_MODULE(_kernel, m) {
           },
           "q"_a, "v"_a,
           "One tick: (tau, qdd, forces, ok, message, level statuses, level residuals, "
-          "qp solves, task errors).");
+          "qp solves, task errors, level seconds).");
 }

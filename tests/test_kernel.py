@@ -377,8 +377,10 @@ def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
             controller.robot.update(q, v)
             send_references(kernel, refs)
             python = controller.solve()
-            tau, qdd, forces, ok, message, statuses, _, _, errors = kernel.tick(q, v)
+            tau, qdd, forces, ok, message, statuses, _, _, errors, seconds = kernel.tick(q, v)
             assert ok, f"{what}: {message}"
+            assert len(seconds) == len(statuses) and all(s >= 0.0 for s in seconds), what
+            assert 0.0 < sum(seconds) < 1.0, what  # each level timed, in seconds
             python_errors = controller.task_errors()
             assert errors.keys() == python_errors.keys(), what
             for task, error in errors.items():

@@ -49,9 +49,13 @@ bool dynamics_solution(const HierarchyProblem& problem, Eigen::MatrixXd& Z, Eige
 
 /// The cascade of the equality rows alone: one least squares and null space per level.
 Eigen::VectorXd equalities_only(const HierarchyProblem& problem, Eigen::MatrixXd Z,
-                                Eigen::VectorXd x) {
-  for (const Level& level : problem.levels)
+                                Eigen::VectorXd x, LevelClock& clock) {
+  clock.start();
+  for (std::size_t depth = 0; depth < problem.levels.size(); ++depth) {
+    const Level& level = problem.levels[depth];
     if (level.b.size() && Z.cols()) least_squares_step(Z, x, level.A, level.b);
+    clock.lap(depth);
+  }
   return x;
 }
 
@@ -171,7 +175,8 @@ Eigen::VectorXd solve_level(const Eigen::VectorXd& u_ls, const Eigen::MatrixXd& 
 
 /// The cascade of eqs. 9-11, one QP per level where an inequality binds.
 void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen::VectorXd x,
-                       HierarchySolution& out) {
+                       HierarchySolution& out, LevelClock& clock) {
+  clock.start();
   // Inequalities of the levels above in null-space coordinates: K u <= k keeps each within
   // the slack its level reached (eq. 9); k >= 0, so u = 0 is feasible for every level.
   Eigen::MatrixXd K(0, Z.cols());
@@ -181,6 +186,7 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
     const Level& level = problem.levels[depth];
     if (Z.cols() == 0) {
       out.levels[depth] = LevelStatus::no_freedom;
+      clock.lap(depth);
       continue;
     }
     const Eigen::MatrixXd Az = level.A * Z, Cz = level.C * Z;
@@ -194,7 +200,10 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
     const Eigen::VectorXd u =
         solve_level(u_ls, Az, r, N, Cz, s, K_free, k_free, Z, x, out.levels[depth], out.qp_solves);
     x.noalias() += Z * u;
-    if (depth == last) break;
+    if (depth == last) {
+      clock.lap(depth);
+      break;
+    }
     if (s.size()) {
       K = stacked(K, Cz);
       k = stacked(k, s);
@@ -204,6 +213,7 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
       Z = (Z * N).eval();
       K = (K * N).eval();
     }
+    clock.lap(depth);
   }
   out.x = std::move(x);
 }
@@ -213,17 +223,18 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
 HierarchySolution solve_cascade(const HierarchyProblem& problem) {
   HierarchySolution out;
   out.levels.assign(problem.levels.size(), LevelStatus::exact);
+  LevelClock clock(out.level_seconds, problem.levels.size());
   Eigen::MatrixXd Z;
   Eigen::VectorXd x;
   if (!dynamics_solution(problem, Z, x)) {
     out.message = "the base block of the mass matrix is singular";
     return out;
   }
-  out.x = equalities_only(problem, Z, x);
+  out.x = equalities_only(problem, Z, x, clock);
   bool feasible = true;
   for (const Level& level : problem.levels)
     feasible = feasible && satisfies(level.C, out.x, level.d);
-  if (!feasible) with_inequalities(problem, std::move(Z), std::move(x), out);
+  if (!feasible) with_inequalities(problem, std::move(Z), std::move(x), out, clock);
   out.ok = out.x.allFinite();
   if (!out.ok) out.message = "non-finite solution";
   for (const LevelStatus status : out.levels)

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -54,11 +55,34 @@ inline const char* level_status_name(LevelStatus status) {
 /// The result of a hierarchy method: x and what happened on the way (TSID's HQPOutput).
 struct HierarchySolution {
   Eigen::VectorXd x;
-  bool ok = false;                  // false: x is not a solution (see message)
-  std::string message;              // why not, or which levels fell back
-  std::vector<LevelStatus> levels;  // one per problem level
-  std::vector<double> residuals;    // ||A x - b|| of each level at the returned x
+  bool ok = false;                    // false: x is not a solution (see message)
+  std::string message;                // why not, or which levels fell back
+  std::vector<LevelStatus> levels;    // one per problem level
+  std::vector<double> residuals;      // ||A x - b|| of each level at the returned x
+  std::vector<double> level_seconds;  // time spent on each level, over all passes
   int qp_solves = 0;
+};
+
+/// Seconds spent on each level, accumulated over the passes of a method (solution.py LevelClock).
+class LevelClock {
+ public:
+  explicit LevelClock(std::vector<double>& seconds, std::size_t levels) : seconds_(seconds) {
+    seconds_.assign(levels, 0.0);
+    start();
+  }
+  /// Start timing the first level of a pass from now.
+  void start() { start_ = Clock::now(); }
+  /// Charge the time since the last lap to `level`.
+  void lap(std::size_t level) {
+    const auto now = Clock::now();
+    seconds_[level] += std::chrono::duration<double>(now - start_).count();
+    start_ = now;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  std::vector<double>& seconds_;
+  Clock::time_point start_;
 };
 
 /// Strict priorities: a cascade of QPs with null-space reduction (Herzog 2016 §2.2).

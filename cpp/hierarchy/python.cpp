@@ -45,6 +45,7 @@ nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynam
   out["message"] = solution.message;
   out["levels"] = statuses;
   out["residuals"] = solution.residuals;
+  out["level_seconds"] = solution.level_seconds;
   out["qp_solves"] = solution.qp_solves;
   return out;
 }

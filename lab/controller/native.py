@@ -181,7 +181,7 @@ class NativeController(WholeBodyController):
             if self.robot.updated_by == "native"
             else native.tick(self.robot.q, self.robot.v)
         )
-        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors = result
+        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors, _seconds = result
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:
