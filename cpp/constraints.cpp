@@ -1,10 +1,18 @@
 // Inequality rows C x <= d (lab/controller/constraints.py): friction, cop, torque_limits,
 // joint_limits.
+#include "constraints.hpp"
+
 #include <cmath>
 
-#include "tasks.hpp"
+#include "tasks/base.hpp"
 
 namespace lab {
+
+void Constraint::reset(const RobotModel& robot, Eigen::Index n) {
+  C.setZero(n, robot.nx);
+  d.setZero(n);
+}
+
 namespace {
 
 /// Inner friction pyramid and normal-force bounds per contact (Raiola C_fc); a contact that is

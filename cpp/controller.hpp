@@ -9,10 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "constraints.hpp"
 #include "hierarchy/problem.hpp"
 #include "model.hpp"
 #include "references.hpp"
-#include "tasks.hpp"
+#include "tasks/registry.hpp"
 
 namespace lab {
 

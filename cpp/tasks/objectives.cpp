@@ -1,11 +1,20 @@
-// Load-distribution objectives of Hutter 2014 §4–5.1 (lab/controller/objectives.py): torques,
-// force_normal, force_interpolation.
+// Load-distribution objectives of Hutter 2014 §4–5.1 (lab/controller/tasks/objectives.py):
+// forces, torques, force_normal, force_interpolation.
 #include <cmath>
 
-#include "tasks.hpp"
+#include "tasks/base.hpp"
 
 namespace lab {
 namespace {
+
+/// Contact-force regularization: F → 0.
+class ForceTask : public Task {
+ public:
+  void compute(const RobotModel& robot, const References&) override {
+    reset(robot, robot.nf);
+    A.rightCols(robot.nf).setIdentity();
+  }
+};
 
 /// Joint torques → 0 through τ(x) = M_a q̈ + h_a − J_aᵀ F (Table 3, eqs. 44–45).
 class TorqueTask : public Task {
@@ -89,7 +98,8 @@ class ForceInterpolationTask : public Task {
 
 }  // namespace
 
-void add_objectives(TaskRegistry& tasks) {
+void add_objective_tasks(TaskRegistry& tasks) {
+  tasks["forces"] = std::make_unique<ForceTask>();
   tasks["torques"] = std::make_unique<TorqueTask>();
   tasks["force_normal"] = std::make_unique<ForceNormalTask>();
   tasks["force_interpolation"] = std::make_unique<ForceInterpolationTask>();

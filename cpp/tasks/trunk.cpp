@@ -1,11 +1,41 @@
-// Trunk tasks of Hutter's dynamic-trot hierarchy (lab/controller/trunk_tasks.py, Hutter 2014
-// Table 7): roll_pitch, yaw_rate, base_velocity.
+// Trunk tasks (lab/controller/tasks/trunk.py): base_orientation, base_height, and Hutter 2014
+// Table 7's roll_pitch, yaw_rate, base_velocity.
 #include <pinocchio/spatial/explog.hpp>
 
-#include "tasks.hpp"
+#include "tasks/base.hpp"
 
 namespace lab {
 namespace {
+
+/// Base angular acceleration in world axes tracks ω̇ = kp log(R_ref Rᵀ) + kd (ω_ref − ω).
+class BaseOrientationTask : public Task {
+ public:
+  void compute(const RobotModel& robot, const References& refs) override {
+    const Eigen::Matrix3d& R = robot.base_rotation;
+    const Eigen::Vector3d e = pinocchio::log3((refs.base_rotation * R.transpose()).eval());
+    const Eigen::Vector3d de = refs.base_angular_velocity - R * robot.v.segment<3>(3);
+    reset(robot, 3);
+    A.block<3, 3>(0, 3) = R;
+    error = e;
+    b = gains.kp * e + gains.kd * de;
+  }
+};
+
+/// Vertical base acceleration: z row of d/dt(R v_b) = R (v̇_b + ω_b × v_b).
+class BaseHeightTask : public Task {
+ public:
+  void compute(const RobotModel& robot, const References& refs) override {
+    const Eigen::Matrix3d& R = robot.base_rotation;
+    const Eigen::Vector3d v_lin = robot.v.head<3>(), w = robot.v.segment<3>(3);
+    const double e = refs.base_height - robot.q[2];
+    const double de = -(R * v_lin)[2];
+    reset(robot, 1);
+    A.block<1, 3>(0, 0) = R.row(2);
+    const double drift = (R * w.cross(v_lin))[2];
+    error.setConstant(1, e);
+    b[0] = gains.kp * e + gains.kd * de - drift;
+  }
+};
 
 /// Base-frame x, y rows of the angular acceleration: ω̇_b,xy = kp e_b,xy + kd (ω_ref − ω)_b,xy.
 class RollPitchTask : public Task {
@@ -51,6 +81,8 @@ class PlanarVelocityTask : public Task {
 }  // namespace
 
 void add_trunk_tasks(TaskRegistry& tasks) {
+  tasks["base_orientation"] = std::make_unique<BaseOrientationTask>();
+  tasks["base_height"] = std::make_unique<BaseHeightTask>();
   tasks["roll_pitch"] = std::make_unique<RollPitchTask>();
   tasks["yaw_rate"] = std::make_unique<YawRateTask>();
   tasks["base_velocity"] = std::make_unique<PlanarVelocityTask>();

@@ -1,0 +1,16 @@
+#include "tasks/registry.hpp"
+
+namespace lab {
+
+TaskRegistry make_tasks() {
+  TaskRegistry tasks;
+  add_contact_tasks(tasks);
+  add_trunk_tasks(tasks);
+  add_com_tasks(tasks);
+  add_posture_tasks(tasks);
+  add_objective_tasks(tasks);
+  add_feet_tasks(tasks);
+  return tasks;
+}
+
+}  // namespace lab
