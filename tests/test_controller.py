@@ -135,7 +135,7 @@ def test_a_higher_task_is_untouched_by_the_levels_below() -> None:
         Stack.of([["friction", "torque_limits"], ["contact"], ["base_orientation"]])
     )
     alone = controller.compute(q, v)
-    A, b = controller.tasks["base_orientation"].rows(controller.robot, controller.references)
+    A, b, _ = controller.tasks["base_orientation"].rows(controller.robot, controller.references)
     residual_alone = np.linalg.norm(A[:, : len(alone.qdd)] @ alone.qdd - b)
     controller.set_stack(
         Stack.of([["friction", "torque_limits"], ["contact"], ["base_orientation"], ["posture"]])

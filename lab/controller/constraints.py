@@ -11,7 +11,7 @@ import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import PerContactSet, read_only
+from lab.controller.rows import PerContactSet, read_only
 
 
 @dataclass

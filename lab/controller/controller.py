@@ -25,7 +25,8 @@ from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.qp import SOLVERS
 from lab.controller.references import References
 from lab.controller.stack import Stack
-from lab.controller.tasks import TASK_TYPES, PerContactSet, Task, TaskGains, no_rows, read_only
+from lab.controller.rows import PerContactSet, no_rows, read_only
+from lab.controller.tasks import TASK_TYPES, Task, TaskGains
 
 
 @dataclass
@@ -77,6 +78,7 @@ class WholeBodyController:
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
         self._support = PerContactSet(_support_mask)
+        self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
         self.set_stack(config.stack)
         self.set_hierarchy(config.hierarchy, config.solver, config.formulation)
 
@@ -136,11 +138,14 @@ class WholeBodyController:
         # Newton–Euler rows (Herzog eq. 13): M_u q̈ − J_uᵀ F = −h_u.
         dynamics_A = np.concatenate((robot.M[base], -robot.Jc[:, base].T), axis=1)
         levels = []
+        errors: dict[str, np.ndarray] = {}
         weight = 1.0  # of the next level with tasks; inequality-only levels take no weight
         for tasks, constraints in self._levels:
             A_rows, b_rows, C_rows, d_rows = [], [], [], []
             for task in tasks:
-                A, b = task.rows(robot, refs)
+                A, b, error = task.rows(robot, refs)
+                if error.size:
+                    errors[task.name] = error
                 if task.gains.weight != 1.0:
                     scale = np.sqrt(task.gains.weight)
                     A, b = scale * A, scale * b
@@ -159,6 +164,7 @@ class WholeBodyController:
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
+        self._errors = errors
         support = self._support.get(robot, refs.contact_active)
         terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
@@ -180,13 +186,18 @@ class WholeBodyController:
         """Norm of each task's tracking error at the last tick (tasks in the stack only)."""
         in_stack = set(self.config.stack.names())
         return {
-            name: math.hypot(*task.error)
-            for name, task in self.tasks.items()
-            if name in in_stack and task.error.size
+            name: math.hypot(*self._errors[name])
+            for name in self.tasks
+            if name in in_stack and name in self._errors
         }
 
     def gains(self) -> Mapping[str, TaskGains]:
+        """Each task's gains, by task name."""
         return {name: task.gains for name, task in self.tasks.items()}
+
+    def gains_used(self) -> Mapping[str, tuple[str, ...]]:
+        """Which of kp, kd and weight each task reads, by task name."""
+        return {name: task.GAINS for name, task in self.tasks.items()}
 
 
 def _stacked(

@@ -391,8 +391,10 @@ class Session:
         }
 
     def _task_gains(self) -> list[dict]:
+        """Each task's gains; a gain the task does not read is None (the UI hides it)."""
+        used = self.controller.gains_used()
         return [
-            {"name": name, "kp": g.kp, "kd": g.kd, "weight": g.weight}
+            {"name": name, **_gain_fields(g, used[name]), "gains": list(used[name])}
             for name, g in self.controller.gains().items()
         ]
 
@@ -461,15 +463,17 @@ class Session:
         if net_cop is not None:
             net_cop[2] = 0.0
         errors = self.controller.task_errors()
-        gains = self.controller.gains()
+        gains, used = self.controller.gains(), self.controller.gains_used()
         tasks = [
             {
                 "name": name,
                 "level": level,
                 "error": errors.get(name, 0.0),
-                "kp": gains[name].kp if name in gains else None,
-                "kd": gains[name].kd if name in gains else None,
-                "weight": gains[name].weight if name in gains else 1.0,
+                **(
+                    _gain_fields(gains[name], used[name])
+                    if name in gains
+                    else {"kp": None, "kd": None, "weight": 1.0}
+                ),
             }
             for level, names in enumerate(self.controller.config.stack.levels)
             for name in names
@@ -535,3 +539,8 @@ class Session:
         """Angle (rad) between the base and its reference orientation."""
         R_ref = self.controller.references.base_rotation
         return float(np.linalg.norm(pin.log3(R_ref.T @ self.model.base_rotation)))
+
+
+def _gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
+    """kp, kd and weight of a task, None for those it does not read."""
+    return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}

@@ -34,7 +34,7 @@ import pinocchio as pin
 from scipy.linalg.lapack import dposv as posv
 
 from lab.controller.model import BASE_DOF, RobotModel
-from lab.controller.walk_tasks import leg_joints
+from lab.controller.tasks.posture import leg_joints
 
 CLIK_GAIN = 10.0  # 1/s, P of eqs. 30–31 (Raiola Table 2)
 DAMPING = 1e-3  # damped least squares near a stretched leg's singularity

@@ -6,10 +6,10 @@ shrunk by a safety margin (so the body moves as little as possible). Swing: the 
 minimum-jerk path to its foothold `step_length` ahead, lifted by a bump of `step_height`, and
 touches down at the end of the phase. Base orientation is held level at the initial heading.
 
-The references carry, for the tasks of objectives.py and walk_tasks.py: the swing trajectories,
-the surface normal under each foot (world z, or the known half-cylinder), and the force
-interpolation weight w of §5.1.6: a leg is unloaded (w 1 → 0) over the last `transition` s before
-lift-off and loaded (w 0 → 1) over the first `transition` s after touchdown.
+The references carry, for the tasks of tasks/objectives.py and tasks/feet.py: the swing
+trajectories, the surface normal under each foot (world z, or the known half-cylinder), and the
+force interpolation weight w of §5.1.6: a leg is unloaded (w 1 → 0) over the last `transition` s
+before lift-off and loaded (w 0 → 1) over the first `transition` s after touchdown.
 """
 
 from dataclasses import dataclass
