@@ -18,14 +18,14 @@ from lab.controller.constraints import (
     JointLimitConstraint,
     TorqueLimitConstraint,
 )
-from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.hierarchy import METHODS, HierarchyProblem, HierarchySolution, Level
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.qp import SOLVERS
 from lab.controller.references import References
-from lab.controller.stack import Stack
 from lab.controller.rows import PerContactSet, no_rows, read_only
+from lab.controller.stack import Stack
 from lab.controller.tasks import TASK_TYPES, Task, TaskGains
 
 
@@ -47,9 +47,16 @@ class ControllerConfig:
 
 @dataclass
 class ControlOutput:
+    """One tick's result: joint torques τ (N m, pinocchio joint order), x = [q̈, F] split into
+    q̈ (the generalized accelerations, base part in the base frame) and F (contact forces in the
+    layout of RobotModel), how the hierarchy found it, and the norm of each stack task's
+    tracking error (task units)."""
+
     tau: np.ndarray
     qdd: np.ndarray
     forces: np.ndarray
+    solution: HierarchySolution
+    task_errors: dict[str, float]
 
 
 class WholeBodyController:
@@ -178,12 +185,15 @@ class WholeBodyController:
         """Torques at the state of the last RobotModel.update (a behaviour may update the
         references in between)."""
         problem = self.build_problem()
-        x = METHODS[self.config.hierarchy](problem, self.config.solver)
-        nv = self.robot.nv
-        return ControlOutput(self.robot.joint_torques(x), x[:nv], x[nv:])
+        solution = METHODS[self.config.hierarchy](problem, self.config.solver)
+        x, nv = solution.x, self.robot.nv
+        return ControlOutput(
+            self.robot.joint_torques(x), x[:nv], x[nv:], solution, self.task_errors()
+        )
 
     def task_errors(self) -> dict[str, float]:
-        """Norm of each task's tracking error at the last tick (tasks in the stack only)."""
+        """Norm of each task's tracking error at the last `build_problem` (tasks in the stack
+        only)."""
         in_stack = set(self.config.stack.names())
         return {
             name: math.hypot(*self._errors[name])

@@ -14,6 +14,7 @@ import contextlib
 import numpy as np
 
 from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
+from lab.controller.hierarchy import HierarchySolution
 from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
@@ -162,14 +163,16 @@ class NativeController(WholeBodyController):
         if native.method != self.config.hierarchy:
             native.set_method(self.config.hierarchy)
         send_references(native, self.references)
-        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors = native.tick(
+        tau, qdd, forces, ok, message, levels, residuals, solves, errors = native.tick(
             self.robot.q, self.robot.v
         )
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:
             raise QPFailure(f"native {self.config.hierarchy}: {message}")
-        return ControlOutput(tau, qdd, forces)
+        # The kernel does not time its levels: level_seconds stays empty.
+        solution = HierarchySolution(np.r_[qdd, forces], tuple(levels), tuple(residuals), solves)
+        return ControlOutput(tau, qdd, forces, solution, dict(errors))
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
@@ -192,6 +195,7 @@ class NativeController(WholeBodyController):
         self._synced = (arrays, numbers)
 
     def task_errors(self) -> dict[str, float]:
+        """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
         if self.kernel_ran == "native":
             return dict(self._native_errors)
         return super().task_errors()

@@ -15,7 +15,7 @@ import pinocchio as pin
 from lab.controller.behaviours import BEHAVIOURS, Balance
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig
-from lab.controller.hierarchy import METHODS
+from lab.controller.hierarchy import METHODS, HierarchySolution
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.momentum import MOMENTUM_MODES
@@ -130,8 +130,9 @@ class Session:
         self.ticks = 0
         self.qp_failures = 0
         self.qp_ok = True
-        self._failures_unreported = 0
-        self._last_failure_event = -FAILURE_EVENT_PERIOD
+        self.solution: HierarchySolution | None = None  # the last tick's, None after a fallback
+        self._unreported = {kind: 0 for kind in ("solver_failure", "solver_fallback")}
+        self._last_report = dict.fromkeys(self._unreported, -FAILURE_EVENT_PERIOD)
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
         self.forces = np.zeros(self.model.nf)
@@ -217,10 +218,20 @@ class Session:
             if not np.all(np.isfinite(out.tau)):
                 raise FloatingPointError("non-finite torques")
             self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
-        except (ArithmeticError, np.linalg.LinAlgError, RuntimeError, ValueError) as error:
+            self.solution = out.solution
+            if out.solution.fallback_levels:
+                levels = list(out.solution.fallback_levels)  # 0-based, as telemetry's tasks
+                self._report(
+                    "solver_fallback",
+                    f"the QP of stack level {levels} failed (counting from 0): the level keeps "
+                    "the solution of the levels above",
+                    levels=levels,
+                )
+        except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
             self.tau, self.forces, self.qp_ok = self._fallback_torques(q, v), 0 * self.forces, False
+            self.solution = None
             self.qp_failures += 1
-            self._report_failure(error)
+            self._report("solver_failure", f"{type(error).__name__}: {error}; fallback torques")
         self.control_us = (time.perf_counter() - start) * 1e6
 
     def _recover(self, divergence: SimulationDiverged) -> None:
@@ -243,17 +254,14 @@ class Session:
             restored="paused" if repeated else "standing",
         )
 
-    def _report_failure(self, error: Exception) -> None:
-        """One solver_failure event per FAILURE_EVENT_PERIOD at most, with the count since."""
-        self._failures_unreported += 1
-        if self.time - self._last_failure_event >= FAILURE_EVENT_PERIOD:
-            self._event(
-                "solver_failure",
-                f"{type(error).__name__}: {error}; fallback torques",
-                count=self._failures_unreported,
-            )
-            self._failures_unreported = 0
-            self._last_failure_event = self.time
+    def _report(self, kind: str, message: str, **extra: object) -> None:
+        """One event of `kind` (solver_failure, solver_fallback) per FAILURE_EVENT_PERIOD at
+        most, with the count of ticks since the last one."""
+        self._unreported[kind] += 1
+        if self.time - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
+            self._event(kind, message, count=self._unreported[kind], **extra)
+            self._unreported[kind] = 0
+            self._last_report[kind] = self.time
 
     def _fallback_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint PD to the reference posture plus the bias forces: safe for one or a few ticks."""
@@ -508,6 +516,7 @@ class Session:
                 "solve_us": self.control_us,
                 "failures": self.qp_failures,
             },
+            "solution": None if self.solution is None else self.solution.summary(),
             "command": dict(zip(("vx", "vy", "yaw_rate"), self.velocity.tolist(), strict=True)),
             "pushes": [
                 {

@@ -51,6 +51,7 @@ from lab.controller.hierarchy.formulations import (
 )
 from lab.controller.hierarchy.linalg import SingularSystem
 from lab.controller.hierarchy.problem import HierarchyProblem, Level
+from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, level_residuals
 
 RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
 RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
@@ -88,19 +89,28 @@ class _Budget:
         return not self.ran_out
 
 
-def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
-    """x = [q̈, F] by iterative null-space projection; `solver` is unused (no QP here)."""
+def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> HierarchySolution:
+    """x = [q̈, F] by iterative null-space projection, every level `projected`, `capped` when an
+    active-set search stopped at its cap; `solver` is unused (no QP here)."""
     if problem.formulation == "sequential":
-        return _solve_sequential(problem)
-    change = reparametrize(problem, problem.formulation)
-    levels = [change.eom] + [change.level(level) for level in problem.levels]
-    z = hierarchical_least_squares(levels, change.T.shape[1])
-    return change.T @ z + change.t
+        x, capped = _solve_sequential(problem)
+    else:
+        change = reparametrize(problem, problem.formulation)
+        levels = [change.eom] + [change.level(level) for level in problem.levels]
+        search = _searched(levels, change.T.shape[1])
+        x, capped = change.T @ search.z + change.t, search.capped
+    statuses = (PROJECTED,) * len(problem.levels)
+    return HierarchySolution(x, statuses, level_residuals(problem.levels, x), capped=capped)
 
 
 def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
     """Strict priorities over z ∈ Rⁿ with inequalities activated when violated (§3.1–3.2);
     warns (ActiveSetCapWarning) when the cap stopped the search."""
+    return _searched(levels, n).z
+
+
+def _searched(levels: Sequence[Level], n: int) -> ActiveSetSolution:
+    """The active-set search, warning (ActiveSetCapWarning) when the cap stopped it."""
     solution = active_set_least_squares(levels, n)
     if solution.capped:
         state = "feasible" if solution.feasible else "still violating an inequality"
@@ -108,9 +118,9 @@ def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
             f"nullspace: active set stopped at the cap of {MAX_PROJECTIONS} hierarchy solves, at "
             f"the best point found ({state})",
             ActiveSetCapWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    return solution.z
+    return solution
 
 
 def active_set_least_squares(
@@ -226,7 +236,8 @@ def _project(
     return z
 
 
-def _solve_sequential(problem: HierarchyProblem) -> np.ndarray:
+def _solve_sequential(problem: HierarchyProblem) -> tuple[np.ndarray, bool]:
+    """Hutter Table 4: q̈ first, then τ (module docstring); x and whether a search was capped."""
     terms = problem.terms
     if terms is None:
         raise ValueError("formulation 'sequential' needs the model terms of the problem")
@@ -241,9 +252,11 @@ def _solve_sequential(problem: HierarchyProblem) -> np.ndarray:
         dynamic_levels.append(
             Level(level.A[~moving], level.b[~moving], level.C[~limiting], level.d[~limiting])
         )
-    qdd = hierarchical_least_squares(motion_levels, nv)  # step 1 (eq. 48)
+    motion = _searched(motion_levels, nv)  # step 1 (eq. 48)
+    qdd = motion.z
     change = torque_step(terms, qdd)
     levels = [change.eom] + [change.level(level) for level in dynamic_levels]
-    tau = hierarchical_least_squares(levels, change.T.shape[1])  # step 2 (eqs. 49–51)
+    torque = _searched(levels, change.T.shape[1])  # step 2 (eqs. 49–51)
     support = terms.Jc[np.flatnonzero(terms.support)]
-    return constrained_forward_dynamics(terms, tau, support @ qdd)
+    x = constrained_forward_dynamics(terms, torque.z, support @ qdd)
+    return x, motion.capped or torque.capped
