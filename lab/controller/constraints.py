@@ -179,7 +179,7 @@ class JointLimitConstraint(Constraint):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         T = self.horizon
-        q, dq = robot.q[7:], robot.v[BASE_DOF:]
+        q, dq = robot.joint_positions, robot.joint_velocities
         upper = 2.0 * (self.upper - q - dq * T) / T**2
         lower = 2.0 * (self.lower - q - dq * T) / T**2
         return _joint_bounds(robot.nx, robot.na), np.concatenate([upper, -lower])

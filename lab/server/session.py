@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.behaviours import BEHAVIOURS, Balance
+from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig
 from lab.controller.hierarchy import METHODS, HierarchySolution
@@ -79,6 +79,7 @@ class Session:
         self.config = config or SessionConfig()
         self._events: list[dict] = []
         self.divergences = 0  # sim divergences since the session started
+        self.behaviour: Behaviour | None = None  # set by _build, replaced by the gait command
         self._build(self.config)
 
     # ----------------------------------------------------------------------------- set-up
@@ -149,10 +150,8 @@ class Session:
         self.model.update(*self.plant.state())
         behaviour = BEHAVIOURS[name](self.model, self.robot.q_standing)
         if options:
-            if not hasattr(behaviour, "configure"):
-                raise ValueError(f"gait {name!r} takes no {', '.join(options)}")
             behaviour.configure(**options)
-        if hasattr(behaviour, "continue_from") and hasattr(self, "behaviour"):
+        if self.behaviour is not None:
             behaviour.continue_from(self.behaviour)
         walking_stack = behaviour.lifts_feet and (
             "swing_feet" not in self.controller.config.stack.names()

@@ -10,6 +10,7 @@
 import numpy as np
 
 from lab.controller.behaviours.balance import standing_references
+from lab.controller.behaviours.base import NoOptions
 from lab.controller.behaviours.static_walk import min_jerk
 from lab.controller.model import RobotModel
 
@@ -19,7 +20,7 @@ SHIFT = 0.25  # m, forwards
 SHIFT_TIME = 2.0  # s
 
 
-class HeightStep:
+class HeightStep(NoOptions):
     name = "height_step"
     lifts_feet = False
 
@@ -38,7 +39,7 @@ class HeightStep:
         self.references.base_height = self.height - drop
 
 
-class ForwardShift:
+class ForwardShift(NoOptions):
     name = "forward_shift"
     lifts_feet = False
 

@@ -72,7 +72,7 @@ class LegPostureReference:
         the references of the legs `carry_from` (those standing since before this tick), so
         that the base's position error outlives the step and its mean velocity converges."""
         j = self.joints[leg]
-        self.position[j] = robot.q[7:][j]
+        self.position[j] = robot.joint_positions[j]
         others = carry_from
         if not others:
             return
@@ -80,7 +80,7 @@ class LegPostureReference:
         for k in others:
             jk = self.joints[k]
             J = robot.Jc[robot.force_slices[k], BASE_DOF + jk]
-            lag += J @ (self.position[jk] - robot.q[7:][jk]) / len(others)
+            lag += J @ (self.position[jk] - robot.joint_positions[jk]) / len(others)
         lag[2] = 0.0
         lag *= min(1.0, MAX_CARRY / max(float(np.linalg.norm(lag)), 1e-12))
         J = robot.Jc[robot.force_slices[leg], BASE_DOF + j]

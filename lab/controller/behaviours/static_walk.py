@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from lab.controller.behaviours.base import NoOptions
 from lab.controller.model import RobotModel
 from lab.controller.surfaces import HALF_CYLINDER, HalfCylinder
 from lab.controller.walk_references import WORLD_UP, WalkReferences
@@ -89,7 +90,7 @@ def inside_triangle(point: np.ndarray, triangle: np.ndarray, margin: float) -> n
     return best
 
 
-class StaticWalk:
+class StaticWalk(NoOptions):
     """The crawl on flat ground, or in place on a known surface (its normals in the references)."""
 
     name = "static_walk"

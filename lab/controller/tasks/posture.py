@@ -26,8 +26,8 @@ class PostureTask(Task):
     name = "posture"
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        e = refs.posture - robot.q[7:]
-        b = self.gains.kp * e - self.gains.kd * robot.v[BASE_DOF:]
+        e = refs.posture - robot.joint_positions
+        b = self.gains.kp * e - self.gains.kd * robot.joint_velocities
         return TaskRows(selection(robot.nx, BASE_DOF, robot.nv), b, e)
 
 
@@ -132,7 +132,7 @@ class MovingPostureTask(Task):
         rows = legs.rows_of(robot, weight)
         joints = rows.joints
         w = weight[joints]
-        e = (refs.posture - robot.q[7:])[joints]
+        e = (refs.posture - robot.joint_positions)[joints]
         rows.write(w)
         de = reference_velocity[joints] - robot.v[rows.columns]
         return TaskRows(rows.view, w * (self.gains.kp * e + self.gains.kd * de), e)

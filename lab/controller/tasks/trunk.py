@@ -24,7 +24,7 @@ class BaseOrientationTask(Task):
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         R = robot.base_rotation
         e = pin.log3(refs.base_rotation.dot(R.T))
-        de = refs.base_angular_velocity - R.dot(robot.v[3:6])  # ω in world axes
+        de = refs.base_angular_velocity - R.dot(robot.base_angular_velocity)  # ω, world axes
         A, view = self._matrix(robot, 3)
         A[:, 3:6] = R
         return TaskRows(view, self.gains.kp * e + self.gains.kd * de, e)
@@ -40,7 +40,7 @@ class BaseHeightTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         R = robot.base_rotation
-        v_lin, w = robot.v[:3], robot.v[3:6]
+        v_lin, w = robot.base_linear_velocity, robot.base_angular_velocity
         e = refs.base_height - robot.base_position[2]
         de = -(R @ v_lin)[2]
         A, view = self._matrix(robot, 1)
@@ -63,7 +63,7 @@ class RollPitchTask(Task):
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         R = robot.base_rotation
         e = R.T @ pin.log3(refs.base_rotation @ R.T)
-        de = R.T @ refs.base_angular_velocity - robot.v[3:6]
+        de = R.T @ refs.base_angular_velocity - robot.base_angular_velocity
         b = self.gains.kp * e[:2] + self.gains.kd * de[:2]
         return TaskRows(selection(robot.nx, 3, 5), b, e[:2])
 
@@ -98,5 +98,5 @@ class PlanarVelocityTask(Task):
     GAINS = ("kd", "weight")
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        e = robot.base_rotation.T @ refs.base_linear_velocity - robot.v[:3]
+        e = robot.base_rotation.T @ refs.base_linear_velocity - robot.base_linear_velocity
         return TaskRows(selection(robot.nx, 0, 2), self.gains.kd * e[:2], e[:2])
