@@ -201,6 +201,44 @@ class WholeBodyController:
             if name in in_stack and name in self._errors
         }
 
+    def torque_limits(self) -> np.ndarray:
+        """τ_max of each actuated joint (N m, pinocchio joint order) that `torque_limits` uses."""
+        return self.constraints["torque_limits"].torque_limits
+
+    def set_torque_limits(self, limits: np.ndarray) -> None:
+        """Use new torque bounds τ_max (N m, one per actuated joint) from the next tick on;
+        raises ValueError for a wrong size and changes nothing then."""
+        limits = np.array(limits, dtype=float)  # a new array: the kernel mirror sees the change
+        if limits.shape != (self.robot.na,):
+            raise ValueError(f"torque limits need {self.robot.na} values, got {limits.shape}")
+        self.constraints["torque_limits"].torque_limits = limits
+
+    def joint_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper position limits of each actuated joint (rad, m for prismatic)."""
+        constraint = self.constraints["joint_limits"]
+        return constraint.lower, constraint.upper
+
+    def set_joint_limits(self, lower: np.ndarray, upper: np.ndarray) -> None:
+        """Use new joint position limits from the next tick on; raises ValueError for a wrong
+        size and changes nothing then."""
+        lower, upper = np.array(lower, dtype=float), np.array(upper, dtype=float)
+        if lower.shape != (self.robot.na,) or upper.shape != (self.robot.na,):
+            raise ValueError(f"joint limits need {self.robot.na} values each")
+        constraint = self.constraints["joint_limits"]
+        constraint.lower, constraint.upper = lower, upper
+
+    def posture_gains(self) -> TaskGains:
+        """The posture task's gains (the session's fallback PD uses them)."""
+        return self.tasks["posture"].gains
+
+    def momentum_mode(self) -> str:
+        """The momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
+        return self.tasks["momentum"].mode
+
+    def set_momentum_mode(self, mode: str) -> None:
+        """Switch the momentum task's feedback law; raises ValueError naming the modes."""
+        self.tasks["momentum"].set_mode(mode)
+
     def gains(self) -> Mapping[str, TaskGains]:
         """Each task's gains, by task name."""
         return {name: task.gains for name, task in self.tasks.items()}

@@ -44,13 +44,13 @@ def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
     """A native kernel on the controller's very model (pinocchio's serialization), with its
     contacts and limits; stack, gains and references are set separately."""
     robot, limits = controller.robot, controller.config.limits
-    joint_limits = controller.constraints["joint_limits"]
+    lower, upper = controller.joint_limits()
     return _kernel.Kernel(
         robot.model.saveToString(),
         [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
-        controller.constraints["torque_limits"].torque_limits,
-        joint_limits.lower,
-        joint_limits.upper,
+        controller.torque_limits(),
+        lower,
+        upper,
         limits.friction,
         limits.normal_min,
         limits.normal_max,
@@ -177,9 +177,8 @@ class NativeController(WholeBodyController):
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
-        joints = self.constraints["joint_limits"]
         limits = self.config.limits
-        arrays = (self.constraints["torque_limits"].torque_limits, joints.lower, joints.upper)
+        arrays = (self.torque_limits(), *self.joint_limits())
         numbers = (limits.friction, limits.normal_min, limits.normal_max)
         numbers += (self.config.level_weight_ratio,)
         if (

@@ -53,7 +53,9 @@ WALKING_PRESET = "raiola_s3"
 
 @dataclass
 class SessionConfig:
-    """What a session runs: robot, scene, and controller choices (None = the robot's default)."""
+    """What a session is built from: robot, scene, and the controller's initial choices (None =
+    the robot's default). Commands change the controller's own `ControllerConfig`, the one
+    source of truth while the session runs; a rebuild reads it back (`Session._live_config`)."""
 
     robot: str = "anymal"
     scene: str = "flat"
@@ -169,7 +171,6 @@ class Session:
         for task, gains in preset.gains.items():
             self.controller.set_gains(task, **gains)
         self.controller.set_hierarchy(preset.hierarchy)
-        self.config.stack, self.config.hierarchy = stack.as_lists(), preset.hierarchy
         return {"preset": name, "stack": stack.as_lists(), "hierarchy": self._hierarchy()}
 
     @property
@@ -264,7 +265,7 @@ class Session:
 
     def _fallback_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint PD to the reference posture plus the bias forces: safe for one or a few ticks."""
-        gains = self.controller.tasks["posture"].gains
+        gains = self.controller.posture_gains()
         refs = self.controller.references
         bias = self.model.h[BASE_DOF:] if np.all(np.isfinite(self.model.h)) else 0.0
         tau = bias + gains.kp * (refs.posture - q[7:]) - gains.kd * v[BASE_DOF:]
@@ -330,9 +331,9 @@ class Session:
                     body, np.array(force), duration, None if point is None else np.array(point)
                 )
             case cmd.RobotCommand(name=name):
-                self._rebuild(replace(self.config, robot=name, stack=None, gains={}))
+                self._rebuild(replace(self._live_config(), robot=name, stack=None, gains={}))
             case cmd.SceneCommand(name=name):
-                self._rebuild(replace(self.config, scene=name))
+                self._rebuild(replace(self._live_config(), scene=name))
             case cmd.HierarchyCommand(
                 method=method, solver=solver, formulation=formulation, kernel=kernel
             ):
@@ -341,16 +342,12 @@ class Session:
                 method = method or self.controller.config.hierarchy
                 self.controller.set_hierarchy(method, solver, formulation)
                 self.controller.set_kernel(kernel or self.controller.config.kernel)
-                self.config.hierarchy, self.config.kernel = method, self.controller.config.kernel
-                self.config.solver = self.controller.config.solver
-                self.config.formulation = self.controller.config.formulation
                 return {"hierarchy": self._hierarchy()}
             case cmd.StackCommand(preset=str(preset)):
                 return self._use_preset(preset)
             case cmd.StackCommand(levels=levels):
                 stack = Stack.of(levels)
                 self.controller.set_stack(stack)
-                self.config.stack = stack.as_lists()
                 return {"stack": stack.as_lists()}
             case cmd.GainsCommand(task=task, kp=kp, kd=kd, weight=weight):
                 gains = self.controller.set_gains(task, kp, kd, weight)
@@ -370,19 +367,32 @@ class Session:
                 }
                 return self._set_behaviour(name, options)
             case cmd.MomentumCommand(mode=mode):
-                self.controller.tasks["momentum"].set_mode(mode)  # ValueError names the modes
+                self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": self._momentum()}
         return {}
 
     def _momentum(self) -> dict:
         """The momentum task's feedback law (Herzog 2016 §3)."""
-        return {"mode": self.controller.tasks["momentum"].mode}
+        return {"mode": self.controller.momentum_mode()}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
     ) -> None:
         self.plant.push(body, force, point)  # raises KeyError naming the known bodies
         self.pushes[body] = Push(body, force, point, self.time + duration)
+
+    def _live_config(self) -> SessionConfig:
+        """The session's config with the controller's current choices, which the controller
+        alone holds while the session runs: what a rebuild for a new scene or robot keeps."""
+        live = self.controller.config
+        return replace(
+            self.config,
+            hierarchy=live.hierarchy,
+            solver=live.solver,
+            formulation=live.formulation,
+            stack=live.stack.as_lists(),
+            kernel=live.kernel,
+        )
 
     def _rebuild(self, config: SessionConfig) -> None:
         self._build(config)
