@@ -33,6 +33,8 @@ class Constraint:
     name: str = ""
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        """This tick's rows (C, d) of C x ≤ d over x = [q̈, F], at the state of the last
+        `robot.update` and the contact set of `refs`."""
         raise NotImplementedError
 
 

@@ -60,6 +60,11 @@ class ControlOutput:
 
 
 class WholeBodyController:
+    """The whole-body controller of one robot: the tasks of TASK_TYPES and the constraints,
+    arranged by the stack into levels, solved by the configured hierarchy method into
+    x = [q̈, F] and joint torques (module docstring). It reads the shared `robot` model, which
+    the caller updates, and the behaviour's `references`."""
+
     def __init__(
         self,
         robot: RobotModel,
@@ -91,6 +96,7 @@ class WholeBodyController:
 
     @property
     def known_names(self) -> tuple[str, ...]:
+        """Every task and constraint name a stack may use."""
         return (*self.tasks, *self.constraints)
 
     def set_stack(self, stack: Stack) -> None:
@@ -113,6 +119,8 @@ class WholeBodyController:
         kd: float | None = None,
         weight: float | None = None,
     ) -> TaskGains:
+        """Change the given gains of `task` (the others keep theirs); returns the new gains;
+        raises KeyError naming the tasks for an unknown name."""
         if task not in self.tasks:
             raise KeyError(f"unknown task {task!r} (tasks: {', '.join(self.tasks)})")
         changes = {"kp": kp, "kd": kd, "weight": weight}
@@ -125,6 +133,9 @@ class WholeBodyController:
     def set_hierarchy(
         self, method: str, solver: str | None = None, formulation: str | None = None
     ) -> None:
+        """Use hierarchy `method` (with `solver` and, for nullspace, `formulation`; None keeps
+        the current one) from the next tick on; raises KeyError naming the choices and changes
+        nothing for an unknown name."""
         solver = solver or self.config.solver
         formulation = formulation or self.config.formulation
         if method not in METHODS:

@@ -122,6 +122,7 @@ class NativeController(WholeBodyController):
         self.config.kernel = kernel
 
     def set_stack(self, stack: Stack) -> None:
+        """As WholeBodyController.set_stack, mirrored into the kernel."""
         super().set_stack(stack)
         if self._native is not None:
             self._mirror_stack(stack)
@@ -140,6 +141,7 @@ class NativeController(WholeBodyController):
         kd: float | None = None,
         weight: float | None = None,
     ) -> TaskGains:
+        """As WholeBodyController.set_gains, mirrored into the kernel."""
         gains = super().set_gains(task, kp, kd, weight)
         if self._native is not None:
             self._mirror_gains(task, gains)

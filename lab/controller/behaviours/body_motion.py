@@ -21,6 +21,8 @@ SHIFT_TIME = 2.0  # s
 
 
 class HeightStep(NoOptions):
+    """Hutter 2014 Exp6: stand, then lower the body (CoM and base height) by HEIGHT_STEP m."""
+
     name = "height_step"
     lifts_feet = False
 
@@ -33,6 +35,7 @@ class HeightStep(NoOptions):
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """Hold for HOLD s from the first tick, then step the height references down."""
         self.start = t if self.start is None else self.start
         drop = HEIGHT_STEP if t - self.start >= HOLD else 0.0
         self.references.com = self.com - np.array([0.0, 0.0, drop])
@@ -40,6 +43,8 @@ class HeightStep(NoOptions):
 
 
 class ForwardShift(NoOptions):
+    """Hutter 2014 Exp7: stand, then shift the CoM forward by SHIFT m on a minimum-jerk path."""
+
     name = "forward_shift"
     lifts_feet = False
 
@@ -51,6 +56,8 @@ class ForwardShift(NoOptions):
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """Hold for HOLD s from the first tick, then move the CoM reference forward over
+        SHIFT_TIME s (position in m, world x; velocity in m/s)."""
         self.start = t if self.start is None else self.start
         s, ds, _ = min_jerk((t - self.start - HOLD) / SHIFT_TIME)
         self.references.com = self.com + np.array([SHIFT * s, 0.0, 0.0])

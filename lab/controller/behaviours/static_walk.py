@@ -27,6 +27,9 @@ FOOTFALL = ("lh", "lf", "rh", "rf")
 
 @dataclass(frozen=True)
 class StaticWalkParameters:
+    """Timing and geometry of the static crawl (Hutter 2014 §5.1): per step a CoM shift into
+    the next support triangle, then one leg's swing."""
+
     shift_time: float = 0.8  # s
     swing_time: float = 0.6  # s
     step_length: float = 0.08  # m, along the initial heading
@@ -36,10 +39,12 @@ class StaticWalkParameters:
 
     @property
     def step_time(self) -> float:
+        """Duration (s) of one step: the shift, then the swing."""
         return self.shift_time + self.swing_time
 
     @property
     def cycle_time(self) -> float:
+        """Duration (s) of a full cycle: one step per leg."""
         return len(FOOTFALL) * self.step_time
 
 
@@ -135,6 +140,8 @@ class StaticWalk(NoOptions):
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """Advance the crawl to sim time `t` (s): CoM shift, then the step's swing and its
+        force interpolation ramps. The command and the measured contacts are not used."""
         p, refs = self.parameters, self.references
         if self.start is None:
             self.start = t

@@ -158,6 +158,9 @@ class Walking:
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """One tick of the walking pattern generator (module docstring): rate-limit the command
+        (m/s, rad/s), advance the gait from the measured contacts, plan the swinging feet, and
+        set the trunk, CoM and posture references (world axes)."""
         R = robot.base_rotation
         yaw = math.atan2(R[1, 0], R[0, 0])
         if self.scheduler is None:

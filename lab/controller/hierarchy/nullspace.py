@@ -12,19 +12,17 @@ Inequality rows C x ≤ d (§3.2, §5.1.3) are off until violated: a violated ro
 equality C_j x = d_j at its own level, stacked with the other active rows of that level just above
 that level's equalities, and the whole hierarchy is solved again. §3.2 stops there, and the
 active set only grows: a row activated on the way stays pinned at its bound where the final
-solution would keep it inside, and both bounds of one joint can end up pinned at once (Sim4, F min
-under knee limits in three-leg support: eleven torque rows pinned against three internal force
-directions, their least-squares compromise far from any bound). So this is a primal active set:
+solution would keep it inside, and both bounds of one joint can end up pinned at once
+(docs/controller.md has the cases that showed it). So this is a primal active set:
 §3.2's activation first (the violated rows of the highest violated level, until none is), then an
 active row is released when the hierarchy solved without it keeps it inside its bound (its
 multiplier has the wrong sign; every level is a convex least squares, so an optimum without the
 row that satisfies it is the optimum with it), and z steps from where it is towards the optimum of
 the new active set only as far as no inactive row gets violated, the row that blocks it being
-activated. Jumping to that optimum instead and activating all it violates cycled between active
-sets when knees and hips were both limited (Sim5), ending at the iteration cap far past a limit.
+activated (jumping to that optimum and activating all it violates can cycle between active sets).
 
-Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call: trotting with
-~100 inequality rows once took 50–120 ms a tick in activations and release trials. At the cap the
+Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call, against
+cycling and against ticks far over their budget (docs/controller.md). At the cap the
 search stops at the best point it has: the feasible z of the release phase (every inequality
 satisfied, some pinned that the optimum would release) or, still activating, the last z; an
 `ActiveSetCapWarning` says which (`warnings`: the caller decides how to show it).
