@@ -348,3 +348,6 @@ def test_a_stack_preset_brings_its_levels_gains_and_method() -> None:
     assert info["stack"] == reply["stack"] and "moving_posture" in info["stack"][-1]
     gains = {task["name"]: task for task in info["tasks"]}
     assert gains["swing_feet"]["weight"] == 1e6  # stacks/raiola_s1.toml
+    # A gain a task does not read is null: the UI hides it.
+    assert gains["forces"]["gains"] == ["weight"] and gains["forces"]["kp"] is None
+    assert gains["contact"]["kp"] is None and gains["contact"]["kd"] is not None
