@@ -4,6 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from lab.controller.behaviours import BEHAVIOURS
 from lab.controller.behaviours.balance import standing_references
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
@@ -135,7 +136,7 @@ def test_a_higher_task_is_untouched_by_the_levels_below() -> None:
         Stack.of([["friction", "torque_limits"], ["contact"], ["base_orientation"]])
     )
     alone = controller.compute(q, v)
-    A, b = controller.tasks["base_orientation"].rows(controller.robot, controller.references)
+    A, b, _ = controller.tasks["base_orientation"].rows(controller.robot, controller.references)
     residual_alone = np.linalg.norm(A[:, : len(alone.qdd)] @ alone.qdd - b)
     controller.set_stack(
         Stack.of([["friction", "torque_limits"], ["contact"], ["base_orientation"], ["posture"]])
@@ -174,3 +175,52 @@ def test_a_level_with_no_freedom_left_changes_nothing(name: str) -> None:
             with_posture = controller.compute(q, v)
             assert np.max(np.abs(with_posture.qdd - without.qdd)) <= LIMIT_TOL
             assert np.max(np.abs(with_posture.tau - without.tau)) <= LIMIT_TOL
+
+
+@pytest.mark.parametrize("gait", ["stand", "trot", "height_step"])
+def test_building_a_behaviour_leaves_the_shared_model_where_the_robot_is(gait: str) -> None:
+    """Standing references are computed on a scratch model: the controller's model keeps the
+    state of the last update, and the references are those of the standing posture."""
+    controller, robot = controller_for("anymal")
+    q, v = disturbed_state(robot, np.random.default_rng(7))
+    model = controller.robot
+    model.update(q, v)
+    com, M = model.com.copy(), model.M.copy()
+    behaviour = BEHAVIOURS[gait](model, robot.q_standing)
+    np.testing.assert_array_equal(model.q, q)
+    np.testing.assert_array_equal(model.v, v)
+    np.testing.assert_array_equal(model.com, com)
+    np.testing.assert_array_equal(model.M, M)
+    standing = RobotModel(robot.model, robot.contacts)
+    standing.update(robot.q_standing, np.zeros(robot.model.nv))
+    assert behaviour.references.base_height == pytest.approx(robot.q_standing[2])
+    if gait != "stand":  # stand keeps the robot's own x, y and heading
+        np.testing.assert_allclose(behaviour.references.com, standing.com, atol=1e-12)
+
+
+def test_a_behaviour_without_options_rejects_them_by_name() -> None:
+    controller, robot = controller_for("anymal")
+    stand = BEHAVIOURS["stand"](controller.robot, robot.q_standing)
+    with pytest.raises(ValueError, match="gait 'stand' takes no step_height"):
+        stand.configure(step_height=0.1)
+    stand.configure()  # no options: nothing to reject
+
+
+def test_each_task_declares_the_gains_it_reads() -> None:
+    """A gain a task does not declare leaves its rows unchanged."""
+    controller, robot = controller_for("anymal")
+    q, v = disturbed_state(robot, np.random.default_rng(3))
+    controller.robot.update(q, v)
+    for name, task in controller.tasks.items():
+        assert "weight" in task.GAINS, name
+        before = task.rows(controller.robot, controller.references)
+        before = before.A.copy(), before.b.copy()
+        for gain in ("kp", "kd"):
+            if gain not in task.GAINS:
+                controller.set_gains(name, **{gain: 123.0})
+        after = task.rows(controller.robot, controller.references)
+        # (momentum's LQR gain blends over its first ticks: equal to rounding, not bitwise)
+        np.testing.assert_allclose(after.A, before[0], rtol=1e-12, atol=1e-12, err_msg=name)
+        np.testing.assert_allclose(after.b, before[1], rtol=1e-12, atol=1e-12, err_msg=name)
+    assert controller.gains_used()["forces"] == ("weight",)
+    assert controller.gains_used()["contact"] == ("kd", "weight")

@@ -5,11 +5,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.hierarchy import METHODS, HierarchyProblem, Level, cascade
 from lab.controller.hierarchy.cascade import solve_cascade
 from lab.controller.hierarchy.linalg import least_squares_and_null_space, least_squares_step
 from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.hierarchy.weighted import solve_weighted
+from lab.controller.qp import QPFailure
 
 NX = 24
 EQUALITY_TOL = 1e-8  # residuals of exact equalities and of equality-only strict priority
@@ -54,7 +55,7 @@ def with_inequalities(rng: np.random.Generator, levels: int) -> HierarchyProblem
     optimum; the lowest equality level gets inequalities of its own too (soft against its tasks).
     """
     problem = equality_problem(rng, levels)
-    x_free = solve_cascade(problem)
+    x_free = solve_cascade(problem).x
     C = rng.standard_normal((8, NX))
     spread = np.abs(C @ x_free).mean()
     d = C @ x_free + np.where(np.arange(8) % 2 == 0, -0.5, 0.5) * spread
@@ -76,9 +77,9 @@ def truncated(problem: HierarchyProblem, levels: int) -> HierarchyProblem:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_lower_levels_never_change_a_higher_residual_equalities(seed: int) -> None:
     problem = equality_problem(np.random.default_rng(seed), 4)
-    full = solve_cascade(problem)
+    full = solve_cascade(problem).x
     for k in range(1, 4):
-        alone = solve_cascade(truncated(problem, k))
+        alone = solve_cascade(truncated(problem, k)).x
         for level in problem.levels[:k]:
             assert abs(residual(level, full) - residual(level, alone)) <= EQUALITY_TOL
 
@@ -86,7 +87,7 @@ def test_lower_levels_never_change_a_higher_residual_equalities(seed: int) -> No
 @pytest.mark.parametrize("seed", SEEDS)
 def test_first_level_reaches_its_least_squares_optimum(seed: int) -> None:
     problem = equality_problem(np.random.default_rng(seed), 3)
-    x = solve_cascade(problem)
+    x = solve_cascade(problem).x
     # Independent reference: least squares of level 1 over the affine set of the dynamics.
     A0, b0 = problem.dynamics_A, problem.dynamics_b
     x0 = np.linalg.lstsq(A0, b0, rcond=None)[0]
@@ -101,9 +102,9 @@ def test_first_level_reaches_its_least_squares_optimum(seed: int) -> None:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_priority_holds_with_active_inequalities(seed: int) -> None:
     problem = with_inequalities(np.random.default_rng(seed), 3)
-    full = solve_cascade(problem)
+    full = solve_cascade(problem).x
     for k in (2, 3):
-        alone = solve_cascade(truncated(problem, k))
+        alone = solve_cascade(truncated(problem, k)).x
         for level in problem.levels[1:k]:
             assert abs(residual(level, full) - residual(level, alone)) <= SOLVER_TOL
     # The limits of level 1 are above every task: they hold to the solver tolerance.
@@ -118,7 +119,7 @@ def test_inequalities_bind_the_solution(seed: int) -> None:
     problem = with_inequalities(np.random.default_rng(seed), 3)
     limits = problem.levels[0]
     without_limits = HierarchyProblem(problem.dynamics_A, problem.dynamics_b, problem.levels[1:])
-    free = solve_cascade(without_limits)
+    free = solve_cascade(without_limits).x
     assert np.max(limits.C @ free - limits.d) > 1e-2
 
 
@@ -126,15 +127,15 @@ def test_inequalities_bind_the_solution(seed: int) -> None:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_daqp_and_clarabel_agree(method: str, seed: int) -> None:
     problem = with_inequalities(np.random.default_rng(seed), 3)
-    x_daqp = METHODS[method](problem, "daqp")
-    x_clarabel = METHODS[method](problem, "clarabel")
+    x_daqp = METHODS[method](problem, "daqp").x
+    x_clarabel = METHODS[method](problem, "clarabel").x
     assert np.linalg.norm(x_daqp - x_clarabel) <= BACKEND_TOL * max(1.0, np.linalg.norm(x_daqp))
 
 
 @pytest.mark.parametrize("seed", SEEDS)
 def test_weighted_dynamics_and_inequalities_are_hard(seed: int) -> None:
     problem = with_inequalities(np.random.default_rng(seed), 3)
-    x = solve_weighted(problem)
+    x = solve_weighted(problem).x
     assert np.linalg.norm(problem.dynamics_A @ x - problem.dynamics_b) <= SOLVER_TOL
     for level in problem.levels:
         assert np.all(level.C @ x - level.d <= SOLVER_TOL)  # hard in one QP, whatever the level
@@ -152,11 +153,11 @@ def test_weighted_approaches_strict_as_weight_ratio_grows(seed: int) -> None:
             Level(random_rows(rng, 16, 16), rng.standard_normal(16), *empty_inequalities()),
         ],
     )
-    strict = solve_cascade(problem)
+    strict = solve_cascade(problem).x
     gaps = []
     for ratio in (1e2, 1e4, 1e6):
         problem.levels[1].weight = 1 / ratio
-        gaps.append(np.linalg.norm(solve_weighted(problem, "daqp") - strict))
+        gaps.append(np.linalg.norm(solve_weighted(problem, "daqp").x - strict))
     assert gaps[0] > gaps[1] > gaps[2]
     assert gaps[2] <= 1e-3 * np.linalg.norm(strict)
 
@@ -205,10 +206,48 @@ def test_a_level_without_freedom_keeps_the_solution_above() -> None:
     terms = DynamicsTerms(data["M"], data["h"], data["Jc"], data["support"])
     problem = HierarchyProblem(data["dynamics_A"], data["dynamics_b"], levels, terms)
     above = HierarchyProblem(problem.dynamics_A, problem.dynamics_b, levels[:-1], terms)
-    x, x_above = solve_cascade(problem), solve_cascade(above)
+    x, x_above = solve_cascade(problem).x, solve_cascade(above).x
     assert np.abs(problem.dynamics_A @ x - problem.dynamics_b).max() < EQUALITY_TOL
     # The limits of level 0 hold as well as they can (the push leaves them a slack of ~1e-6).
     slack = (levels[0].C @ x_above - levels[0].d).max()
     assert (levels[0].C @ x - levels[0].d).max() <= max(slack, 0.0) + SOLVER_TOL
     for level in levels[1:-1]:
         assert residual(level, x) == pytest.approx(residual(level, x_above), rel=1e-6)
+
+
+@pytest.mark.parametrize("seed", SEEDS[:4])
+def test_the_solution_says_how_each_level_was_solved(seed: int) -> None:
+    """Level statuses, residuals and QP count: equalities alone are `exact` with no QP; a problem
+    whose inequalities bind runs QPs; residuals are each level's ‖A x − b‖ at x."""
+    rng = np.random.default_rng(seed)
+    exact = solve_cascade(equality_problem(rng, 3))
+    assert exact.levels == ("exact",) * 3 and exact.qp_solves == 0 and exact.status == "ok"
+    problem = with_inequalities(np.random.default_rng(seed), 3)  # 4 levels: limits on top
+    solution = solve_cascade(problem)
+    assert "qp" in solution.levels and solution.qp_solves >= 1 and solution.status == "ok"
+    for level, residual in zip(problem.levels, solution.residuals, strict=True):
+        expected = np.linalg.norm(level.A @ solution.x - level.b) if len(level.b) else 0.0
+        assert residual == pytest.approx(expected, abs=1e-12)
+    assert len(solution.level_seconds) == len(problem.levels)
+    weighted = solve_weighted(problem)
+    assert weighted.levels == ("qp",) * 4 and weighted.qp_solves == 1
+
+
+def test_a_level_whose_qp_fails_is_reported_as_a_fallback(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The cascade's u = 0 fallback is not silent: the level is `kept_above` and the solution's
+    status `fallback`; the dynamics still hold exactly."""
+    problem = with_inequalities(np.random.default_rng(0), 3)
+    healthy = solve_cascade(problem)
+    first_qp = healthy.levels.index("qp")
+
+    def failing(*args: object, **kwargs: object) -> np.ndarray:
+        raise QPFailure("made to fail")
+
+    monkeypatch.setattr(cascade, "solve_qp", failing)
+    solution = solve_cascade(problem)
+    assert solution.status == "fallback"
+    assert solution.fallback_levels[0] == first_qp
+    assert solution.levels[first_qp] == "kept_above"
+    assert solution.summary()["fallback_levels"] == list(solution.fallback_levels)
+    dynamics_residual = problem.dynamics_A @ solution.x - problem.dynamics_b
+    assert np.linalg.norm(dynamics_residual) <= EQUALITY_TOL

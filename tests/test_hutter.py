@@ -12,10 +12,10 @@ import pytest
 from lab.controller.behaviours.static_walk import StaticWalk, inside_triangle
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel
-from lab.controller.objectives import quasi_static_forces, tangent_basis
 from lab.controller.stack import Stack
 from lab.controller.surfaces import ANYMAL_FOOT_RADIUS, HALF_CYLINDER
 from lab.controller.tasks import TaskGains
+from lab.controller.tasks.objectives import quasi_static_forces, tangent_basis
 from lab.description import build_robot, load_description
 from lab.server.scenario import load_scenario, run_scenario
 

@@ -169,7 +169,7 @@ def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
         for task_name, task in controller.tasks.items():
             if task_name in PYTHON_ONLY:
                 continue
-            python = task.rows(model, refs)
+            python = task.rows(model, refs)[:2]  # A, b
             native = kernel.rows(task_name)
             assert_rows_equal(native, python, f"{name} state {i}: task {task_name}")
         for constraint_name, constraint in controller.constraints.items():

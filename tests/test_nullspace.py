@@ -87,10 +87,10 @@ def with_swing_forces_pinned(problem: HierarchyProblem) -> HierarchyProblem:
 
 
 def solutions(c: WholeBodyController, problem: HierarchyProblem) -> dict[str, np.ndarray]:
-    out = {"cascade": solve_cascade(with_swing_forces_pinned(problem), "daqp")}
+    out = {"cascade": solve_cascade(with_swing_forces_pinned(problem), "daqp").x}
     for formulation in FORMULATIONS:
         problem.formulation = formulation
-        out[formulation] = solve_nullspace(problem)
+        out[formulation] = solve_nullspace(problem).x
     return out
 
 
@@ -115,14 +115,14 @@ def test_strict_stacks_agree_across_formulations_and_cascade(anymal, seed, activ
 def test_feasible_stacks_agree_across_every_method(anymal, seed) -> None:
     c = controller(anymal, STRICT, (True, True, False, True), seed)
     problem = c.build_problem()
-    x_ref = solve_nullspace(problem)
+    x_ref = solve_nullspace(problem).x
     for level in problem.levels:  # every level satisfiable at x_ref, x_ref the only solution
         level.b = level.A @ x_ref
     xs = solutions(c, problem)
     problem.formulation = "qdd_force"
     for name, x in xs.items():
         assert_same_motion_and_torque(c.robot, x, x_ref), name
-    weighted = METHODS["weighted"](with_swing_forces_pinned(problem), "daqp")
+    weighted = METHODS["weighted"](with_swing_forces_pinned(problem), "daqp").x
     model = c.robot
     assert np.max(np.abs(weighted[: model.nv] - x_ref[: model.nv])) <= AGREE_TOL
     tau_error = model.joint_torques(weighted) - model.joint_torques(x_ref)
@@ -150,7 +150,7 @@ def test_torque_limits_activated_when_violated(anymal) -> None:
     stack = [["contact"], ["torque_limits"], ["com", "base_orientation"], ["posture", "torques"]]
     free = controller(anymal, stack, (True,) * 4, seed=1)
     knees = np.array([2, 5, 8, 11])
-    unlimited = free.robot.joint_torques(solve_nullspace(free.build_problem()))
+    unlimited = free.robot.joint_torques(solve_nullspace(free.build_problem()).x)
     limits = np.full(12, 80.0)
     limits[knees] = 0.6 * np.abs(unlimited[knees]).max()
     c = controller(anymal, stack, (True,) * 4, seed=1, torque_limits=limits)
@@ -171,7 +171,7 @@ def test_torque_limits_activated_when_violated(anymal) -> None:
     # Sequential puts the limits under the motion (Table 4): the motion is that of no limits.
     free_problem = free.build_problem()
     free_problem.formulation = "sequential"
-    assert np.max(np.abs(xs["sequential"][:18] - solve_nullspace(free_problem)[:18])) <= 1e-9
+    assert np.max(np.abs(xs["sequential"][:18] - solve_nullspace(free_problem).x[:18])) <= 1e-9
 
 
 def test_without_model_terms_only_the_own_variables_work() -> None:
@@ -187,8 +187,8 @@ def test_without_model_terms_only_the_own_variables_work() -> None:
             )
         ],
     )
-    x = solve_nullspace(problem)
-    assert np.allclose(x, solve_cascade(problem), atol=1e-8)
+    x = solve_nullspace(problem).x
+    assert np.allclose(x, solve_cascade(problem).x, atol=1e-8)
     problem.formulation = "full"
     with pytest.raises(ValueError, match="needs the model terms"):
         solve_nullspace(problem)
@@ -229,10 +229,10 @@ def test_knee_and_hip_limits_converge_to_the_lexicographic_optimum(anymal) -> No
     c = controller(anymal, stack, (True,) * 4, seed=5, torque_limits=limits)
     problem = c.build_problem()
     problem.formulation = "qdd_tau"
-    x = solve_nullspace(problem)
+    x = solve_nullspace(problem).x
     motion = problem.levels[2]
     assert np.all(np.abs(c.robot.joint_torques(x)) <= limits + AGREE_TOL)
-    lexicographic = np.linalg.norm(motion.A @ solve_cascade(problem) - motion.b)
+    lexicographic = np.linalg.norm(motion.A @ solve_cascade(problem).x - motion.b)
     assert np.linalg.norm(motion.A @ x - motion.b) <= lexicographic + CASCADE_QP_TOL
 
 

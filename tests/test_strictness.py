@@ -20,6 +20,7 @@ from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy import HierarchyProblem, Level
 from lab.controller.hierarchy.cascade import _equalities_only, solve_cascade
+from lab.controller.hierarchy.solution import LevelClock
 from lab.controller.model import RobotModel
 from lab.controller.qp import SOLVER_OPTIONS, QPFailure, solve_qp
 from lab.controller.stack import Stack
@@ -140,7 +141,7 @@ def random_controller(robot_name: str, rng: np.random.Generator):
 
 def binds_an_inequality(problem: HierarchyProblem) -> bool:
     """Whether the cascade takes its QP path: the equality rows alone violate an inequality."""
-    x = _equalities_only(problem)
+    x = _equalities_only(problem, LevelClock(len(problem.levels)))
     return any((level.C @ x > level.d + 1e-9).any() for level in problem.levels)
 
 
@@ -156,7 +157,7 @@ def test_every_level_reaches_its_lexicographic_optimum(robot_name: str, monkeypa
         problem = controller.build_problem()
         if not binds_an_inequality(problem):
             continue
-        x = solve_cascade(problem)
+        x = solve_cascade(problem).x
         for depth, (level, reference) in enumerate(
             zip(problem.levels, reference_optima(problem, x), strict=True)
         ):

@@ -11,7 +11,7 @@ import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import PerContactSet, read_only
+from lab.controller.rows import PerContactSet, read_only
 
 
 @dataclass
@@ -33,6 +33,8 @@ class Constraint:
     name: str = ""
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        """This tick's rows (C, d) of C x ≤ d over x = [q̈, F], at the state of the last
+        `robot.update` and the contact set of `refs`."""
         raise NotImplementedError
 
 
@@ -179,7 +181,7 @@ class JointLimitConstraint(Constraint):
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         T = self.horizon
-        q, dq = robot.q[7:], robot.v[BASE_DOF:]
+        q, dq = robot.joint_positions, robot.joint_velocities
         upper = 2.0 * (self.upper - q - dq * T) / T**2
         lower = 2.0 * (self.lower - q - dq * T) / T**2
         return _joint_bounds(robot.nx, robot.na), np.concatenate([upper, -lower])

@@ -25,4 +25,5 @@ class ContactSpec:
 
     @property
     def force_dim(self) -> int:
+        """Entries of this contact in F: 3 (force) for a point foot, 6 (wrench) for a flat one."""
         return 3 if self.kind == "point" else 6

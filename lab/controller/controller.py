@@ -18,14 +18,15 @@ from lab.controller.constraints import (
     JointLimitConstraint,
     TorqueLimitConstraint,
 )
-from lab.controller.hierarchy import METHODS, HierarchyProblem, Level
+from lab.controller.hierarchy import METHODS, HierarchyProblem, HierarchySolution, Level
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.qp import SOLVERS
 from lab.controller.references import References
+from lab.controller.rows import PerContactSet, no_rows, read_only
 from lab.controller.stack import Stack
-from lab.controller.tasks import TASK_TYPES, PerContactSet, Task, TaskGains, no_rows, read_only
+from lab.controller.tasks import TASK_TYPES, Task, TaskGains
 
 
 @dataclass
@@ -46,12 +47,24 @@ class ControllerConfig:
 
 @dataclass
 class ControlOutput:
+    """One tick's result: joint torques τ (N m, pinocchio joint order), x = [q̈, F] split into
+    q̈ (the generalized accelerations, base part in the base frame) and F (contact forces in the
+    layout of RobotModel), how the hierarchy found it, and the norm of each stack task's
+    tracking error (task units)."""
+
     tau: np.ndarray
     qdd: np.ndarray
     forces: np.ndarray
+    solution: HierarchySolution
+    task_errors: dict[str, float]
 
 
 class WholeBodyController:
+    """The whole-body controller of one robot: the tasks of TASK_TYPES and the constraints,
+    arranged by the stack into levels, solved by the configured hierarchy method into
+    x = [q̈, F] and joint torques (module docstring). It reads the shared `robot` model, which
+    the caller updates, and the behaviour's `references`."""
+
     def __init__(
         self,
         robot: RobotModel,
@@ -77,11 +90,13 @@ class WholeBodyController:
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
         self._support = PerContactSet(_support_mask)
+        self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
         self.set_stack(config.stack)
         self.set_hierarchy(config.hierarchy, config.solver, config.formulation)
 
     @property
     def known_names(self) -> tuple[str, ...]:
+        """Every task and constraint name a stack may use."""
         return (*self.tasks, *self.constraints)
 
     def set_stack(self, stack: Stack) -> None:
@@ -104,6 +119,8 @@ class WholeBodyController:
         kd: float | None = None,
         weight: float | None = None,
     ) -> TaskGains:
+        """Change the given gains of `task` (the others keep theirs); returns the new gains;
+        raises KeyError naming the tasks for an unknown name."""
         if task not in self.tasks:
             raise KeyError(f"unknown task {task!r} (tasks: {', '.join(self.tasks)})")
         changes = {"kp": kp, "kd": kd, "weight": weight}
@@ -116,6 +133,9 @@ class WholeBodyController:
     def set_hierarchy(
         self, method: str, solver: str | None = None, formulation: str | None = None
     ) -> None:
+        """Use hierarchy `method` (with `solver` and, for nullspace, `formulation`; None keeps
+        the current one) from the next tick on; raises KeyError naming the choices and changes
+        nothing for an unknown name."""
         solver = solver or self.config.solver
         formulation = formulation or self.config.formulation
         if method not in METHODS:
@@ -140,11 +160,14 @@ class WholeBodyController:
         # Newton–Euler rows (Herzog eq. 13): M_u q̈ − J_uᵀ F = −h_u.
         dynamics_A = np.concatenate((robot.M[base], -robot.Jc[:, base].T), axis=1)
         levels = []
+        errors: dict[str, np.ndarray] = {}
         weight = 1.0  # of the next level with tasks; inequality-only levels take no weight
         for tasks, constraints in self._levels:
             A_rows, b_rows, C_rows, d_rows = [], [], [], []
             for task in tasks:
-                A, b = task.rows(robot, refs)
+                A, b, error = task.rows(robot, refs)
+                if error.size:
+                    errors[task.name] = error
                 if task.gains.weight != 1.0:
                     scale = np.sqrt(task.gains.weight)
                     A, b = scale * A, scale * b
@@ -163,6 +186,7 @@ class WholeBodyController:
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
+        self._errors = errors
         support = self._support.get(robot, refs.contact_active)
         terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
@@ -176,21 +200,67 @@ class WholeBodyController:
         """Torques at the state of the last RobotModel.update (a behaviour may update the
         references in between)."""
         problem = self.build_problem()
-        x = METHODS[self.config.hierarchy](problem, self.config.solver)
-        nv = self.robot.nv
-        return ControlOutput(self.robot.joint_torques(x), x[:nv], x[nv:])
+        solution = METHODS[self.config.hierarchy](problem, self.config.solver)
+        x, nv = solution.x, self.robot.nv
+        return ControlOutput(
+            self.robot.joint_torques(x), x[:nv], x[nv:], solution, self.task_errors()
+        )
 
     def task_errors(self) -> dict[str, float]:
-        """Norm of each task's tracking error at the last tick (tasks in the stack only)."""
+        """Norm of each task's tracking error at the last `build_problem` (tasks in the stack
+        only)."""
         in_stack = set(self.config.stack.names())
         return {
-            name: math.hypot(*task.error)
-            for name, task in self.tasks.items()
-            if name in in_stack and task.error.size
+            name: math.hypot(*self._errors[name])
+            for name in self.tasks
+            if name in in_stack and name in self._errors
         }
 
+    def torque_limits(self) -> np.ndarray:
+        """τ_max of each actuated joint (N m, pinocchio joint order) that `torque_limits` uses."""
+        return self.constraints["torque_limits"].torque_limits
+
+    def set_torque_limits(self, limits: np.ndarray) -> None:
+        """Use new torque bounds τ_max (N m, one per actuated joint) from the next tick on;
+        raises ValueError for a wrong size and changes nothing then."""
+        limits = np.array(limits, dtype=float)  # a new array: the kernel mirror sees the change
+        if limits.shape != (self.robot.na,):
+            raise ValueError(f"torque limits need {self.robot.na} values, got {limits.shape}")
+        self.constraints["torque_limits"].torque_limits = limits
+
+    def joint_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper position limits of each actuated joint (rad, m for prismatic)."""
+        constraint = self.constraints["joint_limits"]
+        return constraint.lower, constraint.upper
+
+    def set_joint_limits(self, lower: np.ndarray, upper: np.ndarray) -> None:
+        """Use new joint position limits from the next tick on; raises ValueError for a wrong
+        size and changes nothing then."""
+        lower, upper = np.array(lower, dtype=float), np.array(upper, dtype=float)
+        if lower.shape != (self.robot.na,) or upper.shape != (self.robot.na,):
+            raise ValueError(f"joint limits need {self.robot.na} values each")
+        constraint = self.constraints["joint_limits"]
+        constraint.lower, constraint.upper = lower, upper
+
+    def posture_gains(self) -> TaskGains:
+        """The posture task's gains (the session's fallback PD uses them)."""
+        return self.tasks["posture"].gains
+
+    def momentum_mode(self) -> str:
+        """The momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
+        return self.tasks["momentum"].mode
+
+    def set_momentum_mode(self, mode: str) -> None:
+        """Switch the momentum task's feedback law; raises ValueError naming the modes."""
+        self.tasks["momentum"].set_mode(mode)
+
     def gains(self) -> Mapping[str, TaskGains]:
+        """Each task's gains, by task name."""
         return {name: task.gains for name, task in self.tasks.items()}
+
+    def gains_used(self) -> Mapping[str, tuple[str, ...]]:
+        """Which of kp, kd and weight each task reads, by task name."""
+        return {name: task.GAINS for name, task in self.tasks.items()}
 
 
 def _stacked(

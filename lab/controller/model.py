@@ -125,15 +125,48 @@ class RobotModel:
 
     @property
     def base_position(self) -> np.ndarray:
+        """Base position in world (m), a view of q."""
         return self.q[:3]
 
     @property
+    def base_quaternion(self) -> np.ndarray:
+        """Base orientation as a quaternion (x, y, z, w), a view of q."""
+        return self.q[3:7]
+
+    @property
+    def joint_positions(self) -> np.ndarray:
+        """Actuated joint positions (rad, m for prismatic joints), pinocchio order; a view of q."""
+        return self.q[7:]
+
+    @property
+    def base_linear_velocity(self) -> np.ndarray:
+        """Base linear velocity in the base frame (m/s), a view of v."""
+        return self.v[:3]
+
+    @property
+    def base_angular_velocity(self) -> np.ndarray:
+        """Base angular velocity in the base frame (rad/s), a view of v."""
+        return self.v[3:6]
+
+    @property
+    def joint_velocities(self) -> np.ndarray:
+        """Actuated joint velocities (rad/s), pinocchio order; a view of v."""
+        return self.v[BASE_DOF:]
+
+    @property
     def base_angular_velocity_world(self) -> np.ndarray:
+        """Base angular velocity in world axes (rad/s)."""
         return self.base_rotation @ self.v[3:6]
 
     @property
     def base_linear_velocity_world(self) -> np.ndarray:
+        """Base linear velocity in world axes (m/s)."""
         return self.base_rotation @ self.v[:3]
+
+    def scratch(self) -> "RobotModel":
+        """A second model of the same robot, with its own pinocchio data: for computing at
+        another state (a standing posture, say) without moving this one."""
+        return RobotModel(self.model, self.contacts)
 
     def centroidal_momentum(self) -> np.ndarray:
         """[linear; angular] momentum about the CoM, world axes: h_G = A_G v (Herzog eq. 19)."""

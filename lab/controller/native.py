@@ -14,6 +14,7 @@ import contextlib
 import numpy as np
 
 from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
+from lab.controller.hierarchy import HierarchySolution
 from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
@@ -43,13 +44,13 @@ def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
     """A native kernel on the controller's very model (pinocchio's serialization), with its
     contacts and limits; stack, gains and references are set separately."""
     robot, limits = controller.robot, controller.config.limits
-    joint_limits = controller.constraints["joint_limits"]
+    lower, upper = controller.joint_limits()
     return _kernel.Kernel(
         robot.model.saveToString(),
         [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
-        controller.constraints["torque_limits"].torque_limits,
-        joint_limits.lower,
-        joint_limits.upper,
+        controller.torque_limits(),
+        lower,
+        upper,
         limits.friction,
         limits.normal_min,
         limits.normal_max,
@@ -122,6 +123,7 @@ class NativeController(WholeBodyController):
         self.config.kernel = kernel
 
     def set_stack(self, stack: Stack) -> None:
+        """As WholeBodyController.set_stack, mirrored into the kernel."""
         super().set_stack(stack)
         if self._native is not None:
             self._mirror_stack(stack)
@@ -140,6 +142,7 @@ class NativeController(WholeBodyController):
         kd: float | None = None,
         weight: float | None = None,
     ) -> TaskGains:
+        """As WholeBodyController.set_gains, mirrored into the kernel."""
         gains = super().set_gains(task, kp, kd, weight)
         if self._native is not None:
             self._mirror_gains(task, gains)
@@ -181,19 +184,21 @@ class NativeController(WholeBodyController):
             if self.robot.updated_by == "native"
             else native.tick(self.robot.q, self.robot.v)
         )
-        tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors, _seconds = result
+        tau, qdd, forces, ok, message, levels, residuals, solves, errors, seconds = result
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:
             raise QPFailure(f"native {self.config.hierarchy}: {message}")
-        return ControlOutput(tau, qdd, forces)
+        solution = HierarchySolution(
+            np.r_[qdd, forces], tuple(levels), tuple(residuals), solves, tuple(seconds)
+        )
+        return ControlOutput(tau, qdd, forces, solution, dict(errors))
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
-        joints = self.constraints["joint_limits"]
         limits = self.config.limits
-        arrays = (self.constraints["torque_limits"].torque_limits, joints.lower, joints.upper)
+        arrays = (self.torque_limits(), *self.joint_limits())
         numbers = (limits.friction, limits.normal_min, limits.normal_max)
         numbers += (self.config.level_weight_ratio,)
         if (
@@ -209,6 +214,7 @@ class NativeController(WholeBodyController):
         self._synced = (arrays, numbers)
 
     def task_errors(self) -> dict[str, float]:
+        """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
         if self.kernel_ran == "native":
             return dict(self._native_errors)
         return super().task_errors()

@@ -14,13 +14,17 @@ class StackError(ValueError):
 
 @dataclass(frozen=True)
 class Stack:
+    """Levels of task and constraint names, highest priority first."""
+
     levels: tuple[tuple[str, ...], ...]
 
     @classmethod
     def of(cls, levels: Iterable[Sequence[str]]) -> "Stack":
+        """A stack from any nested sequence of names (lists from JSON or TOML, say)."""
         return cls(tuple(tuple(level) for level in levels))
 
     def names(self) -> tuple[str, ...]:
+        """Every name of the stack, level by level."""
         return tuple(name for level in self.levels for name in level)
 
     def validate(self, known: Iterable[str]) -> None:
@@ -40,4 +44,5 @@ class Stack:
                 seen.add(name)
 
     def as_lists(self) -> list[list[str]]:
+        """The levels as lists (JSON-ready)."""
         return [list(level) for level in self.levels]

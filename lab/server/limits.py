@@ -62,15 +62,12 @@ def joints_matching(names: tuple[str, ...], key: str) -> np.ndarray:
 def apply_limits(controller: WholeBodyController, limits: dict[str, dict[str, object]]) -> None:
     """Narrow the controller's torque and joint-position limits as the table says."""
     names = controller.robot.joint_names
-    torque = controller.constraints["torque_limits"]
-    position = controller.constraints["joint_limits"]
-    # New arrays: the old ones may be the robot description's or pinocchio's own.
-    torque_limits = torque.torque_limits.copy()
-    lower, upper = position.lower.copy(), position.upper.copy()
+    torque_limits = controller.torque_limits().copy()
+    lower, upper = (bound.copy() for bound in controller.joint_limits())
     for key, value in limits.get("torque", {}).items():
         torque_limits[joints_matching(names, key)] = value
     for key, (low, high) in limits.get("position", {}).items():
         index = joints_matching(names, key)
         lower[index], upper[index] = low, high
-    torque.torque_limits = torque_limits
-    position.lower, position.upper = lower, upper
+    controller.set_torque_limits(torque_limits)
+    controller.set_joint_limits(lower, upper)

@@ -62,7 +62,7 @@ class LoadDistributionMetrics:
         self.measured += _friction_ratios(session.plant.foot_forces()[active], normals[active])
         self.max_knee = max(self.max_knee, float(np.max(np.abs(tau[self.knee]), initial=0.0)))
         self.max_hip = max(self.max_hip, float(np.max(np.abs(tau[self.hip]), initial=0.0)))
-        limits = session.controller.constraints["torque_limits"].torque_limits
+        limits = session.controller.torque_limits()
         self.excess = max(self.excess, float(np.max(np.abs(tau) - limits)))
 
     def result(self) -> dict[str, float]:
@@ -143,12 +143,10 @@ class BodyTrackingMetrics:
         height = float(refs.base_height - model.base_position[2])
         pitch = float(pin.rpy.matrixToRpy(refs.base_rotation.T @ model.base_rotation)[1])
         self.samples.append((session.time, height, pitch))
-        self.max_hfe = max(self.max_hfe, float(np.max(np.abs(model.q[7:][self.hfe]))))
-        limits = session.controller.constraints["joint_limits"]
-        q = model.q[7:]
-        self.limit_excess = max(
-            self.limit_excess, float(np.max(np.maximum(q - limits.upper, limits.lower - q)))
-        )
+        q = model.joint_positions
+        self.max_hfe = max(self.max_hfe, float(np.max(np.abs(q[self.hfe]))))
+        lower, upper = session.controller.joint_limits()
+        self.limit_excess = max(self.limit_excess, float(np.max(np.maximum(q - upper, lower - q))))
 
     def result(self) -> dict[str, float]:
         t, height, pitch = (np.array(column) for column in zip(*self.samples, strict=True))

@@ -12,10 +12,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.behaviours import BEHAVIOURS, Balance
+from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig
-from lab.controller.hierarchy import METHODS
+from lab.controller.hierarchy import METHODS, HierarchySolution
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.momentum import MOMENTUM_MODES
@@ -53,7 +53,9 @@ WALKING_PRESET = "raiola_s3"
 
 @dataclass
 class SessionConfig:
-    """What a session runs: robot, scene, and controller choices (None = the robot's default)."""
+    """What a session is built from: robot, scene, and the controller's initial choices (None =
+    the robot's default). Commands change the controller's own `ControllerConfig`, the one
+    source of truth while the session runs; a rebuild reads it back (`Session._live_config`)."""
 
     robot: str = "anymal"
     scene: str = "flat"
@@ -79,6 +81,7 @@ class Session:
         self.config = config or SessionConfig()
         self._events: list[dict] = []
         self.divergences = 0  # sim divergences since the session started
+        self.behaviour: Behaviour | None = None  # set by _build, replaced by the gait command
         self._build(self.config)
 
     # ----------------------------------------------------------------------------- set-up
@@ -130,8 +133,9 @@ class Session:
         self.ticks = 0
         self.qp_failures = 0
         self.qp_ok = True
-        self._failures_unreported = 0
-        self._last_failure_event = -FAILURE_EVENT_PERIOD
+        self.solution: HierarchySolution | None = None  # the last tick's, None after a fallback
+        self._unreported = {kind: 0 for kind in ("solver_failure", "solver_fallback")}
+        self._last_report = dict.fromkeys(self._unreported, -FAILURE_EVENT_PERIOD)
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
         self.forces = np.zeros(self.model.nf)
@@ -148,10 +152,8 @@ class Session:
         self.model.update(*self.plant.state())
         behaviour = BEHAVIOURS[name](self.model, self.robot.q_standing)
         if options:
-            if not hasattr(behaviour, "configure"):
-                raise ValueError(f"gait {name!r} takes no {', '.join(options)}")
             behaviour.configure(**options)
-        if hasattr(behaviour, "continue_from") and hasattr(self, "behaviour"):
+        if self.behaviour is not None:
             behaviour.continue_from(self.behaviour)
         walking_stack = behaviour.lifts_feet and (
             "swing_feet" not in self.controller.config.stack.names()
@@ -169,7 +171,6 @@ class Session:
         for task, gains in preset.gains.items():
             self.controller.set_gains(task, **gains)
         self.controller.set_hierarchy(preset.hierarchy)
-        self.config.stack, self.config.hierarchy = stack.as_lists(), preset.hierarchy
         return {"preset": name, "stack": stack.as_lists(), "hierarchy": self._hierarchy()}
 
     @property
@@ -217,10 +218,20 @@ class Session:
             if not np.all(np.isfinite(out.tau)):
                 raise FloatingPointError("non-finite torques")
             self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
-        except (ArithmeticError, np.linalg.LinAlgError, RuntimeError, ValueError) as error:
+            self.solution = out.solution
+            if out.solution.fallback_levels:
+                levels = list(out.solution.fallback_levels)  # 0-based, as telemetry's tasks
+                self._report(
+                    "solver_fallback",
+                    f"the QP of stack level {levels} failed (counting from 0): the level keeps "
+                    "the solution of the levels above",
+                    levels=levels,
+                )
+        except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
             self.tau, self.forces, self.qp_ok = self._fallback_torques(q, v), 0 * self.forces, False
+            self.solution = None
             self.qp_failures += 1
-            self._report_failure(error)
+            self._report("solver_failure", f"{type(error).__name__}: {error}; fallback torques")
         self.control_us = (time.perf_counter() - start) * 1e6
 
     def _recover(self, divergence: SimulationDiverged) -> None:
@@ -243,21 +254,18 @@ class Session:
             restored="paused" if repeated else "standing",
         )
 
-    def _report_failure(self, error: Exception) -> None:
-        """One solver_failure event per FAILURE_EVENT_PERIOD at most, with the count since."""
-        self._failures_unreported += 1
-        if self.time - self._last_failure_event >= FAILURE_EVENT_PERIOD:
-            self._event(
-                "solver_failure",
-                f"{type(error).__name__}: {error}; fallback torques",
-                count=self._failures_unreported,
-            )
-            self._failures_unreported = 0
-            self._last_failure_event = self.time
+    def _report(self, kind: str, message: str, **extra: object) -> None:
+        """One event of `kind` (solver_failure, solver_fallback) per FAILURE_EVENT_PERIOD at
+        most, with the count of ticks since the last one."""
+        self._unreported[kind] += 1
+        if self.time - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
+            self._event(kind, message, count=self._unreported[kind], **extra)
+            self._unreported[kind] = 0
+            self._last_report[kind] = self.time
 
     def _fallback_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint PD to the reference posture plus the bias forces: safe for one or a few ticks."""
-        gains = self.controller.tasks["posture"].gains
+        gains = self.controller.posture_gains()
         refs = self.controller.references
         bias = self.model.h[BASE_DOF:] if np.all(np.isfinite(self.model.h)) else 0.0
         tau = bias + gains.kp * (refs.posture - q[7:]) - gains.kd * v[BASE_DOF:]
@@ -323,9 +331,9 @@ class Session:
                     body, np.array(force), duration, None if point is None else np.array(point)
                 )
             case cmd.RobotCommand(name=name):
-                self._rebuild(replace(self.config, robot=name, stack=None, gains={}))
+                self._rebuild(replace(self._live_config(), robot=name, stack=None, gains={}))
             case cmd.SceneCommand(name=name):
-                self._rebuild(replace(self.config, scene=name))
+                self._rebuild(replace(self._live_config(), scene=name))
             case cmd.HierarchyCommand(
                 method=method, solver=solver, formulation=formulation, kernel=kernel
             ):
@@ -334,16 +342,12 @@ class Session:
                 method = method or self.controller.config.hierarchy
                 self.controller.set_hierarchy(method, solver, formulation)
                 self.controller.set_kernel(kernel or self.controller.config.kernel)
-                self.config.hierarchy, self.config.kernel = method, self.controller.config.kernel
-                self.config.solver = self.controller.config.solver
-                self.config.formulation = self.controller.config.formulation
                 return {"hierarchy": self._hierarchy()}
             case cmd.StackCommand(preset=str(preset)):
                 return self._use_preset(preset)
             case cmd.StackCommand(levels=levels):
                 stack = Stack.of(levels)
                 self.controller.set_stack(stack)
-                self.config.stack = stack.as_lists()
                 return {"stack": stack.as_lists()}
             case cmd.GainsCommand(task=task, kp=kp, kd=kd, weight=weight):
                 gains = self.controller.set_gains(task, kp, kd, weight)
@@ -363,19 +367,32 @@ class Session:
                 }
                 return self._set_behaviour(name, options)
             case cmd.MomentumCommand(mode=mode):
-                self.controller.tasks["momentum"].set_mode(mode)  # ValueError names the modes
+                self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": self._momentum()}
         return {}
 
     def _momentum(self) -> dict:
         """The momentum task's feedback law (Herzog 2016 §3)."""
-        return {"mode": self.controller.tasks["momentum"].mode}
+        return {"mode": self.controller.momentum_mode()}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
     ) -> None:
         self.plant.push(body, force, point)  # raises KeyError naming the known bodies
         self.pushes[body] = Push(body, force, point, self.time + duration)
+
+    def _live_config(self) -> SessionConfig:
+        """The session's config with the controller's current choices, which the controller
+        alone holds while the session runs: what a rebuild for a new scene or robot keeps."""
+        live = self.controller.config
+        return replace(
+            self.config,
+            hierarchy=live.hierarchy,
+            solver=live.solver,
+            formulation=live.formulation,
+            stack=live.stack.as_lists(),
+            kernel=live.kernel,
+        )
 
     def _rebuild(self, config: SessionConfig) -> None:
         self._build(config)
@@ -391,8 +408,10 @@ class Session:
         }
 
     def _task_gains(self) -> list[dict]:
+        """Each task's gains; a gain the task does not read is None (the UI hides it)."""
+        used = self.controller.gains_used()
         return [
-            {"name": name, "kp": g.kp, "kd": g.kd, "weight": g.weight}
+            {"name": name, **_gain_fields(g, used[name]), "gains": list(used[name])}
             for name, g in self.controller.gains().items()
         ]
 
@@ -461,15 +480,17 @@ class Session:
         if net_cop is not None:
             net_cop[2] = 0.0
         errors = self.controller.task_errors()
-        gains = self.controller.gains()
+        gains, used = self.controller.gains(), self.controller.gains_used()
         tasks = [
             {
                 "name": name,
                 "level": level,
                 "error": errors.get(name, 0.0),
-                "kp": gains[name].kp if name in gains else None,
-                "kd": gains[name].kd if name in gains else None,
-                "weight": gains[name].weight if name in gains else 1.0,
+                **(
+                    _gain_fields(gains[name], used[name])
+                    if name in gains
+                    else {"kp": None, "kd": None, "weight": 1.0}
+                ),
             }
             for level, names in enumerate(self.controller.config.stack.levels)
             for name in names
@@ -504,6 +525,7 @@ class Session:
                 "solve_us": self.control_us,
                 "failures": self.qp_failures,
             },
+            "solution": None if self.solution is None else self.solution.summary(),
             "command": dict(zip(("vx", "vy", "yaw_rate"), self.velocity.tolist(), strict=True)),
             "pushes": [
                 {
@@ -534,3 +556,8 @@ class Session:
         """Angle (rad) between the base and its reference orientation."""
         R_ref = self.controller.references.base_rotation
         return float(np.linalg.norm(pin.log3(R_ref.T @ self.model.base_rotation)))
+
+
+def _gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
+    """kp, kd and weight of a task, None for those it does not read."""
+    return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}

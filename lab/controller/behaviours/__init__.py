@@ -7,26 +7,14 @@ touch the ground (measured by the plant: the haptic signal of a blind robot).
 """
 
 from collections.abc import Callable
-from typing import Protocol
 
 import numpy as np
 
 from lab.controller.behaviours.balance import Balance
+from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.hutter import HUTTER_BEHAVIOURS
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.model import RobotModel
-from lab.controller.references import References
-
-
-class Behaviour(Protocol):
-    name: str
-    references: References
-    lifts_feet: bool  # swings feet: the stack needs the swing_feet task to carry them
-
-    def update(
-        self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
-    ) -> None: ...
-
 
 BehaviourFactory = Callable[[RobotModel, np.ndarray], Behaviour]
 

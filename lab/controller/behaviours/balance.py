@@ -9,24 +9,39 @@ ignored: a standing robot does not walk.
 import numpy as np
 import pinocchio as pin
 
+from lab.controller.behaviours.base import NoOptions
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 
 
-def standing_references(robot: RobotModel, q_standing: np.ndarray) -> References:
-    """References that hold the robot still in its standing posture."""
-    robot.update(q_standing, np.zeros(robot.nv))
-    yaw = pin.rpy.matrixToRpy(robot.base_rotation)[2]
+def standing_model(robot: RobotModel, q_standing: np.ndarray) -> RobotModel:
+    """A scratch model of `robot` at rest in `q_standing`: the shared model, which follows the
+    real robot from tick to tick, does not move."""
+    standing = robot.scratch()
+    standing.update(q_standing, np.zeros(robot.nv))
+    return standing
+
+
+def references_at_rest(standing: RobotModel) -> References:
+    """References that hold the robot still in the posture `standing` is at (a model from
+    `standing_model`): its CoM (world, m), base height (m), heading, joint positions, every foot
+    in contact."""
+    yaw = pin.rpy.matrixToRpy(standing.base_rotation)[2]
     return References(
-        com=robot.com.copy(),
-        posture=q_standing[7:].copy(),
-        base_height=float(q_standing[2]),
+        com=standing.com.copy(),
+        posture=standing.joint_positions.copy(),
+        base_height=float(standing.base_position[2]),
         base_rotation=pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
-        contact_active=np.ones(len(robot.contacts), dtype=bool),
+        contact_active=np.ones(len(standing.contacts), dtype=bool),
     )
 
 
-class Balance:
+def standing_references(robot: RobotModel, q_standing: np.ndarray) -> References:
+    """References that hold the robot still in its standing posture `q_standing` (pinocchio q)."""
+    return references_at_rest(standing_model(robot, q_standing))
+
+
+class Balance(NoOptions):
     """Stand still on every foot."""
 
     name = "stand"
@@ -35,7 +50,7 @@ class Balance:
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         """Start from the robot's current state (the model is up to date)."""
         here = q_standing.copy()
-        here[:2] = robot.q[:2]
+        here[:2] = robot.base_position[:2]
         yaw = pin.rpy.matrixToRpy(robot.base_rotation)[2]
         here[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
         self.references = standing_references(robot, here)

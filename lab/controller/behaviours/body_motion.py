@@ -10,6 +10,7 @@
 import numpy as np
 
 from lab.controller.behaviours.balance import standing_references
+from lab.controller.behaviours.base import NoOptions
 from lab.controller.behaviours.static_walk import min_jerk
 from lab.controller.model import RobotModel
 
@@ -19,7 +20,9 @@ SHIFT = 0.25  # m, forwards
 SHIFT_TIME = 2.0  # s
 
 
-class HeightStep:
+class HeightStep(NoOptions):
+    """Hutter 2014 Exp6: stand, then lower the body (CoM and base height) by HEIGHT_STEP m."""
+
     name = "height_step"
     lifts_feet = False
 
@@ -32,13 +35,16 @@ class HeightStep:
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """Hold for HOLD s from the first tick, then step the height references down."""
         self.start = t if self.start is None else self.start
         drop = HEIGHT_STEP if t - self.start >= HOLD else 0.0
         self.references.com = self.com - np.array([0.0, 0.0, drop])
         self.references.base_height = self.height - drop
 
 
-class ForwardShift:
+class ForwardShift(NoOptions):
+    """Hutter 2014 Exp7: stand, then shift the CoM forward by SHIFT m on a minimum-jerk path."""
+
     name = "forward_shift"
     lifts_feet = False
 
@@ -50,6 +56,8 @@ class ForwardShift:
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """Hold for HOLD s from the first tick, then move the CoM reference forward over
+        SHIFT_TIME s (position in m, world x; velocity in m/s)."""
         self.start = t if self.start is None else self.start
         s, ds, _ = min_jerk((t - self.start - HOLD) / SHIFT_TIME)
         self.references.com = self.com + np.array([SHIFT * s, 0.0, 0.0])

@@ -7,10 +7,9 @@ at the base), so the base's roll and pitch do not move the footholds (Raiola §3
   nominal posture) plus the displacement the commanded twist asks, ΔL = (v_d + ψ̇_d ẑ × x_hip) T,
   measured from the actual base, so errors do not accumulate and the legs stay near their
   preferred configuration. Eq. 19 takes T = 1 / f_sw; here T = T_st / 2, which centres the stance
-  on the virtual foothold. Under S3 (no velocity task: the posture pulls the base over the feet)
-  the base then settles at the commanded velocity; with T = T_sw (0.27 s for ANYmal's trot
-  against T_st / 2 = 0.17 s) it settled near 2 T_sw / T_st = 1.6 times the command and ANYmal's
-  0.5 m/s trot ran away to 1.9 m/s and fell after 7 s.
+  on the virtual foothold: under S3 (no velocity task: the posture pulls the base over the feet)
+  the base then settles at the commanded velocity, with T = T_sw near 2 T_sw / T_st times it
+  (docs/locomotion.md, "Step displacement").
 - `raibert` (Hutter eq. 62): the hip's predicted position at touchdown, plus half the stance
   travel at the desired velocity (feed-forward), plus k_fb (v_hip − v_hip,d) sqrt(h / g)
   (feedback: a robot moving faster than asked, or pushed, steps further that way).

@@ -52,6 +52,8 @@ GAITS: dict[str, GaitPattern] = {
 
 
 class LegState(enum.Enum):
+    """Where a leg is in its cycle: on the ground, in the air, or late and reaching down."""
+
     STANCE = "stance"
     SWING = "swing"
     REACHING = "reaching"
@@ -59,6 +61,8 @@ class LegState(enum.Enum):
 
 @dataclass
 class Leg:
+    """One leg's state machine: its role (LF, RF, LH, RH), state and timings (s, sim time)."""
+
     role: str
     state: LegState = LegState.STANCE
     since: float = 0.0  # time of the last lift-off or touchdown
@@ -69,6 +73,8 @@ class Leg:
 
 @dataclass(frozen=True)
 class LegEvent:
+    """A lift-off or touchdown of leg `leg` (index) at sim time `t` (s)."""
+
     leg: int
     kind: str  # "liftoff" | "touchdown"
     t: float
@@ -89,10 +95,12 @@ class GaitScheduler:
 
     @property
     def ramp_time(self) -> float:
+        """Duration (s) of the load ramps before lift-off and after touchdown."""
         return 0.05 * self.cycle_time
 
     @property
     def swing_time(self) -> float:
+        """Planned time (s) a foot is in the air each cycle."""
         return (1.0 - self.gait.duty_factor) * self.cycle_time
 
     def set_gait(self, gait: GaitPattern, cycle_time: float) -> None:

@@ -13,14 +13,13 @@ Eq. 31 moves the stance feet relative to the base only vertically, so the stance
 holds the base where it stood over them at touchdown, braking the walk (the base is moved only
 by the posture in S3). The stance feet here also move relative to the base by what the commanded
 twist asks of the base, ṙ_d = −(v_d + ω_d × r) + P ΔH_bl: the same feed-forward eq. 30 has, with
-the base's commanded instead of its measured velocity (no base velocity estimate, as in Raiola).
-Without it ANYmal's 0.5 m/s trot under S3 went at 0.34 m/s.
+the base's commanded instead of its measured velocity (no base velocity estimate, as in Raiola;
+why, measured: docs/locomotion.md).
 
 The controller's point contact is the foot sphere's centre, but a rigid sphere on a pitching
 shank rolls: without slipping its centre moves by ω_f × ρ ẑ (ρ its radius, ω_f the foot's
 angular velocity, flat ground assumed). A stance reference that keeps the centre still relative
-to the ground lets the base gain that rolling distance every step (ANYmal: 9.7 of the 11.7 mm a
-stance foot centre moved forward per stance, a 7 % overshoot of the commanded 0.5 m/s). So the
+to the ground lets the base gain that rolling distance every step (docs/locomotion.md). So the
 stance rate also carries the measured rolling of the foot: the base then moves at v_d relative
 to the ground, not to the foot centre.
 
@@ -34,7 +33,7 @@ import pinocchio as pin
 from scipy.linalg.lapack import dposv as posv
 
 from lab.controller.model import BASE_DOF, RobotModel
-from lab.controller.walk_tasks import leg_joints
+from lab.controller.tasks.posture import leg_joints
 
 CLIK_GAIN = 10.0  # 1/s, P of eqs. 30–31 (Raiola Table 2)
 DAMPING = 1e-3  # damped least squares near a stretched leg's singularity
@@ -72,7 +71,7 @@ class LegPostureReference:
         the references of the legs `carry_from` (those standing since before this tick), so
         that the base's position error outlives the step and its mean velocity converges."""
         j = self.joints[leg]
-        self.position[j] = robot.q[7:][j]
+        self.position[j] = robot.joint_positions[j]
         others = carry_from
         if not others:
             return
@@ -80,7 +79,7 @@ class LegPostureReference:
         for k in others:
             jk = self.joints[k]
             J = robot.Jc[robot.force_slices[k], BASE_DOF + jk]
-            lag += J @ (self.position[jk] - robot.q[7:][jk]) / len(others)
+            lag += J @ (self.position[jk] - robot.joint_positions[jk]) / len(others)
         lag[2] = 0.0
         lag *= min(1.0, MAX_CARRY / max(float(np.linalg.norm(lag)), 1e-12))
         J = robot.Jc[robot.force_slices[leg], BASE_DOF + j]

@@ -6,10 +6,10 @@ shrunk by a safety margin (so the body moves as little as possible). Swing: the 
 minimum-jerk path to its foothold `step_length` ahead, lifted by a bump of `step_height`, and
 touches down at the end of the phase. Base orientation is held level at the initial heading.
 
-The references carry, for the tasks of objectives.py and walk_tasks.py: the swing trajectories,
-the surface normal under each foot (world z, or the known half-cylinder), and the force
-interpolation weight w of §5.1.6: a leg is unloaded (w 1 → 0) over the last `transition` s before
-lift-off and loaded (w 0 → 1) over the first `transition` s after touchdown.
+The references carry, for the tasks of tasks/objectives.py and tasks/feet.py: the swing
+trajectories, the surface normal under each foot (world z, or the known half-cylinder), and the
+force interpolation weight w of §5.1.6: a leg is unloaded (w 1 → 0) over the last `transition` s
+before lift-off and loaded (w 0 → 1) over the first `transition` s after touchdown.
 """
 
 from dataclasses import dataclass
@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from lab.controller.behaviours.base import NoOptions
 from lab.controller.model import RobotModel
 from lab.controller.surfaces import HALF_CYLINDER, HalfCylinder
 from lab.controller.walk_references import WORLD_UP, WalkReferences
@@ -26,6 +27,9 @@ FOOTFALL = ("lh", "lf", "rh", "rf")
 
 @dataclass(frozen=True)
 class StaticWalkParameters:
+    """Timing and geometry of the static crawl (Hutter 2014 §5.1): per step a CoM shift into
+    the next support triangle, then one leg's swing."""
+
     shift_time: float = 0.8  # s
     swing_time: float = 0.6  # s
     step_length: float = 0.08  # m, along the initial heading
@@ -35,10 +39,12 @@ class StaticWalkParameters:
 
     @property
     def step_time(self) -> float:
+        """Duration (s) of one step: the shift, then the swing."""
         return self.shift_time + self.swing_time
 
     @property
     def cycle_time(self) -> float:
+        """Duration (s) of a full cycle: one step per leg."""
         return len(FOOTFALL) * self.step_time
 
 
@@ -89,7 +95,7 @@ def inside_triangle(point: np.ndarray, triangle: np.ndarray, margin: float) -> n
     return best
 
 
-class StaticWalk:
+class StaticWalk(NoOptions):
     """The crawl on flat ground, or in place on a known surface (its normals in the references)."""
 
     name = "static_walk"
@@ -134,6 +140,8 @@ class StaticWalk:
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """Advance the crawl to sim time `t` (s): CoM shift, then the step's swing and its
+        force interpolation ramps. The command and the measured contacts are not used."""
         p, refs = self.parameters, self.references
         if self.start is None:
             self.start = t

@@ -12,9 +12,8 @@ touchdown speed (reaching motion, §3.3) until the ground is felt.
 The ellipse is walked with the time t' = T_sw (6u³ − 8u⁴ + 3u⁵), u = t / T_sw, instead of t: the
 same path and the same touchdown velocity (t' and dt'/dt are 0 and 1 at the ends, d²t'/dt² = 0
 at both), but the foot leaves the ground at rest, without a step in velocity or acceleration.
-With t itself the reference would jump to the lift-off velocity H_s π f_sw (about 1 m/s)
-and the swing task would jerk the stance legs (measured on ANYmal: a 460 N step in their normal
-forces at lift-off; with this time warp no tick changes a normal force by more than 50 N).
+With t itself the reference would jump to the lift-off velocity H_s π f_sw (about 1 m/s) and the
+swing task would jerk the stance legs (measured: docs/locomotion.md).
 """
 
 import math

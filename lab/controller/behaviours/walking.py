@@ -24,7 +24,8 @@ from dataclasses import fields
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.behaviours.balance import standing_references
+from lab.controller.behaviours.balance import references_at_rest, standing_model
+from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
 from lab.controller.behaviours.leg_posture import LegPostureReference
@@ -70,17 +71,18 @@ class Walking:
     lifts_feet = True
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray, gait: GaitPattern) -> None:
-        standing = standing_references(robot, q_standing)  # the model is now at q_standing
+        at_rest = standing_model(robot, q_standing)
+        standing = references_at_rest(at_rest)
         self.references = WalkReferences(
             **{f.name: getattr(standing, f.name) for f in fields(References)}
         )
         n = len(robot.contacts)
         base = q_standing[:3]
-        feet = robot.contact_positions.copy()
+        feet = at_rest.contact_positions.copy()
         self.hips = (feet - base)[:, :2].tolist()  # x, y of each foot under its hip
         self.roles = _roles(self.hips)
         self.height = float(base[2] - feet[:, 2].mean())
-        self.com_offset = robot.com - base
+        self.com_offset = at_rest.com - base
         self.full_load = robot.mass * GRAVITY
         self.gait = gait
         self.name = gait.name
@@ -102,7 +104,7 @@ class Walking:
         self.foot_references[0] = feet
         refs.foot_position, refs.foot_velocity, refs.foot_acceleration = self.foot_references
         refs.posture_weight = np.ones(n)
-        self.posture = LegPostureReference(robot, refs.posture)
+        self.posture = LegPostureReference(at_rest, refs.posture)
         refs.posture, refs.posture_velocity = self.posture.position, self.posture.velocity
 
     # ------------------------------------------------------------------------ parameters
@@ -137,7 +139,7 @@ class Walking:
         if self.scheduler is not None:
             self.scheduler.set_gait(self.gait, self.cycle_time)
 
-    def continue_from(self, previous: object) -> None:
+    def continue_from(self, previous: Behaviour) -> None:
         """Take over a walking behaviour in stride: its legs, clock and steering state, and the
         step height and planner unless this one was configured with its own."""
         if not isinstance(previous, Walking) or previous.scheduler is None:
@@ -156,6 +158,9 @@ class Walking:
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
+        """One tick of the walking pattern generator (module docstring): rate-limit the command
+        (m/s, rad/s), advance the gait from the measured contacts, plan the swinging feet, and
+        set the trunk, CoM and posture references (world axes)."""
         R = robot.base_rotation
         yaw = math.atan2(R[1, 0], R[0, 0])
         if self.scheduler is None:

@@ -38,6 +38,15 @@ from lab.controller.hierarchy.linalg import (
     solution_and_null_space_of_leading_block,
 )
 from lab.controller.hierarchy.problem import HierarchyProblem
+from lab.controller.hierarchy.solution import (
+    EXACT,
+    KEPT_ABOVE,
+    NO_FREEDOM,
+    QP,
+    HierarchySolution,
+    LevelClock,
+    level_residuals,
+)
 from lab.controller.qp import QPFailure, solve_qp
 
 # ε of the proximal term ε‖u − u₀‖² that keeps a level QP's Hessian positive definite; the second,
@@ -51,15 +60,36 @@ FEASIBILITY_TOL = 1e-9  # an unconstrained step that violates no row by more is 
 ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped from the QP
 
 
-def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
-    """The strict-priority solution x = [q̈, F]. Every level is feasible (u = 0 keeps the levels
-    above), so a level whose QP the solver fails keeps the solution of the levels above."""
-    x = _equalities_only(problem)
+@dataclass
+class _Record:
+    """How each level was solved, as the cascade goes: statuses, QP count, time per level."""
+
+    levels: list[str]
+    clock: LevelClock
+    qp_solves: int = 0
+
+    def solution(self, problem: HierarchyProblem, x: np.ndarray) -> HierarchySolution:
+        return HierarchySolution(
+            x,
+            tuple(self.levels),
+            level_residuals(problem.levels, x),
+            self.qp_solves,
+            tuple(self.clock.seconds),
+        )
+
+
+def solve_cascade(problem: HierarchyProblem, solver: str = "daqp") -> HierarchySolution:
+    """The strict-priority solution x = [q̈, F] with each level's status. Every level is feasible
+    (u = 0 keeps the levels above), so a level whose QP the solver fails keeps the solution of
+    the levels above: its status is `kept_above` (HierarchySolution.fallback_levels)."""
+    n = len(problem.levels)
+    record = _Record([EXACT] * n, LevelClock(n))
+    x = _equalities_only(problem, record.clock)
     if all(
         (level.C @ x <= level.d + FEASIBILITY_TOL).all() for level in problem.levels if len(level.d)
     ):
-        return x
-    return _with_inequalities(problem, solver)
+        return record.solution(problem, x)
+    return record.solution(problem, _with_inequalities(problem, solver, record))
 
 
 def _dynamics_solution(problem: HierarchyProblem) -> tuple[np.ndarray, np.ndarray]:
@@ -73,18 +103,21 @@ def _dynamics_solution(problem: HierarchyProblem) -> tuple[np.ndarray, np.ndarra
     return Z[:, np.concatenate((np.ones(nj, dtype=bool), problem.terms.support))], x
 
 
-def _equalities_only(problem: HierarchyProblem) -> np.ndarray:
+def _equalities_only(problem: HierarchyProblem, clock: LevelClock) -> np.ndarray:
     """The cascade of the equality rows alone: one least squares and null space per level."""
     Z, x = _dynamics_solution(problem)
-    for level in problem.levels:
+    clock.start()
+    for depth, level in enumerate(problem.levels):
         if len(level.b) and Z.shape[1]:
             Z, x = least_squares_step(Z, x, level.A, level.b)
+        clock.lap(depth)
     return x
 
 
-def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
+def _with_inequalities(problem: HierarchyProblem, solver: str, record: _Record) -> np.ndarray:
     """The cascade of eqs. 9–11, one QP per level where an inequality binds."""
     Z, x = _dynamics_solution(problem)
+    record.clock.start()
     # Inequalities of the levels above, in the current null-space coordinates: K u ≤ k keeps
     # each of them within the slack its level reached (eq. 9). k ≥ 0 always holds, so u = 0 is
     # feasible for every level whatever the solver tolerance of the levels before.
@@ -93,14 +126,16 @@ def _with_inequalities(problem: HierarchyProblem, solver: str) -> np.ndarray:
     last = len(problem.levels) - 1
     for depth, level in enumerate(problem.levels):
         if Z.shape[1] == 0:
+            record.levels[depth:] = [NO_FREEDOM] * (len(problem.levels) - depth)
             break
         Az, r = _projected(level.A, level.b, Z, x)
         Cz, s = _projected(level.C, level.d, Z, x)
         u_ls, N = least_squares_and_null_space(Az, r)
         free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
         rows = _LevelRows(Az, r, N, Cz, s, K[free], k[free])
-        u = _solve_level(u_ls, rows, Z, x, solver)
+        u = _solve_level(u_ls, rows, Z, x, solver, record, depth)
         x = x + Z @ u
+        record.clock.lap(depth)
         if depth == last:
             break
         if len(s):
@@ -137,10 +172,16 @@ class _LevelRows:
 
 
 def _solve_level(
-    u: np.ndarray, rows: _LevelRows, Z: np.ndarray, x: np.ndarray, solver: str
+    u: np.ndarray,
+    rows: _LevelRows,
+    Z: np.ndarray,
+    x: np.ndarray,
+    solver: str,
+    record: _Record,
+    depth: int,
 ) -> np.ndarray:
     """The step in the null space for one level, given its least-squares step u (the slacks
-    are implicit in the cost)."""
+    are implicit in the cost); records the level's status in `record`."""
     Az, r, Cz, s, Kz, k = rows.Az, rows.r, rows.Cz, rows.s, rows.K, rows.k
     # When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
     # equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
@@ -148,6 +189,7 @@ def _solve_level(
         not len(k) or (Kz @ u <= k + FEASIBILITY_TOL).all()
     )
     if fits:
+        record.levels[depth] = EXACT
         return u
     nz, m = Az.shape[1], len(s)
     # Over (u, v): C u − v ≤ s (the level's rows with their slacks), K u ≤ k (the carried rows).
@@ -158,14 +200,16 @@ def _solve_level(
     h = np.concatenate([s, k])
     for epsilon in (REGULARIZATION, RETRY_REGULARIZATION):
         try:
-            optimum = _level_optimum(u, Az, r, G, h, epsilon, solver)
+            optimum = _level_optimum(u, Az, r, G, h, epsilon, solver, record)
         except QPFailure:
             continue
-        return _smallest_in_optimal_set(optimum, rows, Z, x, solver)
+        record.levels[depth] = QP
+        return _smallest_in_optimal_set(optimum, rows, Z, x, solver, record)
     # u = 0 is feasible by construction, so this is the solver failing, not the level. Seen when
     # the carried bounds leave the level no freedom (a feasible set of 1e-9 about u = 0, more
     # tight rows than directions): DAQP then reports it infeasible. The level keeps the solution
-    # of the levels above.
+    # of the levels above, and says so (HierarchySolution.fallback_levels).
+    record.levels[depth] = KEPT_ABOVE
     return np.zeros(nz)
 
 
@@ -184,6 +228,7 @@ def _level_optimum(
     h: np.ndarray,
     epsilon: float,
     solver: str,
+    record: _Record,
 ) -> np.ndarray:
     """A minimiser of ‖Az u − r‖² + ‖v‖² over G [u; v] ≤ h (eqs. 10–11), by proximal steps
     ε‖u − u₀‖² from the least-squares step u: exact where a fixed ε‖u‖² would leak."""
@@ -195,6 +240,7 @@ def _level_optimum(
     w = Az @ u
     for _ in range(PROXIMAL_SOLVES):
         q[:nz] = -Az.T @ r - epsilon * u
+        record.qp_solves += 1
         u = solve_qp(P, q, G, h, solver=solver)[:nz]
         w, previous = Az @ u, w
         if np.linalg.norm(w - previous) <= PROXIMAL_TOL * (1.0 + np.linalg.norm(w)):
@@ -203,7 +249,7 @@ def _level_optimum(
 
 
 def _smallest_in_optimal_set(
-    u: np.ndarray, rows: _LevelRows, Z: np.ndarray, x: np.ndarray, solver: str
+    u: np.ndarray, rows: _LevelRows, Z: np.ndarray, x: np.ndarray, solver: str, record: _Record
 ) -> np.ndarray:
     """Among the optimal steps u + N w of a level (same Az u, slacks no larger than u's, carried
     bounds kept), the one with the smallest ‖x + Z (u + N w)‖ (Herzog eq. 5)."""
@@ -216,6 +262,7 @@ def _smallest_in_optimal_set(
     h = np.maximum(np.concatenate((rows.s - rows.Cz @ u, rows.k - rows.K @ u)), 0.0)
     free = (G * G).sum(axis=1) > ZERO_ROW_TOL**2
     G, h = G[free], h[free]
+    record.qp_solves += 1
     try:
         w = solve_qp(ZN.T @ ZN, ZN.T @ (x + Z @ u), G, h, solver=solver)
     except QPFailure:

@@ -12,19 +12,17 @@ Inequality rows C x ≤ d (§3.2, §5.1.3) are off until violated: a violated ro
 equality C_j x = d_j at its own level, stacked with the other active rows of that level just above
 that level's equalities, and the whole hierarchy is solved again. §3.2 stops there, and the
 active set only grows: a row activated on the way stays pinned at its bound where the final
-solution would keep it inside, and both bounds of one joint can end up pinned at once (Sim4, F min
-under knee limits in three-leg support: eleven torque rows pinned against three internal force
-directions, their least-squares compromise far from any bound). So this is a primal active set:
+solution would keep it inside, and both bounds of one joint can end up pinned at once
+(docs/controller.md has the cases that showed it). So this is a primal active set:
 §3.2's activation first (the violated rows of the highest violated level, until none is), then an
 active row is released when the hierarchy solved without it keeps it inside its bound (its
 multiplier has the wrong sign; every level is a convex least squares, so an optimum without the
 row that satisfies it is the optimum with it), and z steps from where it is towards the optimum of
 the new active set only as far as no inactive row gets violated, the row that blocks it being
-activated. Jumping to that optimum instead and activating all it violates cycled between active
-sets when knees and hips were both limited (Sim5), ending at the iteration cap far past a limit.
+activated (jumping to that optimum and activating all it violates can cycle between active sets).
 
-Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call: trotting with
-~100 inequality rows once took 50–120 ms a tick in activations and release trials. At the cap the
+Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call, against
+cycling and against ticks far over their budget (docs/controller.md). At the cap the
 search stops at the best point it has: the feasible z of the release phase (every inequality
 satisfied, some pinned that the optimum would release) or, still activating, the last z; an
 `ActiveSetCapWarning` says which (`warnings`: the caller decides how to show it).
@@ -51,6 +49,7 @@ from lab.controller.hierarchy.formulations import (
 )
 from lab.controller.hierarchy.linalg import SingularSystem
 from lab.controller.hierarchy.problem import HierarchyProblem, Level
+from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, level_residuals
 
 RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
 RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
@@ -88,19 +87,28 @@ class _Budget:
         return not self.ran_out
 
 
-def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
-    """x = [q̈, F] by iterative null-space projection; `solver` is unused (no QP here)."""
+def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> HierarchySolution:
+    """x = [q̈, F] by iterative null-space projection, every level `projected`, `capped` when an
+    active-set search stopped at its cap; `solver` is unused (no QP here)."""
     if problem.formulation == "sequential":
-        return _solve_sequential(problem)
-    change = reparametrize(problem, problem.formulation)
-    levels = [change.eom] + [change.level(level) for level in problem.levels]
-    z = hierarchical_least_squares(levels, change.T.shape[1])
-    return change.T @ z + change.t
+        x, capped = _solve_sequential(problem)
+    else:
+        change = reparametrize(problem, problem.formulation)
+        levels = [change.eom] + [change.level(level) for level in problem.levels]
+        search = _searched(levels, change.T.shape[1])
+        x, capped = change.T @ search.z + change.t, search.capped
+    statuses = (PROJECTED,) * len(problem.levels)
+    return HierarchySolution(x, statuses, level_residuals(problem.levels, x), capped=capped)
 
 
 def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
     """Strict priorities over z ∈ Rⁿ with inequalities activated when violated (§3.1–3.2);
     warns (ActiveSetCapWarning) when the cap stopped the search."""
+    return _searched(levels, n).z
+
+
+def _searched(levels: Sequence[Level], n: int) -> ActiveSetSolution:
+    """The active-set search, warning (ActiveSetCapWarning) when the cap stopped it."""
     solution = active_set_least_squares(levels, n)
     if solution.capped:
         state = "feasible" if solution.feasible else "still violating an inequality"
@@ -108,9 +116,9 @@ def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
             f"nullspace: active set stopped at the cap of {MAX_PROJECTIONS} hierarchy solves, at "
             f"the best point found ({state})",
             ActiveSetCapWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    return solution.z
+    return solution
 
 
 def active_set_least_squares(
@@ -226,7 +234,8 @@ def _project(
     return z
 
 
-def _solve_sequential(problem: HierarchyProblem) -> np.ndarray:
+def _solve_sequential(problem: HierarchyProblem) -> tuple[np.ndarray, bool]:
+    """Hutter Table 4: q̈ first, then τ (module docstring); x and whether a search was capped."""
     terms = problem.terms
     if terms is None:
         raise ValueError("formulation 'sequential' needs the model terms of the problem")
@@ -241,9 +250,11 @@ def _solve_sequential(problem: HierarchyProblem) -> np.ndarray:
         dynamic_levels.append(
             Level(level.A[~moving], level.b[~moving], level.C[~limiting], level.d[~limiting])
         )
-    qdd = hierarchical_least_squares(motion_levels, nv)  # step 1 (eq. 48)
+    motion = _searched(motion_levels, nv)  # step 1 (eq. 48)
+    qdd = motion.z
     change = torque_step(terms, qdd)
     levels = [change.eom] + [change.level(level) for level in dynamic_levels]
-    tau = hierarchical_least_squares(levels, change.T.shape[1])  # step 2 (eqs. 49–51)
+    torque = _searched(levels, change.T.shape[1])  # step 2 (eqs. 49–51)
     support = terms.Jc[np.flatnonzero(terms.support)]
-    return constrained_forward_dynamics(terms, tau, support @ qdd)
+    x = constrained_forward_dynamics(terms, torque.z, support @ qdd)
+    return x, motion.capped or torque.capped

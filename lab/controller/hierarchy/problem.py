@@ -50,4 +50,5 @@ class HierarchyProblem:
 
     @property
     def nx(self) -> int:
+        """Size of x = [q̈, F]."""
         return self.dynamics_A.shape[1]

@@ -10,13 +10,16 @@ treat every task by its own weight alone. Inequalities are hard here: none is tr
 import numpy as np
 
 from lab.controller.hierarchy.problem import HierarchyProblem
+from lab.controller.hierarchy.solution import QP, HierarchySolution, LevelClock, level_residuals
 from lab.controller.qp import solve_qp
 
 REGULARIZATION = 1e-9
 
 
-def solve_weighted(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarray:
-    """The weighted solution x = [q̈, F]; raises QPFailure when the QP has none."""
+def solve_weighted(problem: HierarchyProblem, solver: str = "daqp") -> HierarchySolution:
+    """The weighted solution x = [q̈, F] (every level `qp`: one QP for all, its time charged to
+    the first level); raises QPFailure when the QP has none."""
+    clock = LevelClock(len(problem.levels))
     nx = problem.nx
     lightest = min((level.weight for level in problem.levels), default=1.0)
     H = REGULARIZATION * lightest * np.eye(nx)
@@ -26,4 +29,9 @@ def solve_weighted(problem: HierarchyProblem, solver: str = "daqp") -> np.ndarra
         g -= level.weight * level.A.T @ level.b
     C = np.vstack([np.zeros((0, nx))] + [level.C for level in problem.levels])
     d = np.concatenate([np.zeros(0)] + [level.d for level in problem.levels])
-    return solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, solver=solver)
+    x = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, solver=solver)
+    if problem.levels:
+        clock.lap(0)
+    levels = (QP,) * len(problem.levels)
+    residuals = level_residuals(problem.levels, x)
+    return HierarchySolution(x, levels, residuals, qp_solves=1, level_seconds=tuple(clock.seconds))

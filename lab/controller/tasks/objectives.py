@@ -1,36 +1,49 @@
 """Load-distribution objectives of Hutter 2014 §4–5.1, as tasks usable at any level.
 
 Over x = [q̈, F] (with the dynamics on top, as every hierarchy method keeps them):
+- `forces` (F min, W_F = I): the force regularization, F → 0.
 - `torques` (τ min, W_τ = I, b_τ = 0): τ(x) = M_a q̈ + h_a − J_aᵀ F = 0 (Table 3, eqs. 44–45).
-- `forces` (F min, W_F = I) already exists in tasks.py as the force regularization.
 - `force_normal` (§5.1.5): W_F = blockdiag(tᵢᵀ), the tangential components of each support
   force in the local surface tangent plane → 0, so forces align with the surface normals. The
   weight α of the task is its gain weight.
 - `force_interpolation` (§5.1.6): for a foot being loaded or unloaded, F_j = w F_j^opt with
   w ∈ [0, 1] from the behaviour; F^opt is the quasi-static minimum-force distribution over the
   feet in support (J_uᵀ F = h_u), the load distribution the foot would carry with full weight.
+
+None of them tracks a reference: they have no error and read only their weight.
 """
 
 import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-from lab.controller.tasks import TASK_TYPES, Task, contact_rows, no_rows, zeros
+from lab.controller.rows import contact_rows, selection, zeros
+from lab.controller.tasks.base import Task, TaskRows, no_task_rows
 from lab.controller.walk_references import WalkReferences, surface_normals
+
+
+class ForceTask(Task):
+    """Contact-force regularization: F → 0 (the minimum-force load distribution, W_F = I)."""
+
+    name = "forces"
+    GAINS = ("weight",)
+
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+        return TaskRows(selection(robot.nx, robot.nv, robot.nx), zeros(robot.nf), zeros(0))
 
 
 class TorqueTask(Task):
     """Joint torques → 0 through τ(x): the actuation-efficiency objective (§5.1.1)."""
 
     name = "torques"
+    GAINS = ("weight",)
 
-    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         a = slice(BASE_DOF, robot.nv)
         A, view = self._matrix(robot, robot.na)
         A[:, : robot.nv] = robot.M[a]
         np.negative(robot.Jc[:, a].T, out=A[:, robot.nv :])
-        self.error = zeros(0)
-        return view, -robot.h[a]
+        return TaskRows(view, -robot.h[a], zeros(0))
 
 
 def tangent_basis(normal: np.ndarray) -> np.ndarray:
@@ -46,8 +59,9 @@ class ForceNormalTask(Task):
     """Tangential support forces in the local surface tangent plane → 0 (§5.1.5)."""
 
     name = "force_normal"
+    GAINS = ("weight",)
 
-    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         normals = surface_normals(refs, len(robot.contacts))
         blocks = []
         for i, (contact, rows, active) in enumerate(
@@ -61,15 +75,15 @@ class ForceNormalTask(Task):
             A = np.zeros((2, robot.nx))
             A[:, robot.nv + rows.start : robot.nv + rows.start + 3] = tangents
             blocks.append(A)
-        self.error = zeros(0)
         if not blocks:
-            return no_rows(robot.nx)
+            return no_task_rows(robot.nx)
         A = np.vstack(blocks)
-        return A, np.zeros(len(A))
+        return TaskRows(A, np.zeros(len(A)), zeros(0))
 
 
 def quasi_static_forces(robot: RobotModel, active: np.ndarray) -> np.ndarray:
-    """Minimum-norm forces of the active feet that carry the base: J_uᵀ F = h_u."""
+    """Minimum-norm forces (N, the layout of F) of the active feet that carry the base:
+    J_uᵀ F = h_u."""
     columns = contact_rows(robot, active)
     forces = np.zeros(robot.nf)
     base = robot.Jc[columns, :BASE_DOF].T
@@ -81,21 +95,17 @@ class ForceInterpolationTask(Task):
     """F_j = w F_j^opt for each foot whose interpolation weight w is set (§5.1.6)."""
 
     name = "force_interpolation"
+    GAINS = ("weight",)
 
-    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
-        self.error = zeros(0)
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         if not isinstance(refs, WalkReferences) or len(refs.force_weight) == 0:
-            return no_rows(robot.nx)
+            return no_task_rows(robot.nx)
         changing = np.isfinite(refs.force_weight) & refs.contact_active
         if not np.any(changing):
-            return no_rows(robot.nx)
+            return no_task_rows(robot.nx)
         optimal = quasi_static_forces(robot, refs.contact_active)
         index = contact_rows(robot, changing)
         A = np.zeros((len(index), robot.nx))
         A[np.arange(len(index)), robot.nv + index] = 1.0
         w = np.repeat(refs.force_weight[changing], robot.force_dims[changing])
-        return A, w * optimal[index]
-
-
-for _task in (TorqueTask, ForceNormalTask, ForceInterpolationTask):
-    TASK_TYPES[_task.name] = _task
+        return TaskRows(A, w * optimal[index], zeros(0))

@@ -1,9 +1,10 @@
 """The centroidal momentum task of Herzog 2016 (eqs. 19–24), usable at any level.
 
 Rows over x = [q̈, F]: A_G q̈ = ḣ_des − Ȧ_G v (eq. 20, pinocchio's centroidal map and its drift),
-with ḣ_des = −K_h s + ḣ_ref from momentum.py: diagonal PD gains (eq. 22) or the LQR design of
-eqs. 23–26, chosen by `mode`. The reference momentum is [m ċ_ref; 0] and ḣ_ref = 0. `error` is s,
-the CoG error and the momentum errors [Δc; Δh_lin; Δh_ang] (m, kg m/s, kg m²/s).
+with ḣ_des = −K_h s + ḣ_ref from lab/controller/momentum.py: diagonal PD gains (eq. 22) or the
+LQR design of eqs. 23–26, chosen by `mode`. The reference momentum is [m ċ_ref; 0] and
+ḣ_ref = 0. The error is s, the CoG error and the momentum errors [Δc; Δh_lin; Δh_ang]
+(m, kg m/s, kg m²/s; world axes, about the CoM).
 """
 
 import numpy as np
@@ -11,11 +12,12 @@ import numpy as np
 from lab.controller.model import RobotModel
 from lab.controller.momentum import MOMENTUM_MODES, GainSchedule, LqrCost, lqr_design, pd_gain
 from lab.controller.references import References
-from lab.controller.tasks import TASK_TYPES, Task, TaskGains
+from lab.controller.tasks.base import Task, TaskGains, TaskRows
 
 
 class MomentumTask(Task):
-    """Centroidal momentum rate ḣ = −K_h s (Herzog eqs. 22 and 24), K_h from PD or LQR."""
+    """Centroidal momentum rate ḣ = −K_h s (Herzog eqs. 22 and 24), K_h from PD or LQR (kp, kd
+    are read in `pd` mode only)."""
 
     name = "momentum"
 
@@ -44,13 +46,9 @@ class MomentumTask(Task):
 
         return self.schedule.gain(active.tobytes(), design)
 
-    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         h = robot.centroidal_momentum()
         s = np.concatenate((robot.com - refs.com, h[:3] - robot.mass * refs.com_velocity, h[3:]))
         A, view = self._matrix(robot, 6)
         A[:, : robot.nv] = robot.centroidal_map
-        self.error = s
-        return view, -self.gain(robot, refs) @ s - robot.centroidal_drift()
-
-
-TASK_TYPES[MomentumTask.name] = MomentumTask
+        return TaskRows(view, -self.gain(robot, refs) @ s - robot.centroidal_drift(), s)

@@ -1,0 +1,86 @@
+"""What every hierarchy method returns: x and how it was found (as TSID's HQPOutput).
+
+The native kernel's `HierarchySolution` (cpp/hierarchy/problem.hpp) has the same fields and the
+same level status names, so telemetry reads one shape whichever kernel ran.
+"""
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.controller.hierarchy.problem import Level
+
+# How a level was solved.
+EXACT = "exact"  # least squares of its equalities; no inequality binds
+QP = "qp"  # a QP (with slacks under strict priorities; one weighted QP for all levels)
+KEPT_ABOVE = "kept_above"  # the solver failed: the level keeps the solution of the levels above
+NO_FREEDOM = "no_freedom"  # nothing left in the null space of the levels above
+PROJECTED = "projected"  # null-space projection with active inequalities (Hutter §3)
+LEVEL_STATUSES = (EXACT, QP, KEPT_ABOVE, NO_FREEDOM, PROJECTED)
+
+
+@dataclass(frozen=True)
+class HierarchySolution:
+    """x = [q̈, F] (rad/s², m/s² and N, N m) and what happened on the way.
+
+    `levels` has one status per level of the problem (LEVEL_STATUSES), `residuals` the norm
+    ‖A x − b‖ of each level's equality rows at x (in the rows' units, √weight included),
+    `level_seconds` the time spent on each level (both kernels measure it),
+    `qp_solves` how many QPs ran, and `capped` whether the nullspace method's active-set search
+    stopped at its cap before its optimum.
+    """
+
+    x: np.ndarray
+    levels: tuple[str, ...]
+    residuals: tuple[float, ...]
+    qp_solves: int = 0
+    level_seconds: tuple[float, ...] = ()
+    capped: bool = False
+
+    @property
+    def fallback_levels(self) -> tuple[int, ...]:
+        """Indices (0 = the first level of the stack) of the levels whose QP the solver failed,
+        which kept the solution of the levels above (the cascade's u = 0)."""
+        return tuple(i for i, status in enumerate(self.levels) if status == KEPT_ABOVE)
+
+    @property
+    def status(self) -> str:
+        """`ok`, `fallback` (some level kept the solution above) or `capped` (nullspace)."""
+        if self.fallback_levels:
+            return "fallback"
+        return "capped" if self.capped else "ok"
+
+    def summary(self) -> dict:
+        """JSON-ready status, fallback levels, level statuses, residuals and QP count."""
+        return {
+            "status": self.status,
+            "fallback_levels": list(self.fallback_levels),
+            "levels": list(self.levels),
+            "residuals": list(self.residuals),
+            "qp_solves": self.qp_solves,
+        }
+
+
+def level_residuals(levels: Sequence[Level], x: np.ndarray) -> tuple[float, ...]:
+    """‖A x − b‖ of each level's equality rows (0 for a level without any)."""
+    return tuple(float(np.linalg.norm(lv.A @ x - lv.b)) if len(lv.b) else 0.0 for lv in levels)
+
+
+class LevelClock:
+    """Seconds spent on each level, accumulated over the passes of a method."""
+
+    def __init__(self, n: int) -> None:
+        self.seconds = [0.0] * n
+        self._start = time.perf_counter()
+
+    def start(self) -> None:
+        """Start timing the first level of a pass from now."""
+        self._start = time.perf_counter()
+
+    def lap(self, level: int) -> None:
+        """Charge the time since the last lap to `level`."""
+        now = time.perf_counter()
+        self.seconds[level] += now - self._start
+        self._start = now
