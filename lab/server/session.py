@@ -3,7 +3,8 @@
 The same object runs headless (tests, scenarios, benchmarks: as fast as the CPU allows) and
 inside the realtime sim process (which adds the schedule and Zenoh around it). Commands arrive as
 (verb, JSON payload), are validated by `parse_command`, and are applied between ticks; a rejected
-command changes nothing and the reply names the problem.
+command changes nothing and the reply names the problem. What a session publishes (telemetry,
+the drawing state) is built in `telemetry.py`.
 """
 
 import time
@@ -27,6 +28,13 @@ from lab.description import ROBOT_NAMES, Robot, build_robot, load_description
 from lab.scenes import SCENES
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
+from lab.server.telemetry import (
+    hierarchy_report,
+    momentum_report,
+    state_message,
+    task_gains_report,
+    telemetry_message,
+)
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
 
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
@@ -170,7 +178,11 @@ class Session:
             self.controller.set_gains(task, **gains)
         self.controller.set_hierarchy(preset.hierarchy)
         self.config.stack, self.config.hierarchy = stack.as_lists(), preset.hierarchy
-        return {"preset": name, "stack": stack.as_lists(), "hierarchy": self._hierarchy()}
+        return {
+            "preset": name,
+            "stack": stack.as_lists(),
+            "hierarchy": hierarchy_report(self.controller),
+        }
 
     @property
     def time(self) -> float:
@@ -337,7 +349,7 @@ class Session:
                 self.config.hierarchy, self.config.kernel = method, self.controller.config.kernel
                 self.config.solver = self.controller.config.solver
                 self.config.formulation = self.controller.config.formulation
-                return {"hierarchy": self._hierarchy()}
+                return {"hierarchy": hierarchy_report(self.controller)}
             case cmd.StackCommand(preset=str(preset)):
                 return self._use_preset(preset)
             case cmd.StackCommand(levels=levels):
@@ -364,12 +376,8 @@ class Session:
                 return self._set_behaviour(name, options)
             case cmd.MomentumCommand(mode=mode):
                 self.controller.tasks["momentum"].set_mode(mode)  # ValueError names the modes
-                return {"momentum": self._momentum()}
+                return {"momentum": momentum_report(self.controller)}
         return {}
-
-    def _momentum(self) -> dict:
-        """The momentum task's feedback law (Herzog 2016 §3)."""
-        return {"mode": self.controller.tasks["momentum"].mode}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
@@ -382,20 +390,6 @@ class Session:
         self._event("session_rebuilt", f"robot {config.robot} in scene {config.scene}")
 
     # ----------------------------------------------------------------------------- reports
-    def _hierarchy(self) -> dict:
-        config = self.controller.config
-        return {
-            "method": config.hierarchy,
-            "solver": config.solver,
-            "formulation": config.formulation,
-        }
-
-    def _task_gains(self) -> list[dict]:
-        return [
-            {"name": name, "kp": g.kp, "kd": g.kd, "weight": g.weight}
-            for name, g in self.controller.gains().items()
-        ]
-
     def info(self) -> dict:
         return {
             "robots": list(ROBOT_NAMES),
@@ -410,12 +404,12 @@ class Session:
             "robot": self.config.robot,
             "scene": self.config.scene,
             "gait": self.behaviour.name,
-            "momentum": self._momentum(),
-            "hierarchy": self._hierarchy(),
+            "momentum": momentum_report(self.controller),
+            "hierarchy": hierarchy_report(self.controller),
             "kernel": self.controller.config.kernel,
             "stack": self.controller.config.stack.as_lists(),
             "known": list(self.controller.known_names),
-            "tasks": self._task_gains(),
+            "tasks": task_gains_report(self.controller),
             "bodies": list(self.plant.body_names),
             "base": self.robot.base_link,
             "contacts": [c.name for c in self.robot.contacts],
@@ -425,111 +419,11 @@ class Session:
 
     def telemetry(self) -> dict:
         """Everything the UI plots and the tests check, JSON-ready (see docs/protocol.md)."""
-        model, refs = self.model, self.controller.references
-        q = self.model.q
-        rotation = model.base_rotation
-        measured = self.plant.foot_forces()
-        commanded = model.contact_forces_world(self.forces)
-        contacts = []
-        feet_cop: dict[str, list[float] | None] = {}
-        for i, (contact, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True)):
-            position = model.contact_positions[i]
-            entry = {
-                "name": contact.name,
-                "kind": contact.kind,
-                "active": bool(refs.contact_active[i]),
-                "position": position.tolist(),
-                "measured_force": measured[i].tolist(),
-                "force": commanded[i].tolist(),
-            }
-            if contact.kind == "flat":
-                wrench = self.forces[rows]
-                R = model.contact_rotations[i]
-                entry["moment"] = (R @ wrench[3:]).tolist()
-                fz = wrench[2]
-                cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0]) if fz > 1e-6 else None
-                feet_cop[contact.name] = (
-                    None if cop_local is None else (position + R @ cop_local).tolist()
-                )
-            contacts.append(entry)
-        normal = measured[:, 2]
-        net_cop = (
-            (normal @ model.contact_positions / normal.sum()).tolist()
-            if normal.sum() > 1e-6
-            else None
-        )
-        if net_cop is not None:
-            net_cop[2] = 0.0
-        errors = self.controller.task_errors()
-        gains = self.controller.gains()
-        tasks = [
-            {
-                "name": name,
-                "level": level,
-                "error": errors.get(name, 0.0),
-                "kp": gains[name].kp if name in gains else None,
-                "kd": gains[name].kd if name in gains else None,
-                "weight": gains[name].weight if name in gains else 1.0,
-            }
-            for level, names in enumerate(self.controller.config.stack.levels)
-            for name in names
-        ]
-        momentum = model.centroidal_momentum()
-        return {
-            "t": self.time,
-            "robot": self.config.robot,
-            "scene": self.config.scene,
-            "paused": self.paused,
-            "fell": self.fell,
-            "divergences": self.divergences,
-            "gait": self.behaviour.name,
-            "base": {
-                "position": q[:3].tolist(),
-                "quaternion": q[3:7].tolist(),
-                "linear_velocity": (rotation @ model.v[:3]).tolist(),
-                "angular_velocity": (rotation @ model.v[3:6]).tolist(),
-            },
-            "com": {"position": model.com.tolist(), "velocity": model.com_velocity.tolist()},
-            "momentum": {"linear": momentum[:3].tolist(), "angular": momentum[3:].tolist()},
-            "contacts": contacts,
-            "cop": {"feet": feet_cop, "net": net_cop},
-            "tasks": tasks,
-            "stack": self.controller.config.stack.as_lists(),
-            "momentum_control": self._momentum(),
-            "hierarchy": self._hierarchy(),
-            "kernel": self.controller.kernel_ran,
-            "kernel_note": self.controller.kernel_note,
-            "qp": {
-                "status": "ok" if self.qp_ok else "failed",
-                "solve_us": self.control_us,
-                "failures": self.qp_failures,
-            },
-            "command": dict(zip(("vx", "vy", "yaw_rate"), self.velocity.tolist(), strict=True)),
-            "pushes": [
-                {
-                    "body": p.body,
-                    "force": p.force.tolist(),
-                    "point": (
-                        p.point if p.point is not None else self._body_position(p.body)
-                    ).tolist(),
-                    "remaining": max(0.0, p.ends_at - self.time),
-                }
-                for p in self.pushes.values()
-            ],
-        }
-
-    def _body_position(self, body: str) -> np.ndarray:
-        frame = self.model.model.getFrameId(body)
-        return self.model.data.oMf[frame].translation.copy()
+        return telemetry_message(self)
 
     def drawing_state(self) -> dict:
-        q, _ = self.plant.state()
-        return {
-            "t": self.time,
-            "robot": self.config.robot,
-            "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
-            "joints": {"names": list(self.robot.joint_names), "positions": q[7:].tolist()},
-        }
+        """What the UI needs to draw the robot (`lab/state`)."""
+        return state_message(self)
 
     def base_orientation_error(self) -> float:
         """Angle (rad) between the base and its reference orientation."""
