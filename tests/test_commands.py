@@ -70,6 +70,12 @@ def test_stack_hierarchy_gains_info() -> None:
     assert parse_command("info", {}) == InfoCommand()
 
 
+def test_an_old_spelling_is_rejected_naming_the_new_word() -> None:
+    """`method` is the one word for cascade / weighted / nullspace (docs/protocol.md)."""
+    with pytest.raises(CommandError, match="field 'hierarchy' is now called 'method'"):
+        parse_command("hierarchy", {"hierarchy": "weighted"})
+
+
 @pytest.mark.parametrize(
     ("verb", "payload", "needle"),
     [

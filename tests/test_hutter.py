@@ -61,7 +61,7 @@ def solve(anymal, walk, lower, limits=None, formulation="sequential"):
         ControllerConfig(
             Stack.of(MOTION + lower),
             gains=dict(GAINS),
-            hierarchy="nullspace",
+            method="nullspace",
             formulation=formulation,
         ),
         robot.torque_limits if limits is None else limits,
@@ -163,7 +163,7 @@ def test_half_cylinder_holds_anymal_feet_and_gives_their_normals(anymal) -> None
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_hutter_scenarios_load(path: Path) -> None:
     scenario = load_scenario(path)
-    assert scenario.config.hierarchy == "nullspace"
+    assert scenario.config.method == "nullspace"
     assert len(scenario.metrics) >= 2
 
 

@@ -110,8 +110,8 @@ class NativeController(WholeBodyController):
             return ""
         if NOT_BUILT:
             return NOT_BUILT
-        if self.config.hierarchy not in NATIVE_METHODS:
-            return f"the native kernel has no method {self.config.hierarchy!r}"
+        if self.config.method not in NATIVE_METHODS:
+            return f"the native kernel has no method {self.config.method!r}"
         return self._unsupported
 
     def set_kernel(self, kernel: str) -> None:
@@ -159,8 +159,8 @@ class NativeController(WholeBodyController):
             return super().solve()
         native = self._native
         self._sync_limits()
-        if native.method != self.config.hierarchy:
-            native.set_method(self.config.hierarchy)
+        if native.method != self.config.method:
+            native.set_method(self.config.method)
         send_references(native, self.references)
         tau, qdd, forces, ok, message, _levels, _residuals, _solves, errors = native.tick(
             self.robot.q, self.robot.v
@@ -168,7 +168,7 @@ class NativeController(WholeBodyController):
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:
-            raise QPFailure(f"native {self.config.hierarchy}: {message}")
+            raise QPFailure(f"native {self.config.method}: {message}")
         return ControlOutput(tau, qdd, forces)
 
     def _sync_limits(self) -> None:

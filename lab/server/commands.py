@@ -36,6 +36,8 @@ LIMITS: dict[str, float] = {
 }  # reported by `info` so clients can size sliders
 
 _NAME_RE = re.compile(r"[A-Za-z0-9_.:/-]+")
+# verb -> {old field name: its name now}: an old spelling is rejected naming the new word
+RENAMED_FIELDS: dict[str, dict[str, str]] = {"hierarchy": {"hierarchy": "method"}}
 
 
 class CommandError(ValueError):
@@ -172,6 +174,9 @@ class _Fields:
         return CommandError(f"{self.verb}: field '{field}' {what}")
 
     def only(self, *allowed: str) -> None:
+        for old, new in RENAMED_FIELDS.get(self.verb, {}).items():
+            if old in self.payload:
+                raise CommandError(f"{self.verb}: field {old!r} is now called {new!r}")
         unknown = sorted(k for k in self.payload if k not in allowed)
         if unknown:
             names = ", ".join(repr(k)[:NAME_MAX_LEN] for k in unknown[:5])

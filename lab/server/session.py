@@ -65,7 +65,7 @@ class SessionConfig:
 
     robot: str = "anymal"
     scene: str = "flat"
-    hierarchy: str = "cascade"
+    method: str = "cascade"  # hierarchy method: cascade | weighted | nullspace
     solver: str = "daqp"
     formulation: str = "qdd_force"  # `nullspace` only: its optimization vector (Hutter 2014 §4)
     stack: list[list[str]] | None = None
@@ -109,7 +109,7 @@ class Session:
             ControllerConfig(
                 stack=Stack.of(config.stack or description.stack),
                 gains=gains,
-                hierarchy=config.hierarchy,
+                method=config.method,
                 solver=config.solver,
                 formulation=config.formulation,
                 limits=ContactLimits(friction=description.friction),
@@ -176,8 +176,8 @@ class Session:
         self.controller.set_stack(stack)  # presets name known tasks: this cannot fail halfway
         for task, gains in preset.gains.items():
             self.controller.set_gains(task, **gains)
-        self.controller.set_hierarchy(preset.hierarchy)
-        self.config.stack, self.config.hierarchy = stack.as_lists(), preset.hierarchy
+        self.controller.set_hierarchy(preset.method)
+        self.config.stack, self.config.method = stack.as_lists(), preset.method
         return {
             "preset": name,
             "stack": stack.as_lists(),
@@ -343,10 +343,10 @@ class Session:
             ):
                 if kernel is not None and kernel not in KERNELS:  # a rejection changes nothing
                     raise KeyError(f"unknown kernel {kernel!r} (kernels: {', '.join(KERNELS)})")
-                method = method or self.controller.config.hierarchy
+                method = method or self.controller.config.method
                 self.controller.set_hierarchy(method, solver, formulation)
                 self.controller.set_kernel(kernel or self.controller.config.kernel)
-                self.config.hierarchy, self.config.kernel = method, self.controller.config.kernel
+                self.config.method, self.config.kernel = method, self.controller.config.kernel
                 self.config.solver = self.controller.config.solver
                 self.config.formulation = self.controller.config.formulation
                 return {"hierarchy": hierarchy_report(self.controller)}

@@ -61,7 +61,7 @@ class SessionView(Protocol):
 def hierarchy_report(controller: NativeController) -> dict:
     """The hierarchy in use: method, QP solver, nullspace formulation."""
     config = controller.config
-    return {"method": config.hierarchy, "solver": config.solver, "formulation": config.formulation}
+    return {"method": config.method, "solver": config.solver, "formulation": config.formulation}
 
 
 def momentum_report(controller: NativeController) -> dict:
