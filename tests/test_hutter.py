@@ -16,7 +16,8 @@ from lab.controller.objectives import quasi_static_forces, tangent_basis
 from lab.controller.stack import Stack
 from lab.controller.surfaces import ANYMAL_FOOT_RADIUS, HALF_CYLINDER
 from lab.controller.tasks import TaskGains
-from lab.description import build_robot, load_description
+from lab.description import load_description
+from lab.robot import build_robot
 from lab.server.scenario import load_scenario, run_scenario
 
 SCENARIOS = sorted(Path(__file__).parents[1].glob("scenarios/hutter_*.toml"))

@@ -25,7 +25,8 @@ from lab.controller.native import (
 )
 from lab.controller.stack import Stack
 from lab.controller.walk_references import WalkReferences
-from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.robot import build_robot
 from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
 from lab.stack_presets import PRESET_NAMES, load_stack_preset

@@ -94,7 +94,8 @@ def test_a_malformed_scenario_names_its_problem(tmp_path: Path, text: str, needl
 
 
 def _weight(robot: str) -> float:
-    from lab.description import build_robot, load_description
+    from lab.description import load_description
+    from lab.robot import build_robot
 
     model = build_robot(load_description(robot)).model
     return sum(inertia.mass for inertia in model.inertias) * 9.81

@@ -23,8 +23,9 @@ import pytest
 from ports import free_port
 
 from lab.client import LabClient
+from lab.protocol import MAX_PAYLOAD_BYTES
 from lab.server.loop import MAX_BEHIND_S
-from lab.server.transport import MAX_PAYLOAD_BYTES, encode
+from lab.server.transport import encode
 
 STARTUP_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 2.0
@@ -146,7 +147,7 @@ def test_info_answers_with_choices_and_current_state(info: dict) -> None:
 
 
 def test_telemetry_and_state_stream_at_rate_with_the_loop_on_schedule(
-    lab: LabClient, server: Server
+    lab: LabClient, server: Server, info: dict
 ) -> None:
     received = collect(server.endpoint, 1.0)
     telemetry, states = received["telemetry"], received["state"]
@@ -164,6 +165,11 @@ def test_telemetry_and_state_stream_at_rate_with_the_loop_on_schedule(
     assert len(state["joints"]["names"]) == len(state["joints"]["positions"]) == 12
     assert len(state["base"]["quaternion"]) == 4
     assert math.isclose(sum(c * c for c in state["base"]["quaternion"]), 1.0, rel_tol=1e-6)
+    # every link and contact frame placed, for the UI to draw with (the base link is the base)
+    frames = dict(zip(state["frames"]["names"], state["frames"]["positions"], strict=True))
+    assert len(state["frames"]["quaternions"]) == len(frames)
+    assert frames[info["base"]] == pytest.approx(state["base"]["position"], abs=1e-12)
+    assert {f"{leg}_FOOT_centre" for leg in ("LF", "RF", "LH", "RH")} <= set(frames)
     for key in ("base", "com", "momentum", "contacts", "cop", "tasks", "stack", "qp"):
         assert key in last, key
     assert len(last["contacts"]) == 4

@@ -21,15 +21,7 @@ import pinocchio as pin
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
-
-
-@dataclass(frozen=True)
-class TaskGains:
-    """PD gains and the weight of a task inside its level (unused fields keep their defaults)."""
-
-    kp: float = 0.0
-    kd: float = 0.0
-    weight: float = 1.0
+from lab.protocol import TaskGains
 
 
 @cache

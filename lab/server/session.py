@@ -23,8 +23,9 @@ from lab.controller.momentum import MOMENTUM_MODES
 from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
-from lab.controller.tasks import TaskGains
-from lab.description import ROBOT_NAMES, Robot, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.protocol import TaskGains
+from lab.robot import FramePlacements, Robot, build_robot
 from lab.scenes import SCENES
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
@@ -123,6 +124,7 @@ class Session:
         self.plant = plant
         self.model = model
         self.controller = controller
+        self.frame_placements = FramePlacements(robot)
         self._reset_state()
 
     def _reset_state(self, time: float = 0.0) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 
 from lab.controller.model import RobotModel
 from lab.controller.native import NativeController
-from lab.description import Robot
+from lab.robot import FramePlacements, Robot
 from lab.server.plant import MujocoPlant
 
 COP_MIN_FORCE = 1e-6  # N: a foot or the robot pressing less than this has no centre of pressure
@@ -40,6 +40,7 @@ class SessionView(Protocol):
 
     config: ConfigView
     robot: Robot
+    frame_placements: FramePlacements
     plant: MujocoPlant
     model: RobotModel
     controller: NativeController
@@ -202,11 +203,13 @@ def telemetry_message(session: SessionView) -> dict:
 
 
 def state_message(session: SessionView) -> dict:
-    """What the UI needs to draw the robot (`lab/state`): base pose and joint positions."""
+    """What the UI needs to draw the robot (`lab/state`): base pose, joint positions and the
+    world placement of every link and contact frame."""
     q, _ = session.plant.state()
     return {
         "t": session.time,
         "robot": session.config.robot,
         "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
         "joints": {"names": list(session.robot.joint_names), "positions": q[7:].tolist()},
+        "frames": session.frame_placements.message(q),
     }
