@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+from scipy.spatial.transform import Rotation
 
 from lab.description import RobotDescription
 from lab.protocol import ContactSpec
@@ -157,16 +158,22 @@ class FramePlacements:
         links = {model.frames[i].name for i in ids}
         ids += [model.getFrameId(c.frame) for c in robot.contacts if c.frame not in links]
         self.names = tuple(model.frames[i].name for i in ids)
-        self._ids = ids
+        self._joints = np.array([model.frames[i].parentJoint for i in ids])
+        self._in_joint = np.array([model.frames[i].placement.homogeneous for i in ids])
         self._model = model
         self._data = model.createData()  # scratch: the controller's model data is not moved
 
     def message(self, q: np.ndarray) -> dict[str, list]:
-        """Names, positions (m) and quaternions (x, y, z, w) in the world at configuration q."""
-        pin.framesForwardKinematics(self._model, self._data, q)
-        poses = np.array([pin.SE3ToXYZQUAT(self._data.oMf[i]) for i in self._ids])
+        """Names, positions (m) and quaternions (x, y, z, w) in the world at configuration q.
+        One placement per joint from pinocchio, then each frame's fixed placement in its joint
+        applied to all frames at once: reading each frame from pinocchio cost the sim loop
+        about 5x more (the rotations are orthonormal, so scipy need not orthonormalise them)."""
+        pin.forwardKinematics(self._model, self._data, q)
+        joints = np.array([placement.homogeneous for placement in self._data.oMi])
+        world = joints[self._joints] @ self._in_joint
+        rotations = Rotation.from_matrix(world[:, :3, :3], assume_valid=True)
         return {
             "names": list(self.names),
-            "positions": poses[:, :3].tolist(),
-            "quaternions": poses[:, 3:].tolist(),
+            "positions": world[:, :3, 3].tolist(),
+            "quaternions": rotations.as_quat().tolist(),  # scalar last: x, y, z, w
         }
