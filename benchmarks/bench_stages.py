@@ -41,7 +41,7 @@ def measure(robot: str, trot: bool, ticks: int) -> dict[str, float]:
         marks.append(clock())
         problem = controller.build_problem()
         marks.append(clock())
-        x = METHODS[controller.config.hierarchy](problem, controller.config.solver).x
+        x = METHODS[controller.config.method](problem, controller.config.solver).x
         marks.append(clock())
         tau = model.joint_torques(x)
         marks.append(clock())

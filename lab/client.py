@@ -13,14 +13,8 @@ from collections.abc import Callable
 
 import zenoh
 
-from lab.server.transport import (
-    CMD_PREFIX,
-    DEFAULT_ENDPOINT,
-    KEY_EVENTS,
-    KEY_STATE,
-    KEY_TELEMETRY,
-    client_config,
-)
+from lab.protocol import CMD_PREFIX, DEFAULT_ENDPOINT, KEY_EVENTS, KEY_STATE, KEY_TELEMETRY
+from lab.server.transport import client_config
 
 COMMAND_TIMEOUT_S = 2.0
 SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session

@@ -1,8 +1,8 @@
 """Named stacks from the papers, as data: `stacks/<name>.toml`.
 
-A preset holds the priority levels (highest first), the hierarchy method it is meant for, and the
-gains of its tasks. A scenario names one with `stack = "<name>"` in its `[controller]` table; its
-own `hierarchy` and `[controller.gains.<task>]` entries override the preset's. The levels are an
+A preset holds the priority levels (highest first), the hierarchy `method` it is meant for, and
+the gains of its tasks. A scenario names one with `stack = "<name>"` in its `[controller]` table;
+its own `method` and `[controller.gains.<task>]` entries override the preset's. The levels are an
 ordinary stack afterwards, reorderable with the `stack` command.
 """
 
@@ -12,14 +12,15 @@ from pathlib import Path
 
 STACKS_DIR = Path(__file__).resolve().parent.parent / "stacks"
 PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
-PRESET_KEYS = {"description", "hierarchy", "levels", "gains"}
+PRESET_KEYS = {"description", "method", "levels", "gains"}
+RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now
 
 
 @dataclass(frozen=True)
 class StackPreset:
     name: str
     description: str
-    hierarchy: str
+    method: str  # hierarchy method: cascade | weighted | nullspace
     levels: list[list[str]]
     gains: dict[str, dict[str, float]]
 
@@ -31,6 +32,9 @@ def load_stack_preset(name: str) -> StackPreset:
         raise KeyError(f"unknown stack preset {name!r} (presets: {', '.join(PRESET_NAMES)})")
     path = STACKS_DIR / f"{name}.toml"
     data = tomllib.loads(path.read_text())
+    for old, new in RENAMED_KEYS.items():
+        if old in data:
+            raise ValueError(f"{path}: key {old!r} is now called {new!r}")
     unknown = set(data) - PRESET_KEYS
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
@@ -43,7 +47,7 @@ def load_stack_preset(name: str) -> StackPreset:
     return StackPreset(
         name=name,
         description=str(data.get("description", "")),
-        hierarchy=str(data.get("hierarchy", "cascade")),
+        method=str(data.get("method", "cascade")),
         levels=levels,
         gains={task: dict(values) for task, values in data.get("gains", {}).items()},
     )

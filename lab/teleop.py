@@ -21,8 +21,7 @@ import tty
 from dataclasses import dataclass, replace
 
 from lab.client import LabClient
-from lab.server.commands import VX_MAX, VY_MAX, YAW_RATE_MAX
-from lab.server.transport import DEFAULT_ENDPOINT
+from lab.protocol import DEFAULT_ENDPOINT, VX_MAX, VY_MAX, YAW_RATE_MAX
 
 VX_STEP = 0.1  # m/s per key press
 VY_STEP = 0.1  # m/s

@@ -4,24 +4,22 @@ import math
 
 import pytest
 
-from lab.server.commands import (
+from lab.protocol import (
     GAIN_MAX,
     PUSH_DURATION_MAX,
     PUSH_FORCE_MAX,
-    VERBS,
     VX_MAX,
     VY_MAX,
     WEIGHT_MAX,
     YAW_RATE_MAX,
-    CommandError,
     GainsCommand,
     HierarchyCommand,
     InfoCommand,
     PushCommand,
     StackCommand,
     VelocityCommand,
-    parse_command,
 )
+from lab.server.commands import VERBS, CommandError, parse_command
 
 
 def test_verbs_are_the_protocol_verbs() -> None:
@@ -68,6 +66,12 @@ def test_stack_hierarchy_gains_info() -> None:
     assert cmd == HierarchyCommand("cascade", "clarabel")
     assert parse_command("gains", {"task": "posture", "kd": 3}) == GainsCommand("posture", kd=3.0)
     assert parse_command("info", {}) == InfoCommand()
+
+
+def test_an_old_spelling_is_rejected_naming_the_new_word() -> None:
+    """`method` is the one word for cascade / weighted / nullspace (docs/protocol.md)."""
+    with pytest.raises(CommandError, match="field 'hierarchy' is now called 'method'"):
+        parse_command("hierarchy", {"hierarchy": "weighted"})
 
 
 @pytest.mark.parametrize(

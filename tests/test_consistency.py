@@ -11,7 +11,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.robot import build_robot
 from lab.server.plant import MujocoPlant
 
 N_STATES = 20

@@ -10,7 +10,8 @@ from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack, StackError
-from lab.description import build_robot, load_description
+from lab.description import load_description
+from lab.robot import build_robot
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos")
 DYNAMICS_TOL = 1e-8  # N or N m: Newton–Euler rows and the torque identity hold to round-off

@@ -6,7 +6,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.robot import build_robot
 
 HEIGHT_TOL = 1e-9  # m: the base height is solved so the lowest contact is at z = 0 exactly
 SOLE_TILT_TOL = 0.01  # rad: Talos' reference posture tilts the ankles by 1.7 mrad

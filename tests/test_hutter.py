@@ -16,7 +16,8 @@ from lab.controller.stack import Stack
 from lab.controller.surfaces import ANYMAL_FOOT_RADIUS, HALF_CYLINDER
 from lab.controller.tasks import TaskGains
 from lab.controller.tasks.objectives import quasi_static_forces, tangent_basis
-from lab.description import build_robot, load_description
+from lab.description import load_description
+from lab.robot import build_robot
 from lab.server.scenario import load_scenario, run_scenario
 
 SCENARIOS = sorted(Path(__file__).parents[1].glob("scenarios/hutter_*.toml"))
@@ -61,7 +62,7 @@ def solve(anymal, walk, lower, limits=None, formulation="sequential"):
         ControllerConfig(
             Stack.of(MOTION + lower),
             gains=dict(GAINS),
-            hierarchy="nullspace",
+            method="nullspace",
             formulation=formulation,
         ),
         robot.torque_limits if limits is None else limits,
@@ -163,7 +164,7 @@ def test_half_cylinder_holds_anymal_feet_and_gives_their_normals(anymal) -> None
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_hutter_scenarios_load(path: Path) -> None:
     scenario = load_scenario(path)
-    assert scenario.config.hierarchy == "nullspace"
+    assert scenario.config.method == "nullspace"
     assert len(scenario.metrics) >= 2
 
 

@@ -25,7 +25,8 @@ from lab.controller.native import (
 )
 from lab.controller.stack import Stack
 from lab.controller.walk_references import WalkReferences
-from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.robot import build_robot
 from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
@@ -276,7 +277,7 @@ def test_a_session_runs_native_by_default_and_switches_live() -> None:
     assert session.handle("hierarchy", {"method": "weighted", "kernel": "native"})["ok"]
     session.tick()
     assert session.telemetry()["kernel"] == "native"
-    assert session.controller.config.hierarchy == "weighted"
+    assert session.controller.config.method == "weighted"
 
 
 def test_a_method_the_kernel_lacks_runs_on_python_and_says_so() -> None:
@@ -289,7 +290,7 @@ def test_a_method_the_kernel_lacks_runs_on_python_and_says_so() -> None:
 
 
 def test_a_native_solver_failure_falls_back_and_is_reported() -> None:
-    session = Session(SessionConfig(robot="anymal", hierarchy="weighted"))
+    session = Session(SessionConfig(robot="anymal", method="weighted"))
     # A normal force at least 200 N and at most 100 N: the weighted QP (hard limits) is infeasible.
     limits = session.controller.config.limits
     limits.normal_min, limits.normal_max = 200.0, 100.0

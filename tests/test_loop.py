@@ -8,7 +8,7 @@ import threading
 import numpy as np
 import pytest
 
-from lab.server.commands import VelocityCommand
+from lab.protocol import VelocityCommand
 from lab.server.loop import (
     AUTO_FIFO_MIN_CPUS,
     DEADMAN_RAMP_S,

@@ -28,7 +28,8 @@ from lab.controller.hierarchy.nullspace import (
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack
 from lab.controller.tasks import TaskGains
-from lab.description import build_robot, load_description
+from lab.description import load_description
+from lab.robot import build_robot
 
 AGREE_TOL = 1e-6  # q̈ (rad/s², m/s²) and τ (N m), the cross-check tolerance
 DYNAMICS_TOL = 1e-8

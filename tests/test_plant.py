@@ -6,7 +6,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.robot import build_robot
 from lab.server.plant import MujocoPlant, SimulationDiverged
 
 G = 9.81

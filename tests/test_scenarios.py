@@ -78,7 +78,11 @@ def test_lab_run_prints_one_json_report() -> None:
         ('duration = 1.0\n[[events]]\nt = 0.5\npush = { body = "base" }\n', "force"),
         ("duration = 1.0\n[[events]]\nt = 0.5\nreset = {}\npause = {}\n", "exactly one"),
         ("duration = 1.0\n[[events]]\nt = 0.5\nfly = {}\n", "fly"),
-        ('duration = 1.0\n[controller]\nmethod = "cascade"\n', "method"),
+        (
+            'duration = 1.0\n[controller]\nhierarchy = "cascade"\n',
+            "'hierarchy' is now called 'method'",
+        ),
+        ('duration = 1.0\n[controller]\nalgorithm = "cascade"\n', "algorithm"),
         ('duration = 1.0\n[controller]\nkernel = "fast"\n', "kernel must be one of"),
     ],
 )
@@ -90,7 +94,8 @@ def test_a_malformed_scenario_names_its_problem(tmp_path: Path, text: str, needl
 
 
 def _weight(robot: str) -> float:
-    from lab.description import build_robot, load_description
+    from lab.description import load_description
+    from lab.robot import build_robot
 
     model = build_robot(load_description(robot)).model
     return sum(inertia.mass for inertia in model.inertias) * 9.81

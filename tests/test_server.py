@@ -23,8 +23,9 @@ import pytest
 from ports import free_port
 
 from lab.client import LabClient
+from lab.protocol import MAX_PAYLOAD_BYTES
 from lab.server.loop import MAX_BEHIND_S
-from lab.server.transport import MAX_PAYLOAD_BYTES, encode
+from lab.server.transport import encode
 
 STARTUP_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 2.0
@@ -110,18 +111,19 @@ def assert_on_schedule(lab: LabClient, seconds: float) -> None:
     """Over `seconds` of wall time the schedule advanced at RATE_HZ (ticks run plus periods
     explicitly skipped after a stall: the loop does not drift) and the loop kept ticking.
 
-    Allowed error: each end may be up to MAX_BEHIND_S behind (not yet run nor skipped) plus
-    ~50 ms for a test process reading telemetry late on a loaded machine: 10 % of a 2 s window
-    (a loop that slept a period after its work would drift by work / period: 10-30 % here). How
-    many periods ran is the benchmark's business: at SCHED_OTHER, load 15, 2 cores, it was 40 %."""
+    The wall time is the loop's own clock between the two messages (`loop.clock_s`), so a test
+    process that reads telemetry late on a loaded machine does not count. Allowed error: each end
+    may be up to MAX_BEHIND_S behind (not yet run nor skipped) plus a period (a loop that slept a
+    period after its work would drift by work / period: 10-30 % of the window here). How many
+    periods ran is the benchmark's business: at SCHED_OTHER, load 15, 2 cores, it was 40 %."""
     first = lab.wait_telemetry()
-    t0 = time.monotonic()
     time.sleep(seconds)
     last = lab.wait_telemetry(lambda m: m["loop"]["ticks"] > first["loop"]["ticks"])
-    wall = time.monotonic() - t0
+    wall = last["loop"]["clock_s"] - first["loop"]["clock_s"]
+    assert wall > 0.5 * seconds, (first["loop"], last["loop"])
     ticks = last["loop"]["ticks"] - first["loop"]["ticks"]
     skipped = last["loop"]["skipped"] - first["loop"]["skipped"]
-    slack = RATE_HZ * 2 * (MAX_BEHIND_S + 0.05)
+    slack = RATE_HZ * 2 * (MAX_BEHIND_S + 1.0 / RATE_HZ)
     assert abs(ticks + skipped - RATE_HZ * wall) <= slack, (wall, last["loop"])
     assert ticks / wall > 0.2 * RATE_HZ, last["loop"]  # alive, not stuck
 
@@ -146,13 +148,17 @@ def test_info_answers_with_choices_and_current_state(info: dict) -> None:
 
 
 def test_telemetry_and_state_stream_at_rate_with_the_loop_on_schedule(
-    lab: LabClient, server: Server
+    lab: LabClient, server: Server, info: dict
 ) -> None:
-    received = collect(server.endpoint, 1.0)
+    received = collect(server.endpoint, 1.5)
     telemetry, states = received["telemetry"], received["state"]
-    assert len(telemetry) >= 90, "lab/telemetry well below 100 Hz"
-    assert len(states) >= 54, "lab/state well below 60 Hz"
     first, last = telemetry[0], telemetry[-1]
+    # Rates by the loop's own clocks (a test process reading late on a busy machine counts
+    # fewer messages in its own second without the server publishing fewer).
+    telemetry_hz = (len(telemetry) - 1) / (last["loop"]["clock_s"] - first["loop"]["clock_s"])
+    assert telemetry_hz >= 90, f"lab/telemetry at {telemetry_hz:.0f} Hz, well below 100 Hz"
+    state_hz = (len(states) - 1) / (states[-1]["t"] - states[0]["t"])  # per sim second
+    assert state_hz >= 54, f"lab/state at {state_hz:.0f} Hz of sim time, well below 60 Hz"
     ticks = last["loop"]["ticks"] - first["loop"]["ticks"]
     assert last["t"] - first["t"] == pytest.approx(ticks * TIMESTEP_S, rel=1e-6)
     loop = last["loop"]
@@ -164,6 +170,11 @@ def test_telemetry_and_state_stream_at_rate_with_the_loop_on_schedule(
     assert len(state["joints"]["names"]) == len(state["joints"]["positions"]) == 12
     assert len(state["base"]["quaternion"]) == 4
     assert math.isclose(sum(c * c for c in state["base"]["quaternion"]), 1.0, rel_tol=1e-6)
+    # every link and contact frame placed, for the UI to draw with (the base link is the base)
+    frames = dict(zip(state["frames"]["names"], state["frames"]["positions"], strict=True))
+    assert len(state["frames"]["quaternions"]) == len(frames)
+    assert frames[info["base"]] == pytest.approx(state["base"]["position"], abs=1e-12)
+    assert {f"{leg}_FOOT_centre" for leg in ("LF", "RF", "LH", "RH")} <= set(frames)
     for key in ("base", "com", "momentum", "contacts", "cop", "tasks", "stack", "qp"):
         assert key in last, key
     assert len(last["contacts"]) == 4

@@ -25,7 +25,8 @@ from lab.controller.model import RobotModel
 from lab.controller.qp import SOLVER_OPTIONS, QPFailure, solve_qp
 from lab.controller.stack import Stack
 from lab.controller.tasks import TASK_TYPES
-from lab.description import build_robot, load_description
+from lab.description import load_description
+from lab.robot import build_robot
 from tests.test_controller import disturbed_state
 
 # Relative to max(1, reference cost): DAQP's 1e-6 primal tolerance on the cascade's side and

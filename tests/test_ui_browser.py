@@ -227,7 +227,7 @@ def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
         time.sleep(0.1)
         info = lab.command("info")
     assert info["stack"] == preset.levels
-    assert info["hierarchy"]["method"] == preset.hierarchy == "weighted"
+    assert info["hierarchy"]["method"] == preset.method == "weighted"
     expect = playwright_api.expect  # the panel shows the preset's hierarchy method
     expect(page.get_by_label("Hierarchy", exact=True).first).to_have_value("weighted")
 

@@ -2,17 +2,21 @@
 typed numbers, the event log, the status line; and the drawn robot's frames against the sim's."""
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
-from lab.description import ROBOT_NAMES, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.protocol import VelocityCommand
+from lab.robot import build_robot
 from lab.ui import stack_edit as se
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import EventLog
 from lab.ui.gaits import gait_options
-from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
+from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
 from lab.ui.plot_buffer import RollingBuffer
@@ -280,26 +284,95 @@ def viser_server():
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
 def test_the_drawn_robot_has_every_contact_frame_where_the_sim_has_it(viser_server, name) -> None:
-    """The overlays look contact frames up in the drawing's model (Talos's sole centres are
-    frames the description adds): each must exist there and sit where the controller's is."""
+    """The overlays look contact frames up in the state's frames (Talos's sole centres are
+    frames the description adds): each must be there and sit where the controller's is; every
+    link with a visual mesh gets a placement."""
     import pinocchio as pin
 
+    from lab.robot import FramePlacements
     from lab.ui.robot_view import RobotView
+    from lab.urdf_visuals import read_visuals
 
     desc = load_description(name)
     robot = build_robot(desc)
     view = RobotView(viser_server, desc)
     try:
         q = robot.q_standing
-        view.set_state(q[:3], q[3:7], dict(zip(robot.joint_names, q[7:], strict=True)))
+        frames = FramePlacements(robot).message(q)
+        view.set_state(frames)
         data = robot.model.createData()
         pin.framesForwardKinematics(robot.model, data, q)
         for contact in desc.contacts:
             sim = data.oMf[robot.model.getFrameId(contact.frame)]
             drawn = view.frame_placement(contact.frame)
-            assert np.allclose(drawn.translation, sim.translation, atol=1e-9), contact.frame
-            assert np.allclose(drawn.rotation, sim.rotation, atol=1e-9), contact.frame
+            assert np.allclose(drawn.translation(), sim.translation, atol=1e-9), contact.frame
+            assert np.allclose(drawn.rotation().as_matrix(), sim.rotation, atol=1e-9)
+        links = {visual.link for visual in read_visuals(desc.urdf_path, desc.package_dirs)}
+        assert links <= set(frames["names"])
         with pytest.raises(KeyError, match="no frame 'nope'"):
             view.frame_placement("nope")
     finally:
         view.remove()
+
+
+@pytest.mark.parametrize("name", ["hyq", "bolt"])
+def test_the_urdf_visuals_sit_where_pinocchio_puts_them(name) -> None:
+    """The UI reads `<visual>` itself (no pinocchio in the UI process): at a bent posture each
+    visual's world placement (link placement from the sim x URDF origin) and its shape, size and
+    colour agree with pinocchio's geometry model. HyQ has boxes, cylinders, spheres, scaled
+    meshes and named materials; Bolt inline colours."""
+    import pinocchio as pin
+
+    from lab.robot import FramePlacements
+    from lab.urdf_visuals import read_visuals
+
+    desc = load_description(name)
+    robot = build_robot(desc)
+    model = robot.model
+    geometry = pin.buildGeomFromUrdf(
+        model,
+        str(desc.urdf_path),
+        pin.GeometryType.VISUAL,
+        package_dirs=[str(desc.package_dirs[0])],
+    )
+    q = robot.q_standing.copy()
+    q[7:] += np.linspace(-0.3, 0.3, model.nq - 7)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    frames = FramePlacements(robot).message(q)
+    poses = zip(frames["positions"], frames["quaternions"], strict=True)
+    placement = dict(zip(frames["names"], poses, strict=True))
+    visuals = read_visuals(desc.urdf_path, desc.package_dirs)
+    assert len(visuals) == len(geometry.geometryObjects)
+    by_name = {}
+    for visual in visuals:
+        by_name.setdefault(visual.link, []).append(visual)
+    for geom in geometry.geometryObjects:
+        link = model.frames[geom.parentFrame].name
+        visual = by_name[link][int(geom.name.rsplit("_", 1)[1])]
+        expected = data.oMi[geom.parentJoint] * geom.placement
+        position, quaternion = placement[link]
+        link_pose = pin.XYZQUATToSE3(np.array([*position, *quaternion]))
+        drawn = link_pose * pin.SE3(visual.origin)
+        assert np.allclose(drawn.homogeneous, expected.homogeneous, atol=1e-9), geom.name
+        if visual.rgba is not None:
+            assert np.allclose(visual.rgba, geom.meshColor), geom.name
+        if visual.mesh is not None:
+            assert str(visual.mesh) == geom.meshPath
+            assert np.allclose(visual.size, geom.meshScale)
+
+
+def test_the_ui_process_imports_neither_pinocchio_nor_mujoco() -> None:
+    """The UI is a Zenoh client that draws: every module of lab.ui imports only light parts of
+    the lab (lab.protocol, lab.description, lab.scenes are plain data), never the controller's
+    pinocchio or the sim's MuJoCo."""
+    code = (
+        "import importlib, pkgutil, sys, lab.ui\n"
+        "for m in pkgutil.iter_modules(lab.ui.__path__):\n"
+        "    importlib.import_module('lab.ui.' + m.name)\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pinocchio', 'mujoco')))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
+    assert result.stdout.strip() == "[]", result.stdout

@@ -13,9 +13,7 @@ GRAVITY = 9.81
 
 def _session(robot: str = "anymal", preset: str = "raiola_s3") -> Session:
     stack = load_stack_preset(preset)
-    config = SessionConfig(
-        robot=robot, stack=stack.levels, gains=stack.gains, hierarchy=stack.hierarchy
-    )
+    config = SessionConfig(robot=robot, stack=stack.levels, gains=stack.gains, method=stack.method)
     return Session(config)
 
 

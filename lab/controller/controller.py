@@ -35,7 +35,7 @@ class ControllerConfig:
 
     stack: Stack
     gains: dict[str, TaskGains] = field(default_factory=dict)
-    hierarchy: str = "cascade"
+    method: str = "cascade"  # hierarchy method, a key of METHODS
     solver: str = "daqp"
     limits: ContactLimits = field(default_factory=ContactLimits)
     level_weight_ratio: float = 1e3  # `weighted` only: each level with tasks weighs this much less
@@ -92,7 +92,7 @@ class WholeBodyController:
         self._support = PerContactSet(_support_mask)
         self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
         self.set_stack(config.stack)
-        self.set_hierarchy(config.hierarchy, config.solver, config.formulation)
+        self.set_hierarchy(config.method, config.solver, config.formulation)
 
     @property
     def known_names(self) -> tuple[str, ...]:
@@ -146,7 +146,7 @@ class WholeBodyController:
             raise KeyError(
                 f"unknown formulation {formulation!r} (formulations: {', '.join(FORMULATIONS)})"
             )
-        self.config.hierarchy, self.config.solver = method, solver
+        self.config.method, self.config.solver = method, solver
         self.config.formulation = formulation
 
     def update(self, q: np.ndarray, v: np.ndarray) -> None:
@@ -200,7 +200,7 @@ class WholeBodyController:
         """Torques at the state of the last RobotModel.update (a behaviour may update the
         references in between)."""
         problem = self.build_problem()
-        solution = METHODS[self.config.hierarchy](problem, self.config.solver)
+        solution = METHODS[self.config.method](problem, self.config.solver)
         x, nv = solution.x, self.robot.nv
         return ControlOutput(
             self.robot.joint_torques(x), x[:nv], x[nv:], solution, self.task_errors()

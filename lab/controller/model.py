@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.contact import ContactSpec
+from lab.protocol import ContactSpec
 
 BASE_DOF = 6
 

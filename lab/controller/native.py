@@ -112,8 +112,8 @@ class NativeController(WholeBodyController):
             return ""
         if NOT_BUILT:
             return NOT_BUILT
-        if self.config.hierarchy not in NATIVE_METHODS:
-            return f"the native kernel has no method {self.config.hierarchy!r}"
+        if self.config.method not in NATIVE_METHODS:
+            return f"the native kernel has no method {self.config.method!r}"
         return self._unsupported
 
     def set_kernel(self, kernel: str) -> None:
@@ -175,8 +175,8 @@ class NativeController(WholeBodyController):
             return super().solve()
         native = self._native
         self._sync_limits()
-        if native.method != self.config.hierarchy:
-            native.set_method(self.config.hierarchy)
+        if native.method != self.config.method:
+            native.set_method(self.config.method)
         send_references(native, self.references)
         # The kernel's own state is current when the last update went through it.
         result = (
@@ -188,7 +188,7 @@ class NativeController(WholeBodyController):
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:
-            raise QPFailure(f"native {self.config.hierarchy}: {message}")
+            raise QPFailure(f"native {self.config.method}: {message}")
         solution = HierarchySolution(
             np.r_[qdd, forces], tuple(levels), tuple(residuals), solves, tuple(seconds)
         )

@@ -1,20 +1,20 @@
-"""MuJoCo worlds the robot stands in.
+"""The worlds the robot stands in, as plain geometry (this package imports no MuJoCo but
+`terrain.py`).
 
-A scene is one function `(spec, friction) -> None` that adds static terrain geoms to the world body
-of an `MjSpec`; register it in `SCENES`. Terrain geoms use `TERRAIN` collision bits and win the
-contact-parameter priority, so the friction coefficient given here is the one every contact uses.
+A scene is a function `() -> tuple[TerrainGeom, ...]` registered in `SCENES`: the static terrain
+shapes. `lab.scenes.terrain.add_scene` adds them to a MuJoCo `MjSpec` for the sim; the browser UI
+draws the same list, so what is drawn is what is simulated.
 """
 
 from collections.abc import Callable
 
-import mujoco
-
 from lab.scenes.flat import flat
+from lab.scenes.geometry import TerrainGeom
 from lab.scenes.half_cylinder import half_cylinder
 from lab.scenes.rough import rough
 from lab.scenes.slope import slope
 
-Scene = Callable[[mujoco.MjSpec, float], None]
+Scene = Callable[[], tuple[TerrainGeom, ...]]
 
 SCENES: dict[str, Scene] = {
     "flat": flat,
@@ -24,8 +24,8 @@ SCENES: dict[str, Scene] = {
 }
 
 
-def add_scene(spec: mujoco.MjSpec, name: str, friction: float) -> None:
-    """Add scene `name` to `spec`; an unknown name raises KeyError naming the known scenes."""
+def scene_geoms(name: str) -> tuple[TerrainGeom, ...]:
+    """The terrain of scene `name`; an unknown name raises KeyError naming the known scenes."""
     if name not in SCENES:
         raise KeyError(f"unknown scene {name!r}; known scenes: {', '.join(sorted(SCENES))}")
-    SCENES[name](spec, friction)
+    return SCENES[name]()

@@ -1,11 +1,7 @@
 """A flat floor at z = 0."""
 
-import mujoco
-
-from lab.scenes.terrain import add_terrain_geom
+from lab.scenes.geometry import TerrainGeom
 
 
-def flat(spec: mujoco.MjSpec, friction: float) -> None:
-    add_terrain_geom(
-        spec, friction, name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0]
-    )
+def flat() -> tuple[TerrainGeom, ...]:
+    return (TerrainGeom("floor", "plane", (0.0, 0.0, 1.0)),)

@@ -6,11 +6,10 @@ flat ground, and cover LENGTH x WIDTH metres; each tile's top height is drawn un
 geoms (not a height field) so that the browser draws them like any other terrain.
 """
 
-import mujoco
 import numpy as np
 
 from lab.scenes.flat import flat
-from lab.scenes.terrain import add_terrain_geom
+from lab.scenes.geometry import TerrainGeom
 
 SEED = 5
 START = 0.6  # m, x of the first row of tiles
@@ -21,19 +20,20 @@ MAX_HEIGHT = 0.04  # m
 DEPTH = 0.05  # m, tiles reach this far below the floor
 
 
-def rough(spec: mujoco.MjSpec, friction: float) -> None:
-    flat(spec, friction)
+def rough() -> tuple[TerrainGeom, ...]:
     rng = np.random.default_rng(SEED)
     nx, ny = round(LENGTH / TILE), round(WIDTH / TILE)
     heights = rng.uniform(0.0, MAX_HEIGHT, size=(nx, ny))
+    tiles = []
     for i in range(nx):
         for j in range(ny):
-            top = heights[i, j]
-            add_terrain_geom(
-                spec,
-                friction,
-                name=f"tile_{i}_{j}",
-                type=mujoco.mjtGeom.mjGEOM_BOX,
-                size=[0.5 * TILE, 0.5 * TILE, 0.5 * (top + DEPTH)],
-                pos=[START + (i + 0.5) * TILE, (j + 0.5) * TILE - 0.5 * WIDTH, 0.5 * (top - DEPTH)],
+            top = float(heights[i, j])
+            tiles.append(
+                TerrainGeom(
+                    f"tile_{i}_{j}",
+                    "box",
+                    (0.5 * TILE, 0.5 * TILE, 0.5 * (top + DEPTH)),
+                    (START + (i + 0.5) * TILE, (j + 0.5) * TILE - 0.5 * WIDTH, 0.5 * (top - DEPTH)),
+                )
             )
+    return (*flat(), *tiles)

@@ -30,7 +30,7 @@ def _stats(us: np.ndarray) -> dict[str, float]:
 
 
 def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -> dict:
-    session = Session(SessionConfig(robot=robot, hierarchy=method, kernel=kernel))
+    session = Session(SessionConfig(robot=robot, method=method, kernel=kernel))
     weight = session.model.mass * 9.81
     ticks = round(seconds / session.config.timestep)
     control_us = np.zeros(ticks)

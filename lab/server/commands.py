@@ -1,5 +1,8 @@
 """Parse and validate every lab command: a verb and a JSON object in, a frozen dataclass out.
 
+The dataclasses (one per verb), the ranges and the key names are `lab.protocol`'s; this module
+checks a payload against them.
+
 Zenoh queries (`lab/cmd/<verb>`) and scenario `[[events]]` both go through `parse_command`, so a
 scenario event has exactly the protocol's verb and fields. This module is pure: it checks shapes,
 types and ranges only. Whether a name exists in the running session (robot, scene, task, link,
@@ -9,156 +12,44 @@ hierarchy method, solver, gait) is the session's business.
 import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 
-VX_MAX = 2.0  # m/s, |vx|
-VY_MAX = 1.0  # m/s, |vy|
-YAW_RATE_MAX = 2.0  # rad/s, |yaw_rate|
-PUSH_FORCE_MAX = 2000.0  # N, Euclidean norm of the push force
-PUSH_DURATION_MAX = 5.0  # s, 0 < duration <= max
-POINT_COORD_MAX = 1000.0  # m, |x|, |y|, |z| of a push application point (world)
-GAIN_MAX = 1e5  # 0 <= kp, kd <= max
-WEIGHT_MAX = 1e8  # 0 < weight <= max
-NAME_MAX_LEN = 128  # characters in a robot / scene / task / link / method / gait name
-STACK_MAX_LEVELS = 16
-STACK_MAX_TASKS = 64  # task names over all levels
-STEP_HEIGHT_MAX = 0.5  # m, 0 < step_height <= max (the behaviour checks it against the legs)
-CYCLE_TIME_MAX = 5.0  # s, 0 < cycle_time <= max
-
-LIMITS: dict[str, float] = {
-    "vx": VX_MAX,
-    "vy": VY_MAX,
-    "yaw_rate": YAW_RATE_MAX,
-    "push_force": PUSH_FORCE_MAX,
-    "push_duration": PUSH_DURATION_MAX,
-    "gain": GAIN_MAX,
-    "weight": WEIGHT_MAX,
-}  # reported by `info` so clients can size sliders
+from lab.protocol import (
+    CYCLE_TIME_MAX,
+    GAIN_MAX,
+    NAME_MAX_LEN,
+    POINT_COORD_MAX,
+    PUSH_DURATION_MAX,
+    PUSH_FORCE_MAX,
+    STACK_MAX_LEVELS,
+    STACK_MAX_TASKS,
+    STEP_HEIGHT_MAX,
+    VX_MAX,
+    VY_MAX,
+    WEIGHT_MAX,
+    YAW_RATE_MAX,
+    Command,
+    GainsCommand,
+    GaitCommand,
+    HierarchyCommand,
+    InfoCommand,
+    MomentumCommand,
+    PauseCommand,
+    PushCommand,
+    ResetCommand,
+    ResumeCommand,
+    RobotCommand,
+    SceneCommand,
+    StackCommand,
+    VelocityCommand,
+)
 
 _NAME_RE = re.compile(r"[A-Za-z0-9_.:/-]+")
+# verb -> {old field name: its name now}: an old spelling is rejected naming the new word
+RENAMED_FIELDS: dict[str, dict[str, str]] = {"hierarchy": {"hierarchy": "method"}}
 
 
 class CommandError(ValueError):
     """A command was rejected; the message names the verb, the field and what was wrong."""
-
-
-@dataclass(frozen=True)
-class InfoCommand:
-    """Ask for robots, scenes, hierarchy methods, solvers, the current stack with gains, state."""
-
-
-@dataclass(frozen=True)
-class VelocityCommand:
-    """Desired base velocity in the heading frame: vx forward, vy left (m/s), yaw_rate (rad/s)."""
-
-    vx: float = 0.0
-    vy: float = 0.0
-    yaw_rate: float = 0.0
-
-
-@dataclass(frozen=True)
-class PushCommand:
-    """External force (N, world frame) on a link for `duration` seconds, at `point` (world) or
-    at the link origin when `point` is None."""
-
-    body: str
-    force: tuple[float, float, float]
-    duration: float
-    point: tuple[float, float, float] | None = None
-
-
-@dataclass(frozen=True)
-class RobotCommand:
-    """Switch robot: rebuilds the session."""
-
-    name: str
-
-
-@dataclass(frozen=True)
-class SceneCommand:
-    """Switch scene: rebuilds the session."""
-
-    name: str
-
-
-@dataclass(frozen=True)
-class HierarchyCommand:
-    """Switch hierarchy method (and QP solver, `nullspace` formulation, kernel when given);
-    a kernel alone keeps the method."""
-
-    method: str | None = None
-    solver: str | None = None
-    formulation: str | None = None
-    kernel: str | None = None
-
-
-@dataclass(frozen=True)
-class StackCommand:
-    """New task priority order: levels[0] is the highest priority. Or, with `preset`, a named
-    stack from stacks/ (its levels, gains and hierarchy method)."""
-
-    levels: tuple[tuple[str, ...], ...] = ()
-    preset: str | None = None
-
-
-@dataclass(frozen=True)
-class GainsCommand:
-    """Change a task's PD gains and/or weight; fields left None are unchanged."""
-
-    task: str
-    kp: float | None = None
-    kd: float | None = None
-    weight: float | None = None
-
-
-@dataclass(frozen=True)
-class MomentumCommand:
-    """Choose the momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
-
-    mode: str
-
-
-@dataclass(frozen=True)
-class ResetCommand:
-    """Put the robot back at its standing posture and clear pushes and velocity commands."""
-
-
-@dataclass(frozen=True)
-class PauseCommand:
-    """Stop advancing simulated time (the loop keeps running and publishing)."""
-
-
-@dataclass(frozen=True)
-class ResumeCommand:
-    """Advance simulated time again after a pause."""
-
-
-@dataclass(frozen=True)
-class GaitCommand:
-    """Switch behaviour / gait (e.g. stand, trot, crawl); a walking gait also takes its step
-    height (m), cycle time (s) and foothold planner (None = keep or default)."""
-
-    name: str
-    step_height: float | None = None
-    cycle_time: float | None = None
-    footholds: str | None = None
-
-
-Command = (
-    InfoCommand
-    | VelocityCommand
-    | PushCommand
-    | RobotCommand
-    | SceneCommand
-    | HierarchyCommand
-    | StackCommand
-    | GainsCommand
-    | ResetCommand
-    | PauseCommand
-    | ResumeCommand
-    | GaitCommand
-    | MomentumCommand
-)
 
 
 class _Fields:
@@ -172,6 +63,9 @@ class _Fields:
         return CommandError(f"{self.verb}: field '{field}' {what}")
 
     def only(self, *allowed: str) -> None:
+        for old, new in RENAMED_FIELDS.get(self.verb, {}).items():
+            if old in self.payload:
+                raise CommandError(f"{self.verb}: field {old!r} is now called {new!r}")
         unknown = sorted(k for k in self.payload if k not in allowed)
         if unknown:
             names = ", ".join(repr(k)[:NAME_MAX_LEN] for k in unknown[:5])

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 from itertools import accumulate
 from typing import Protocol
 
-from lab.server.commands import LIMITS, CommandError, VelocityCommand, parse_command
+from lab.protocol import LIMITS, VelocityCommand
+from lab.server.commands import CommandError, parse_command
 from lab.server.transport import Request
 
 ON_TIME_TOLERANCE = 0.1  # a tick is on time if it starts <= 10 % of a period after its deadline
@@ -320,7 +321,7 @@ class SimLoop:
         self._apply_commands(now)
         decayed = self._deadman.update(now)
         if decayed is not None:
-            self.session.handle("velocity", _velocity_payload(decayed))
+            self.session.handle("velocity", decayed.payload())
         self.session.tick()
         self._after_tick(now)
 
@@ -333,7 +334,7 @@ class SimLoop:
         telemetry_tick = ticks % self._telemetry_every == 0
         if telemetry_tick:
             telemetry = self.session.telemetry()
-            telemetry["loop"] = self.stats.snapshot()
+            telemetry["loop"] = {**self.stats.snapshot(), "clock_s": now}
             self._last_sim_time = float(telemetry["t"])
             self.transport.publish_telemetry(telemetry)
             self._publish_events(now)
@@ -422,7 +423,3 @@ class SimLoop:
                     "count": rejected,
                 }
             )
-
-
-def _velocity_payload(command: VelocityCommand) -> dict[str, float]:
-    return {"vx": command.vx, "vy": command.vy, "yaw_rate": command.yaw_rate}

@@ -44,9 +44,8 @@ import numpy as np
 import pinocchio as pin
 import trimesh
 
-from lab.description import Robot
-from lab.scenes import add_scene
-from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE
+from lab.robot import Robot
+from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, add_scene
 
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond

@@ -1,6 +1,6 @@
 """Headless scenarios: a TOML file → a session run as fast as the CPU allows → one JSON report.
 
-A scenario names `robot`, `scene`, `duration` (s), a `[controller]` table (`hierarchy`, `solver`,
+A scenario names `robot`, `scene`, `duration` (s), a `[controller]` table (`method`, `solver`,
 optional `kernel` — `native` or `python` —, optional `stack` — a list of levels or the name of a
 preset in `stacks/` — and `[controller.gains.<task>]` tables), `metrics` to report besides the
 standing ones, and `[[events]]`, each with a time `t` and exactly one command written with the
@@ -37,7 +37,8 @@ SCENARIO_KEYS = {
     "metrics",
     "limits",
 }
-CONTROLLER_KEYS = {"hierarchy", "solver", "stack", "gains", "kernel"}
+CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
+RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now
 
 
 class ScenarioError(ValueError):
@@ -72,20 +73,23 @@ def load_scenario(path: str | Path) -> Scenario:
     if unknown:
         raise ScenarioError(f"{path}: unknown keys {sorted(unknown)}")
     controller = data.get("controller", {})
+    for old, new in RENAMED_KEYS.items():
+        if old in controller:
+            raise ScenarioError(f"{path}: [controller] key {old!r} is now called {new!r}")
     unknown = set(controller) - CONTROLLER_KEYS
     if unknown:
         raise ScenarioError(f"{path}: unknown [controller] keys {sorted(unknown)}")
     duration = data.get("duration")
     if not isinstance(duration, int | float) or not duration > 0:
         raise ScenarioError(f"{path}: duration must be a positive number of seconds")
-    stack, hierarchy, gains = _stack(path, controller)
+    stack, method, gains = _stack(path, controller)
     kernel = controller.get("kernel")
     if kernel not in (None, *KERNELS):
         raise ScenarioError(f"{path}: [controller] kernel must be one of {KERNELS}, got {kernel!r}")
     config = SessionConfig(
         robot=data.get("robot", "anymal"),
         scene=data.get("scene", "flat"),
-        hierarchy=hierarchy,
+        method=method,
         solver=controller.get("solver", "daqp"),
         kernel=kernel,
         stack=stack,
@@ -107,18 +111,18 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def _stack(path: Path, controller: dict) -> tuple[list | None, str, dict]:
-    """Levels, hierarchy and gains of `[controller]`, where `stack` may name a preset."""
+    """Levels, method and gains of `[controller]`, where `stack` may name a preset."""
     stack = controller.get("stack")
-    hierarchy = controller.get("hierarchy", "cascade")
+    method = controller.get("method", "cascade")
     gains = controller.get("gains", {})
     if not isinstance(stack, str):
-        return stack, hierarchy, gains
+        return stack, method, gains
     try:
         preset = load_stack_preset(stack)
     except (KeyError, ValueError) as error:
         raise ScenarioError(f"{path}: {error.args[0]}") from error
     merged = {task: {**values, **gains.get(task, {})} for task, values in preset.gains.items()}
-    return preset.levels, controller.get("hierarchy", preset.hierarchy), {**gains, **merged}
+    return preset.levels, controller.get("method", preset.method), {**gains, **merged}
 
 
 def _limits(path: Path, data: dict) -> dict[str, dict[str, object]]:
@@ -182,7 +186,7 @@ def run_scenario(
     return {
         "scenario": scenario.name,
         "robot": scenario.config.robot,
-        "hierarchy": session.controller.config.hierarchy,
+        "method": session.controller.config.method,
         "solver": session.controller.config.solver,
         "kernel": session.controller.kernel_ran,
         "fell": session.fell,

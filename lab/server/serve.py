@@ -7,8 +7,9 @@ import subprocess
 import sys
 import threading
 
+from lab.protocol import DEFAULT_PORT
 from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
-from lab.server.transport import DEFAULT_PORT, ServerTransport, server_config
+from lab.server.transport import ServerTransport, server_config
 
 UI_STOP_TIMEOUT_S = 2.0
 

@@ -3,7 +3,8 @@
 The same object runs headless (tests, scenarios, benchmarks: as fast as the CPU allows) and
 inside the realtime sim process (which adds the schedule and Zenoh around it). Commands arrive as
 (verb, JSON payload), are validated by `parse_command`, and are applied between ticks; a rejected
-command changes nothing and the reply names the problem.
+command changes nothing and the reply names the problem. What a session publishes (telemetry,
+the drawing state) is built in `telemetry.py`.
 """
 
 import time
@@ -22,11 +23,19 @@ from lab.controller.momentum import MOMENTUM_MODES
 from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
-from lab.controller.tasks import TaskGains
-from lab.description import ROBOT_NAMES, Robot, build_robot, load_description
+from lab.description import ROBOT_NAMES, load_description
+from lab.protocol import TaskGains
+from lab.robot import FramePlacements, Robot, build_robot
 from lab.scenes import SCENES
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
+from lab.server.telemetry import (
+    hierarchy_report,
+    momentum_report,
+    state_message,
+    task_gains_report,
+    telemetry_message,
+)
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
 
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
@@ -59,7 +68,7 @@ class SessionConfig:
 
     robot: str = "anymal"
     scene: str = "flat"
-    hierarchy: str = "cascade"
+    method: str = "cascade"  # hierarchy method: cascade | weighted | nullspace
     solver: str = "daqp"
     formulation: str = "qdd_force"  # `nullspace` only: its optimization vector (Hutter 2014 §4)
     stack: list[list[str]] | None = None
@@ -104,7 +113,7 @@ class Session:
             ControllerConfig(
                 stack=Stack.of(config.stack or description.stack),
                 gains=gains,
-                hierarchy=config.hierarchy,
+                method=config.method,
                 solver=config.solver,
                 formulation=config.formulation,
                 limits=ContactLimits(friction=description.friction),
@@ -118,6 +127,7 @@ class Session:
         self.plant = plant
         self.model = model
         self.controller = controller
+        self.frame_placements = FramePlacements(robot)
         self._reset_state()
 
     def _reset_state(self, time: float = 0.0) -> None:
@@ -170,8 +180,12 @@ class Session:
         self.controller.set_stack(stack)  # presets name known tasks: this cannot fail halfway
         for task, gains in preset.gains.items():
             self.controller.set_gains(task, **gains)
-        self.controller.set_hierarchy(preset.hierarchy)
-        return {"preset": name, "stack": stack.as_lists(), "hierarchy": self._hierarchy()}
+        self.controller.set_hierarchy(preset.method)
+        return {
+            "preset": name,
+            "stack": stack.as_lists(),
+            "hierarchy": hierarchy_report(self.controller),
+        }
 
     @property
     def time(self) -> float:
@@ -339,10 +353,10 @@ class Session:
             ):
                 if kernel is not None and kernel not in KERNELS:  # a rejection changes nothing
                     raise KeyError(f"unknown kernel {kernel!r} (kernels: {', '.join(KERNELS)})")
-                method = method or self.controller.config.hierarchy
+                method = method or self.controller.config.method
                 self.controller.set_hierarchy(method, solver, formulation)
                 self.controller.set_kernel(kernel or self.controller.config.kernel)
-                return {"hierarchy": self._hierarchy()}
+                return {"hierarchy": hierarchy_report(self.controller)}
             case cmd.StackCommand(preset=str(preset)):
                 return self._use_preset(preset)
             case cmd.StackCommand(levels=levels):
@@ -368,12 +382,8 @@ class Session:
                 return self._set_behaviour(name, options)
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
-                return {"momentum": self._momentum()}
+                return {"momentum": momentum_report(self.controller)}
         return {}
-
-    def _momentum(self) -> dict:
-        """The momentum task's feedback law (Herzog 2016 §3)."""
-        return {"mode": self.controller.momentum_mode()}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
@@ -387,7 +397,7 @@ class Session:
         live = self.controller.config
         return replace(
             self.config,
-            hierarchy=live.hierarchy,
+            method=live.method,
             solver=live.solver,
             formulation=live.formulation,
             stack=live.stack.as_lists(),
@@ -399,22 +409,6 @@ class Session:
         self._event("session_rebuilt", f"robot {config.robot} in scene {config.scene}")
 
     # ----------------------------------------------------------------------------- reports
-    def _hierarchy(self) -> dict:
-        config = self.controller.config
-        return {
-            "method": config.hierarchy,
-            "solver": config.solver,
-            "formulation": config.formulation,
-        }
-
-    def _task_gains(self) -> list[dict]:
-        """Each task's gains; a gain the task does not read is None (the UI hides it)."""
-        used = self.controller.gains_used()
-        return [
-            {"name": name, **_gain_fields(g, used[name]), "gains": list(used[name])}
-            for name, g in self.controller.gains().items()
-        ]
-
     def info(self) -> dict:
         return {
             "robots": list(ROBOT_NAMES),
@@ -429,12 +423,12 @@ class Session:
             "robot": self.config.robot,
             "scene": self.config.scene,
             "gait": self.behaviour.name,
-            "momentum": self._momentum(),
-            "hierarchy": self._hierarchy(),
+            "momentum": momentum_report(self.controller),
+            "hierarchy": hierarchy_report(self.controller),
             "kernel": self.controller.config.kernel,
             "stack": self.controller.config.stack.as_lists(),
             "known": list(self.controller.known_names),
-            "tasks": self._task_gains(),
+            "tasks": task_gains_report(self.controller),
             "bodies": list(self.plant.body_names),
             "base": self.robot.base_link,
             "contacts": [c.name for c in self.robot.contacts],
@@ -444,120 +438,13 @@ class Session:
 
     def telemetry(self) -> dict:
         """Everything the UI plots and the tests check, JSON-ready (see docs/protocol.md)."""
-        model, refs = self.model, self.controller.references
-        q = self.model.q
-        rotation = model.base_rotation
-        measured = self.plant.foot_forces()
-        commanded = model.contact_forces_world(self.forces)
-        contacts = []
-        feet_cop: dict[str, list[float] | None] = {}
-        for i, (contact, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True)):
-            position = model.contact_positions[i]
-            entry = {
-                "name": contact.name,
-                "kind": contact.kind,
-                "active": bool(refs.contact_active[i]),
-                "position": position.tolist(),
-                "measured_force": measured[i].tolist(),
-                "force": commanded[i].tolist(),
-            }
-            if contact.kind == "flat":
-                wrench = self.forces[rows]
-                R = model.contact_rotations[i]
-                entry["moment"] = (R @ wrench[3:]).tolist()
-                fz = wrench[2]
-                cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0]) if fz > 1e-6 else None
-                feet_cop[contact.name] = (
-                    None if cop_local is None else (position + R @ cop_local).tolist()
-                )
-            contacts.append(entry)
-        normal = measured[:, 2]
-        net_cop = (
-            (normal @ model.contact_positions / normal.sum()).tolist()
-            if normal.sum() > 1e-6
-            else None
-        )
-        if net_cop is not None:
-            net_cop[2] = 0.0
-        errors = self.controller.task_errors()
-        gains, used = self.controller.gains(), self.controller.gains_used()
-        tasks = [
-            {
-                "name": name,
-                "level": level,
-                "error": errors.get(name, 0.0),
-                **(
-                    _gain_fields(gains[name], used[name])
-                    if name in gains
-                    else {"kp": None, "kd": None, "weight": 1.0}
-                ),
-            }
-            for level, names in enumerate(self.controller.config.stack.levels)
-            for name in names
-        ]
-        momentum = model.centroidal_momentum()
-        return {
-            "t": self.time,
-            "robot": self.config.robot,
-            "scene": self.config.scene,
-            "paused": self.paused,
-            "fell": self.fell,
-            "divergences": self.divergences,
-            "gait": self.behaviour.name,
-            "base": {
-                "position": q[:3].tolist(),
-                "quaternion": q[3:7].tolist(),
-                "linear_velocity": (rotation @ model.v[:3]).tolist(),
-                "angular_velocity": (rotation @ model.v[3:6]).tolist(),
-            },
-            "com": {"position": model.com.tolist(), "velocity": model.com_velocity.tolist()},
-            "momentum": {"linear": momentum[:3].tolist(), "angular": momentum[3:].tolist()},
-            "contacts": contacts,
-            "cop": {"feet": feet_cop, "net": net_cop},
-            "tasks": tasks,
-            "stack": self.controller.config.stack.as_lists(),
-            "momentum_control": self._momentum(),
-            "hierarchy": self._hierarchy(),
-            "kernel": self.controller.kernel_ran,
-            "kernel_note": self.controller.kernel_note,
-            "qp": {
-                "status": "ok" if self.qp_ok else "failed",
-                "solve_us": self.control_us,
-                "failures": self.qp_failures,
-            },
-            "solution": None if self.solution is None else self.solution.summary(),
-            "command": dict(zip(("vx", "vy", "yaw_rate"), self.velocity.tolist(), strict=True)),
-            "pushes": [
-                {
-                    "body": p.body,
-                    "force": p.force.tolist(),
-                    "point": (
-                        p.point if p.point is not None else self._body_position(p.body)
-                    ).tolist(),
-                    "remaining": max(0.0, p.ends_at - self.time),
-                }
-                for p in self.pushes.values()
-            ],
-        }
-
-    def _body_position(self, body: str) -> np.ndarray:
-        return self.model.frame_position(body)
+        return telemetry_message(self)
 
     def drawing_state(self) -> dict:
-        q, _ = self.plant.state()
-        return {
-            "t": self.time,
-            "robot": self.config.robot,
-            "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
-            "joints": {"names": list(self.robot.joint_names), "positions": q[7:].tolist()},
-        }
+        """What the UI needs to draw the robot (`lab/state`)."""
+        return state_message(self)
 
     def base_orientation_error(self) -> float:
         """Angle (rad) between the base and its reference orientation."""
         R_ref = self.controller.references.base_rotation
         return float(np.linalg.norm(pin.log3(R_ref.T @ self.model.base_rotation)))
-
-
-def _gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
-    """kp, kd and weight of a task, None for those it does not read."""
-    return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}

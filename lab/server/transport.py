@@ -13,13 +13,16 @@ import msgspec
 import numpy as np
 import zenoh
 
-DEFAULT_PORT = 7447
-DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
-CMD_PREFIX = "lab/cmd/"
-KEY_TELEMETRY = "lab/telemetry"
-KEY_STATE = "lab/state"
-KEY_EVENTS = "lab/events"
-MAX_PAYLOAD_BYTES = 64 * 1024
+from lab.protocol import (
+    CMD_PREFIX,
+    DEFAULT_ENDPOINT,
+    DEFAULT_PORT,
+    KEY_EVENTS,
+    KEY_STATE,
+    KEY_TELEMETRY,
+    MAX_PAYLOAD_BYTES,
+)
+
 COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
 
 _NO_SCOUTING = {"multicast": {"enabled": False}, "gossip": {"enabled": False}}

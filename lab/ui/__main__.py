@@ -4,7 +4,7 @@ import argparse
 import signal
 import threading
 
-from lab.server.transport import DEFAULT_ENDPOINT
+from lab.protocol import DEFAULT_ENDPOINT
 from lab.ui.app import LabApp
 
 

@@ -1,7 +1,8 @@
 """The browser lab: a viser server that draws what the sim process publishes and sends commands.
 
-It talks to the sim process only through Zenoh (`lab.ui.link`); it reads robot descriptions and
-scene builders (static data) but never imports the controller or the session.
+It talks to the sim process only through Zenoh (`lab.ui.link`, `lab.protocol`); it reads robot
+descriptions (TOML, URDF visuals) and scene geometry, all plain data, and imports neither the
+controller, pinocchio nor MuJoCo (tests/test_ui_logic.py checks).
 """
 
 import functools
@@ -19,9 +20,9 @@ import numpy as np
 import viser
 
 from lab.description import load_description
+from lab.protocol import VelocityCommand
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import EventLog
-from lab.ui.joystick import VelocityCommand
 from lab.ui.link import Link
 from lab.ui.overlays import OVERLAYS, Overlays
 from lab.ui.ownership import ControlOwnership
@@ -232,8 +233,8 @@ class LabApp:
 
     def base_body(self) -> str:
         """The floating base link, the body the push buttons push."""
-        if self.robot_view is not None:
-            return self.robot_view.root_link
+        if self.info and self.info.get("base"):
+            return self.info["base"]
         return self.info["bodies"][0] if self.info and self.info["bodies"] else "base"
 
     # ---- drag push ---------------------------------------------------------------------------
@@ -248,7 +249,11 @@ class LabApp:
         pointer = np.array(event.end_position)
         if event.phase == "start" or self._drag is None or self._drag[0] != link:
             body = link if self.info and link in self.info["bodies"] else self.base_body()
-            local = self.robot_view.frame_placement(body).actInv(np.array(event.start_position))
+            local = (
+                self.robot_view.frame_placement(body)
+                .inverse()
+                .apply(np.array(event.start_position))
+            )
             self._drag = (body, local, pointer)
         else:
             self._drag = (self._drag[0], self._drag[1], pointer)
@@ -257,7 +262,7 @@ class LabApp:
         if self._drag is None or self.robot_view is None:
             return
         body, local, pointer = self._drag
-        grab = self.robot_view.frame_placement(body).act(local)
+        grab = self.robot_view.frame_placement(body).apply(local)
         force = spring_force(grab, pointer, self._spring)
         if self.overlays is not None:
             self.overlays.show_drag(grab, pointer)
@@ -288,7 +293,7 @@ class LabApp:
             self.robot_view = view
             self.overlays = Overlays(
                 self.server, desc.contacts, desc.friction,
-                lambda frame: view.frame_placement(frame).rotation,
+                lambda frame: view.frame_placement(frame).rotation().as_matrix(),
             )  # fmt: skip
             for overlay, visible in self._overlay_visible.items():
                 self.overlays.set_visible(overlay, visible)
@@ -296,11 +301,11 @@ class LabApp:
             self._loading = None
         print(f"lab ui: {name} loaded in {time.monotonic() - start:.1f} s", flush=True)
 
-    def _load_scene(self, name: str, friction: float) -> None:
+    def _load_scene(self, name: str) -> None:
         if self.terrain is not None:
             self.terrain.remove()
             self.terrain = None
-        self.terrain = TerrainView(self.server, name, friction)
+        self.terrain = TerrainView(self.server, name)
 
     def _draw_state(self, state: dict) -> None:
         if state["robot"] != self._robot_name:
@@ -308,8 +313,7 @@ class LabApp:
             self.refresh_info()
         if self.robot_view is None:
             return
-        joints = dict(zip(state["joints"]["names"], state["joints"]["positions"], strict=True))
-        self.robot_view.set_state(state["base"]["position"], state["base"]["quaternion"], joints)
+        self.robot_view.set_state(state["frames"])
         self.server.flush()  # send this pose now rather than at viser's next 60 Hz window
         self.frames_drawn += 1
 
@@ -398,7 +402,7 @@ class LabApp:
             self._log_status_changes(tel)
             if tel["robot"] == self._robot_name and tel["scene"] != self._scene_name:
                 self._scene_name = tel["scene"]  # taken first: a failing scene is not retried
-                self._load_scene(tel["scene"], load_description(tel["robot"]).friction)
+                self._load_scene(tel["scene"])
         if tel is not None and self.overlays is not None and now - clock.overlay >= OVERLAY_S:
             clock.overlay = now
             info = self.info

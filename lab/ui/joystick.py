@@ -3,6 +3,8 @@
 import math
 from dataclasses import dataclass
 
+from lab.protocol import VelocityCommand
+
 
 @dataclass(frozen=True)
 class JoystickLimits:
@@ -14,20 +16,6 @@ class JoystickLimits:
     radius: float = 0.3  # m of gizmo travel that gives full speed
     deadzone: float = 0.02  # m of gizmo travel ignored around the centre
     step_fraction: float = 0.25  # one hotkey tap changes a component by this share of its max
-
-
-@dataclass(frozen=True)
-class VelocityCommand:
-    vx: float = 0.0
-    vy: float = 0.0
-    yaw_rate: float = 0.0
-
-    def payload(self) -> dict[str, float]:
-        return {"vx": self.vx, "vy": self.vy, "yaw_rate": self.yaw_rate}
-
-    @property
-    def is_zero(self) -> bool:
-        return self.vx == 0.0 and self.vy == 0.0 and self.yaw_rate == 0.0
 
 
 def _clamp(x: float, limit: float) -> float:

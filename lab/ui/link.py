@@ -6,13 +6,8 @@ import json
 import zenoh
 
 from lab.client import query
-from lab.server.transport import (
-    DEFAULT_ENDPOINT,
-    KEY_EVENTS,
-    KEY_STATE,
-    KEY_TELEMETRY,
-    client_config,
-)
+from lab.protocol import DEFAULT_ENDPOINT, KEY_EVENTS, KEY_STATE, KEY_TELEMETRY
+from lab.server.transport import client_config
 
 
 class Link:

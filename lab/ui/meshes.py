@@ -14,8 +14,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 import trimesh
+
+from lab.urdf_visuals import DEFAULT_RGBA, Visual
 
 CONVERSION_VERSION = b"lab.ui.meshes 1"  # change when _convert changes: old entries are not read
 
@@ -87,25 +88,21 @@ def _convert(path: str) -> trimesh.Trimesh:
     return mesh
 
 
-def geometry_mesh(geom: pin.GeometryObject) -> trimesh.Trimesh | None:
-    """The mesh of one visual geometry in its own frame, coloured; None for unsupported shapes."""
-    shape = geom.geometry
-    kind = type(shape).__name__
-    if kind == "Box":
-        mesh = trimesh.creation.box(extents=2.0 * np.asarray(shape.halfSide))
-    elif kind == "Sphere":
-        mesh = trimesh.creation.icosphere(subdivisions=2, radius=shape.radius)
-    elif kind == "Cylinder":
-        mesh = trimesh.creation.cylinder(radius=shape.radius, height=2.0 * shape.halfLength)
-    elif kind == "Capsule":
-        mesh = trimesh.creation.capsule(radius=shape.radius, height=2.0 * shape.halfLength)
-    elif Path(geom.meshPath).suffix.lower() in (".dae", ".stl", ".obj"):
-        mesh = _mesh_file(geom.meshPath).copy()
-        mesh.apply_scale(np.asarray(geom.meshScale))
-        if not geom.overrideMaterial and Path(geom.meshPath).suffix.lower() == ".dae":
+def visual_mesh(visual: Visual) -> trimesh.Trimesh | None:
+    """The mesh of one URDF visual in its own frame, coloured; None for a mesh format not read."""
+    if visual.shape == "box":
+        mesh = trimesh.creation.box(extents=np.asarray(visual.size))
+    elif visual.shape == "sphere":
+        mesh = trimesh.creation.icosphere(subdivisions=2, radius=visual.size[0])
+    elif visual.shape == "cylinder":
+        mesh = trimesh.creation.cylinder(radius=visual.size[0], height=visual.size[1])
+    elif visual.mesh is not None and visual.mesh.suffix.lower() in (".dae", ".stl", ".obj"):
+        mesh = _mesh_file(str(visual.mesh)).copy()
+        mesh.apply_scale(np.asarray(visual.size))
+        if visual.rgba is None and visual.mesh.suffix.lower() == ".dae":
             return mesh
     else:
         return None
-    rgba = np.clip(np.asarray(geom.meshColor) * 255.0, 0, 255).astype(np.uint8)
+    rgba = np.clip(np.asarray(visual.rgba or DEFAULT_RGBA) * 255.0, 0, 255).astype(np.uint8)
     mesh.visual = trimesh.visual.ColorVisuals(mesh, face_colors=np.tile(rgba, (len(mesh.faces), 1)))
     return mesh

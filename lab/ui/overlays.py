@@ -8,7 +8,7 @@ import numpy as np
 import trimesh
 import viser
 
-from lab.controller.contact import ContactSpec
+from lab.protocol import ContactSpec
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.support import sole_corners, support_polygon
 

@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import viser
 
+from lab.protocol import VelocityCommand
 from lab.ui import stack_edit
 from lab.ui.gaits import gait_options
-from lab.ui.joystick import JoystickLimits, VelocityCommand, from_offset, tap
+from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 
 if TYPE_CHECKING:

@@ -1,31 +1,22 @@
-"""The current scene's floor and terrain, read from the same scene builders MuJoCo uses.
+"""The current scene's floor and terrain, drawn from the same geometry the sim builds its world
+from (`lab.scenes`), so what is drawn is what is simulated."""
 
-`lab.scenes` adds static geoms to an `MjSpec`; building one empty spec per scene and reading its
-geoms back keeps the drawing and the simulated world identical without duplicating the terrain.
-"""
-
-import mujoco
 import numpy as np
 import viser
 
-from lab.scenes import add_scene
+from lab.scenes import scene_geoms
 
 TERRAIN_COLOUR = (176, 168, 150)
 
 
 class TerrainView:
-    def __init__(
-        self, server: viser.ViserServer, scene: str, friction: float, root: str = "/terrain"
-    ) -> None:
-        spec = mujoco.MjSpec()
-        add_scene(spec, scene, friction)
+    def __init__(self, server: viser.ViserServer, scene: str, root: str = "/terrain") -> None:
         s = server.scene
         self._nodes: list[viser.SceneNodeHandle] = []
-        for k, g in enumerate(spec.worldbody.geoms):
-            name, pos, wxyz = f"{root}/g{k}", np.array(g.pos), np.array(g.quat)  # MuJoCo: w x y z
-            size = np.array(g.size)
-            if g.type == mujoco.mjtGeom.mjGEOM_PLANE:
-                extent = 2.0 * size[:2] if size[0] > 0 else np.array([40.0, 40.0])
+        for k, g in enumerate(scene_geoms(scene)):
+            name, pos, wxyz, size = f"{root}/g{k}", np.array(g.position), np.array(g.wxyz), g.size
+            if g.shape == "plane":
+                extent = 2.0 * np.array(size[:2]) if size[0] > 0 else np.array([40.0, 40.0])
                 node = s.add_grid(
                     name,
                     float(extent[0]),
@@ -37,11 +28,15 @@ class TerrainView:
                     position=pos,
                     wxyz=wxyz,
                 )
-            elif g.type == mujoco.mjtGeom.mjGEOM_BOX:
+            elif g.shape == "box":
                 node = s.add_box(
-                    name, TERRAIN_COLOUR, dimensions=tuple(2.0 * size), position=pos, wxyz=wxyz
+                    name,
+                    TERRAIN_COLOUR,
+                    dimensions=tuple(2.0 * np.array(size)),
+                    position=pos,
+                    wxyz=wxyz,
                 )
-            elif g.type == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            elif g.shape == "cylinder":
                 node = s.add_cylinder(
                     name,
                     float(size[0]),
@@ -50,12 +45,10 @@ class TerrainView:
                     position=pos,
                     wxyz=wxyz,
                 )
-            elif g.type == mujoco.mjtGeom.mjGEOM_SPHERE:
+            else:  # sphere
                 node = s.add_icosphere(
                     name, float(size[0]), color=TERRAIN_COLOUR, position=pos, wxyz=wxyz
                 )
-            else:
-                continue
             self._nodes.append(node)
 
     def remove(self) -> None:

@@ -7,7 +7,6 @@ declares in `GAINS` which of kp, kd and weight it reads (the others keep their d
 UI hides them).
 """
 
-from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -15,18 +14,9 @@ import numpy as np
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.rows import FixedRows, no_rows, zeros
+from lab.protocol import TaskGains  # one record for the controller, the protocol and the UI
 
 ALL_GAINS = ("kp", "kd", "weight")
-
-
-@dataclass(frozen=True)
-class TaskGains:
-    """PD gains (kp in 1/s², kd in 1/s for motion tasks) and the weight of a task inside its
-    level (unused fields keep their defaults)."""
-
-    kp: float = 0.0
-    kd: float = 0.0
-    weight: float = 1.0
 
 
 class TaskRows(NamedTuple):

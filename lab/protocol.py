@@ -1,0 +1,210 @@
+"""The lab protocol's names and plain records (docs/protocol.md), defined once.
+
+The sim process, `lab.client`, `lab teleop` and the browser UI all import this module; it holds
+only the standard library's dataclasses, so a client process stays light (no pinocchio, no
+MuJoCo). What is here: the Zenoh key expressions, the command ranges, one frozen dataclass per
+command verb (the payload's shape; `lab.server.commands` validates a JSON payload into one), and
+the records a payload or a robot description carries: `ContactSpec` and `TaskGains`.
+"""
+
+from dataclasses import dataclass
+from typing import Literal
+
+# ---------------------------------------------------------------------------------- transport
+DEFAULT_PORT = 7447
+DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+CMD_PREFIX = "lab/cmd/"  # a command is a query on CMD_PREFIX + verb
+KEY_TELEMETRY = "lab/telemetry"
+KEY_STATE = "lab/state"
+KEY_EVENTS = "lab/events"
+MAX_PAYLOAD_BYTES = 64 * 1024  # of one command's JSON payload
+
+# ---------------------------------------------------------------------------------- command ranges
+VX_MAX = 2.0  # m/s, |vx|
+VY_MAX = 1.0  # m/s, |vy|
+YAW_RATE_MAX = 2.0  # rad/s, |yaw_rate|
+PUSH_FORCE_MAX = 2000.0  # N, Euclidean norm of the push force
+PUSH_DURATION_MAX = 5.0  # s, 0 < duration <= max
+POINT_COORD_MAX = 1000.0  # m, |x|, |y|, |z| of a push application point (world)
+GAIN_MAX = 1e5  # 0 <= kp, kd <= max
+WEIGHT_MAX = 1e8  # 0 < weight <= max
+NAME_MAX_LEN = 128  # characters in a robot / scene / task / link / method / gait name
+STACK_MAX_LEVELS = 16
+STACK_MAX_TASKS = 64  # task names over all levels
+STEP_HEIGHT_MAX = 0.5  # m, 0 < step_height <= max (the behaviour checks it against the legs)
+CYCLE_TIME_MAX = 5.0  # s, 0 < cycle_time <= max
+
+LIMITS: dict[str, float] = {
+    "vx": VX_MAX,
+    "vy": VY_MAX,
+    "yaw_rate": YAW_RATE_MAX,
+    "push_force": PUSH_FORCE_MAX,
+    "push_duration": PUSH_DURATION_MAX,
+    "gain": GAIN_MAX,
+    "weight": WEIGHT_MAX,
+}  # reported by `info` so clients can size sliders
+
+
+# ---------------------------------------------------------------------------------- records
+ContactKind = Literal["point", "flat"]
+
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """One foot.
+
+    A point foot transmits a 3-D force at `frame` (the centre of the foot sphere); a flat foot
+    transmits a 6-D wrench at `frame` (the centre of the sole, z along the sole normal), expressed
+    in that frame, whose centre of pressure must stay inside the sole rectangle
+    `[-half_length, half_length] x [-half_width, half_width]` (m).
+    """
+
+    name: str
+    frame: str
+    kind: ContactKind = "point"
+    radius: float = 0.0
+    half_length: float = 0.0
+    half_width: float = 0.0
+
+    @property
+    def force_dim(self) -> int:
+        """Rows of the contact's force in x = [q̈, F]: 3 (point) or 6 (flat)."""
+        return 3 if self.kind == "point" else 6
+
+
+@dataclass(frozen=True)
+class TaskGains:
+    """PD gains (kp in 1/s², kd in 1/s for motion tasks) and the weight of a task inside its
+    level (unused fields keep their defaults)."""
+
+    kp: float = 0.0
+    kd: float = 0.0
+    weight: float = 1.0
+
+
+# ---------------------------------------------------------------------------------- commands
+@dataclass(frozen=True)
+class InfoCommand:
+    """Ask for robots, scenes, hierarchy methods, solvers, the current stack with gains, state."""
+
+
+@dataclass(frozen=True)
+class VelocityCommand:
+    """Desired base velocity in the heading frame: vx forward, vy left (m/s), yaw_rate (rad/s)."""
+
+    vx: float = 0.0
+    vy: float = 0.0
+    yaw_rate: float = 0.0
+
+    def payload(self) -> dict[str, float]:
+        """The `velocity` command's JSON payload."""
+        return {"vx": self.vx, "vy": self.vy, "yaw_rate": self.yaw_rate}
+
+    @property
+    def is_zero(self) -> bool:
+        return self.vx == 0.0 and self.vy == 0.0 and self.yaw_rate == 0.0
+
+
+@dataclass(frozen=True)
+class PushCommand:
+    """External force (N, world frame) on a link for `duration` seconds, at `point` (world) or
+    at the link origin when `point` is None."""
+
+    body: str
+    force: tuple[float, float, float]
+    duration: float
+    point: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class RobotCommand:
+    """Switch robot: rebuilds the session."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class SceneCommand:
+    """Switch scene: rebuilds the session."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class HierarchyCommand:
+    """Switch hierarchy method (and QP solver, `nullspace` formulation, kernel when given);
+    a kernel alone keeps the method."""
+
+    method: str | None = None
+    solver: str | None = None
+    formulation: str | None = None
+    kernel: str | None = None
+
+
+@dataclass(frozen=True)
+class StackCommand:
+    """New task priority order: levels[0] is the highest priority. Or, with `preset`, a named
+    stack from stacks/ (its levels, gains and hierarchy method)."""
+
+    levels: tuple[tuple[str, ...], ...] = ()
+    preset: str | None = None
+
+
+@dataclass(frozen=True)
+class GainsCommand:
+    """Change a task's PD gains and/or weight; fields left None are unchanged."""
+
+    task: str
+    kp: float | None = None
+    kd: float | None = None
+    weight: float | None = None
+
+
+@dataclass(frozen=True)
+class MomentumCommand:
+    """Choose the momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
+
+    mode: str
+
+
+@dataclass(frozen=True)
+class ResetCommand:
+    """Put the robot back at its standing posture and clear pushes and velocity commands."""
+
+
+@dataclass(frozen=True)
+class PauseCommand:
+    """Stop advancing simulated time (the loop keeps running and publishing)."""
+
+
+@dataclass(frozen=True)
+class ResumeCommand:
+    """Advance simulated time again after a pause."""
+
+
+@dataclass(frozen=True)
+class GaitCommand:
+    """Switch behaviour / gait (e.g. stand, trot, crawl); a walking gait also takes its step
+    height (m), cycle time (s) and foothold planner (None = keep or default)."""
+
+    name: str
+    step_height: float | None = None
+    cycle_time: float | None = None
+    footholds: str | None = None
+
+
+Command = (
+    InfoCommand
+    | VelocityCommand
+    | PushCommand
+    | RobotCommand
+    | SceneCommand
+    | HierarchyCommand
+    | StackCommand
+    | GainsCommand
+    | ResetCommand
+    | PauseCommand
+    | ResumeCommand
+    | GaitCommand
+    | MomentumCommand
+)

@@ -1,0 +1,223 @@
+"""What a session publishes: the `lab/telemetry` and `lab/state` messages (docs/protocol.md).
+
+Plain reads of a running session, JSON-ready: nothing here changes the session. The session
+module calls these; this module does not import it (it reads a `SessionView`).
+"""
+
+from collections.abc import Mapping
+from typing import Protocol
+
+import numpy as np
+
+from lab.controller.hierarchy import HierarchySolution
+from lab.controller.model import RobotModel
+from lab.controller.native import NativeController
+from lab.protocol import TaskGains
+from lab.robot import FramePlacements, Robot
+from lab.server.plant import MujocoPlant
+
+COP_MIN_FORCE = 1e-6  # N: a foot or the robot pressing less than this has no centre of pressure
+
+
+class PushView(Protocol):
+    """An external force in progress (the session's `Push`)."""
+
+    body: str
+    force: np.ndarray
+    point: np.ndarray | None
+    ends_at: float
+
+
+class ConfigView(Protocol):
+    robot: str
+    scene: str
+
+
+class BehaviourView(Protocol):
+    name: str
+
+
+class SessionView(Protocol):
+    """The parts of a `Session` the messages read."""
+
+    config: ConfigView
+    robot: Robot
+    frame_placements: FramePlacements
+    plant: MujocoPlant
+    model: RobotModel
+    controller: NativeController
+    behaviour: BehaviourView
+    paused: bool
+    fell: bool
+    divergences: int
+    qp_ok: bool
+    qp_failures: int
+    solution: HierarchySolution | None
+    control_us: float
+    forces: np.ndarray
+    velocity: np.ndarray
+    pushes: Mapping[str, PushView]
+
+    @property
+    def time(self) -> float: ...
+
+
+def hierarchy_report(controller: NativeController) -> dict:
+    """The hierarchy in use: method, QP solver, nullspace formulation."""
+    config = controller.config
+    return {"method": config.method, "solver": config.solver, "formulation": config.formulation}
+
+
+def momentum_report(controller: NativeController) -> dict:
+    """The momentum task's feedback law (Herzog 2016 §3)."""
+    return {"mode": controller.momentum_mode()}
+
+
+def gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
+    """kp, kd and weight of a task, None for those it does not read."""
+    return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}
+
+
+def task_gains_report(controller: NativeController) -> list[dict]:
+    """Every task's gains and weight (the `info` reply's `tasks`); a gain the task does not read
+    is None (the UI hides it) and `gains` lists those it reads."""
+    used = controller.gains_used()
+    return [
+        {"name": name, **gain_fields(g, used[name]), "gains": list(used[name])}
+        for name, g in controller.gains().items()
+    ]
+
+
+def foot_centre_of_pressure(
+    wrench: np.ndarray, position: np.ndarray, rotation: np.ndarray
+) -> list[float] | None:
+    """CoP (world) of a flat foot's contact wrench [f, m] in the sole frame (origin `position`,
+    axes `rotation`, world); None when the foot is unloaded."""
+    fz = wrench[2]
+    if fz <= COP_MIN_FORCE:
+        return None
+    cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0])
+    return (position + rotation @ cop_local).tolist()
+
+
+def net_centre_of_pressure(normal: np.ndarray, positions: np.ndarray) -> list[float] | None:
+    """CoP of the feet's normal forces `normal` (N) at `positions` (world), on the ground plane
+    z = 0; None in flight."""
+    total = normal.sum()
+    if total <= COP_MIN_FORCE:
+        return None
+    cop = (normal @ positions / total).tolist()
+    cop[2] = 0.0
+    return cop
+
+
+def _contacts(session: SessionView) -> tuple[list[dict], dict]:
+    """One entry per foot and the centres of pressure (`cop`) of the telemetry message."""
+    model = session.model
+    measured = session.plant.foot_forces()
+    commanded = model.contact_forces_world(session.forces)
+    active = session.controller.references.contact_active
+    contacts = []
+    feet_cop: dict[str, list[float] | None] = {}
+    for i, (contact, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True)):
+        position = model.contact_positions[i]
+        entry = {
+            "name": contact.name,
+            "kind": contact.kind,
+            "active": bool(active[i]),
+            "position": position.tolist(),
+            "measured_force": measured[i].tolist(),
+            "force": commanded[i].tolist(),
+        }
+        if contact.kind == "flat":
+            wrench = session.forces[rows]
+            R = model.contact_rotations[i]
+            entry["moment"] = (R @ wrench[3:]).tolist()
+            feet_cop[contact.name] = foot_centre_of_pressure(wrench, position, R)
+        contacts.append(entry)
+    net = net_centre_of_pressure(measured[:, 2], model.contact_positions)
+    return contacts, {"feet": feet_cop, "net": net}
+
+
+def _tasks(controller: NativeController) -> list[dict]:
+    errors = controller.task_errors()
+    gains, used = controller.gains(), controller.gains_used()
+    return [
+        {
+            "name": name,
+            "level": level,
+            "error": errors.get(name, 0.0),
+            **(
+                gain_fields(gains[name], used[name])
+                if name in gains
+                else {"kp": None, "kd": None, "weight": 1.0}
+            ),
+        }
+        for level, names in enumerate(controller.config.stack.levels)
+        for name in names
+    ]
+
+
+def telemetry_message(session: SessionView) -> dict:
+    """Everything the UI plots and the tests check, JSON-ready (`lab/telemetry`)."""
+    model, controller = session.model, session.controller
+    q = model.q
+    rotation = model.base_rotation
+    contacts, cop = _contacts(session)
+    momentum = model.centroidal_momentum()
+    return {
+        "t": session.time,
+        "robot": session.config.robot,
+        "scene": session.config.scene,
+        "paused": session.paused,
+        "fell": session.fell,
+        "divergences": session.divergences,
+        "gait": session.behaviour.name,
+        "base": {
+            "position": q[:3].tolist(),
+            "quaternion": q[3:7].tolist(),
+            "linear_velocity": (rotation @ model.v[:3]).tolist(),
+            "angular_velocity": (rotation @ model.v[3:6]).tolist(),
+        },
+        "com": {"position": model.com.tolist(), "velocity": model.com_velocity.tolist()},
+        "momentum": {"linear": momentum[:3].tolist(), "angular": momentum[3:].tolist()},
+        "contacts": contacts,
+        "cop": cop,
+        "tasks": _tasks(controller),
+        "stack": controller.config.stack.as_lists(),
+        "momentum_control": momentum_report(controller),
+        "hierarchy": hierarchy_report(controller),
+        "kernel": controller.kernel_ran,
+        "kernel_note": controller.kernel_note,
+        "qp": {
+            "status": "ok" if session.qp_ok else "failed",
+            "solve_us": session.control_us,
+            "failures": session.qp_failures,
+        },
+        "solution": None if session.solution is None else session.solution.summary(),
+        "command": dict(zip(("vx", "vy", "yaw_rate"), session.velocity.tolist(), strict=True)),
+        "pushes": [
+            {
+                "body": p.body,
+                "force": p.force.tolist(),
+                "point": (
+                    p.point if p.point is not None else model.frame_position(p.body)
+                ).tolist(),
+                "remaining": max(0.0, p.ends_at - session.time),
+            }
+            for p in session.pushes.values()
+        ],
+    }
+
+
+def state_message(session: SessionView) -> dict:
+    """What the UI needs to draw the robot (`lab/state`): base pose, joint positions and the
+    world placement of every link and contact frame."""
+    q, _ = session.plant.state()
+    return {
+        "t": session.time,
+        "robot": session.config.robot,
+        "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
+        "joints": {"names": list(session.robot.joint_names), "positions": q[7:].tolist()},
+        "frames": session.frame_placements.message(q),
+    }
