@@ -6,11 +6,13 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 
 from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
 from lab.server.transport import DEFAULT_PORT, ServerTransport, server_config
 
 UI_STOP_TIMEOUT_S = 2.0
+UI_RESTART_DELAY_S = 2.0  # a UI process that died is started again after this long
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -84,16 +86,27 @@ def serve_main(argv: list[str]) -> int:
     try:
         endpoint = (args.listen or [f"tcp/127.0.0.1:{args.port}"])[0]
         endpoint = endpoint.replace("/0.0.0.0:", "/127.0.0.1:")  # the UI runs on this host
+        ui_command = [sys.executable, "-m", "lab.ui", "--connect", endpoint]
+        ui_command += ["--port", str(args.ui_port)]
         if not args.headless:
-            ui = subprocess.Popen(
-                [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--port", str(args.ui_port)]
-            )
+            ui = subprocess.Popen(ui_command)
         mode = "fast" if args.fast else f"{args.rate:g} Hz, SCHED_{loop.wanted_sched.upper()}"
         if not args.fast and args.sched == "auto":
             mode += " (auto)"
         print(f"lab serve: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}", flush=True)
+        ui_died_at = None
         while not stop.wait(0.5):
-            pass
+            if ui is None or ui.poll() is None:
+                continue
+            # The UI process died (killed, crashed): the sim runs on; start a new UI, whose
+            # page the browser reconnects to (docs/reliability.md).
+            if ui_died_at is None:
+                ui_died_at = time.monotonic()
+                print(
+                    f"lab serve: the UI process exited ({ui.returncode}); restarting it", flush=True
+                )
+            elif time.monotonic() - ui_died_at >= UI_RESTART_DELAY_S:
+                ui, ui_died_at = subprocess.Popen(ui_command), None
     finally:
         stop.set()
         thread.join()

@@ -19,6 +19,9 @@ CMD_PREFIX = "lab/cmd/"
 KEY_TELEMETRY = "lab/telemetry"
 KEY_STATE = "lab/state"
 KEY_EVENTS = "lab/events"
+# A liveliness token the sim process holds while it runs: clients see it appear and vanish (Zenoh
+# removes it when the process dies or the link to it breaks), which is how they say "disconnected".
+KEY_ALIVE = "lab/alive"
 MAX_PAYLOAD_BYTES = 64 * 1024
 COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
 
@@ -101,6 +104,7 @@ class ServerTransport:
         self._telemetry = self._session.declare_publisher(KEY_TELEMETRY)
         self._state = self._session.declare_publisher(KEY_STATE)
         self._events = self._session.declare_publisher(KEY_EVENTS)
+        self._alive = self._session.liveliness().declare_token(KEY_ALIVE)
 
     def receive(self) -> Request | None:
         """The oldest waiting command, without blocking."""
@@ -125,6 +129,6 @@ class ServerTransport:
         self._events.put(encode(message))
 
     def close(self) -> None:
-        for entity in (self._queryable, self._telemetry, self._state, self._events):
+        for entity in (self._alive, self._queryable, self._telemetry, self._state, self._events):
             entity.undeclare()
         self._session.close()
