@@ -1,4 +1,5 @@
-"""`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab teleop`."""
+"""`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
+`lab teleop`."""
 
 import argparse
 import json
@@ -64,6 +65,12 @@ def _serve(argv: list[str]) -> int:
     return serve_main(argv)
 
 
+def _soak(argv: list[str]) -> int:
+    from lab.server.soak import soak_main
+
+    return soak_main(argv)
+
+
 def _teleop(argv: list[str]) -> int:
     from lab.teleop import teleop_main
 
@@ -75,6 +82,7 @@ COMMANDS = {
     "replay": _replay,
     "bench": _bench,
     "serve": _serve,
+    "soak": _soak,
     "teleop": _teleop,
 }
 
