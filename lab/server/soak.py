@@ -3,7 +3,8 @@
 The session runs in `SimLoop` exactly as in `lab serve --fast`, behind a transport that plays a
 random user instead of Zenoh: every ~COMMAND_INTERVAL_S of sim time it sends a valid command
 (velocity, gait, push, stack preset, hierarchy method, momentum mode, gains, scene, pause and
-resume), encodes everything the loop publishes as the server would, and watches telemetry. A fall
+resume), encodes everything the loop publishes as the server would, and watches telemetry. Times are
+sim time run so far (a reset restarts the session's clock, not the soak's). A fall
 is answered by a reset after FALLEN_S; RESET_CHECK_S later the robot must stand again (else it is
 a fall it cannot reset from). The resident memory is sampled every MEMORY_SAMPLE_S of sim time;
 growth is measured from the end of the warm-up to the end. docs/reliability.md has the numbers.
@@ -100,7 +101,8 @@ class RandomUser:
         self.report = SoakReport(info["robot"], seed, sim_seconds)
         self.stop = threading.Event()
         self.progress = False
-        self._t = 0.0
+        self.sim_time = 0.0  # sim time run so far (the session's clock restarts at 0 on a reset)
+        self._session_t = 0.0
         self._next_command = 0.0
         self._queue: list[tuple[str, dict]] = []
         self._fell_at: float | None = None
@@ -126,7 +128,9 @@ class RandomUser:
 
     def publish_telemetry(self, message: dict[str, object]) -> None:
         encode(message)
-        self._t = t = float(message["t"])
+        session_t = float(message["t"])
+        self.sim_time += session_t - self._session_t if session_t >= self._session_t else session_t
+        self._session_t, t = session_t, self.sim_time
         self.report.ticks = message["loop"]["ticks"]
         self.report.divergences = message["divergences"]
         self.report.qp_failures = message["qp"]["failures"]
@@ -154,7 +158,7 @@ class RandomUser:
     def _watch(self, telemetry: dict) -> None:
         """Reset after a fall and check that the robot stands after that; unpause a session a
         divergence paused; otherwise send a random command when one is due."""
-        t = self._t
+        t = self.sim_time
         if telemetry["paused"]:  # only a repeated divergence pauses (pause-resume is one tick)
             if not self._unpausing:
                 self._queue.append(("reset", {}))
@@ -226,9 +230,9 @@ class RandomUser:
         report.memory_growth = (end - warm) / warm
         if report.error:
             report.failures.append(f"the loop stopped: {report.error}")
-        if self._t < self.end:
+        if self.sim_time < self.end:
             why = " (interrupted)" if report.interrupted else ""
-            report.failures.append(f"sim time reached only {self._t:.1f} s{why}")
+            report.failures.append(f"sim time reached only {self.sim_time:.1f} s{why}")
         if report.unrecovered_falls:
             report.failures.append(f"{report.unrecovered_falls} fall(s) a reset did not undo")
         if report.memory_growth > MAX_MEMORY_GROWTH:
