@@ -54,6 +54,11 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="allow a non-loopback --listen with neither --users nor --zenoh-config",
     )
+    p.add_argument(
+        "--record",
+        metavar="FILE.mcap",
+        help="record telemetry, state, events and commands with their replies to an MCAP file",
+    )
     p.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default: 1000)")
     p.add_argument("--fast", action="store_true", help="no sleeping: run as fast as possible")
     p.add_argument(
@@ -110,9 +115,19 @@ def serve_main(argv: list[str]) -> int:
     except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
+    recorder = None
+    if args.record:
+        from lab.server.recording import Recorder, RecordingTransport
+
+        try:
+            recorder = Recorder(args.record, session)
+        except OSError as error:
+            transport.close()
+            print(f"lab serve: --record: {error}", file=sys.stderr)
+            return 2
     loop = SimLoop(
         session,
-        transport,
+        transport if recorder is None else RecordingTransport(transport, recorder, session),
         LoopConfig(
             rate_hz=args.rate,
             fast=args.fast,
@@ -156,6 +171,8 @@ def serve_main(argv: list[str]) -> int:
         stop.set()
         thread.join()
         transport.close()
+        if recorder is not None:
+            recorder.close()
         if ui is not None:
             _stop_process(ui)
     if loop.error is not None:
