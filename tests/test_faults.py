@@ -291,11 +291,22 @@ def ready_client(endpoint: str, server: Process) -> LabClient:
         assert time.monotonic() < end, server.output()
 
 
+@contextmanager
+def headless_server(tmp_path: Path) -> Iterator[tuple[list[Process], LabClient, str]]:
+    """A headless `lab serve`, a ready client and the endpoint; the list gathers processes to
+    kill at the end."""
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    with processes() as running:
+        server = serve(tmp_path / "serve.log", port, "--headless")
+        running.append(server)
+        with ready_client(endpoint, server) as lab:
+            yield running, lab, endpoint
+
+
 def test_a_subscriber_that_never_reads_does_not_slow_the_loop(tmp_path: Path) -> None:
     """A client process whose telemetry callback blocks forever and another that never drains
     its channel: the loop keeps its schedule and other clients get fresh telemetry."""
-    port = free_port()
-    endpoint = f"tcp/127.0.0.1:{port}"
     stuck = (
         "import sys, threading, zenoh\n"
         "from lab.server.transport import client_config\n"
@@ -307,10 +318,7 @@ def test_a_subscriber_that_never_reads_does_not_slow_the_loop(tmp_path: Path) ->
         "print('subscribed', flush=True)\n"
         "never.wait()\n"
     )
-    with processes() as running:
-        server = serve(tmp_path / "serve.log", port, "--headless")
-        running.append(server)
-        lab = ready_client(endpoint, server)
+    with headless_server(tmp_path) as (running, lab, endpoint):
         for i in range(2):
             running.append(Process(tmp_path / f"stuck{i}.log", "-c", stuck, endpoint))
         wait_for(lambda: all("subscribed" in p.output() for p in running[1:]), STARTUP_S, "stuck")
@@ -321,7 +329,6 @@ def test_a_subscriber_that_never_reads_does_not_slow_the_loop(tmp_path: Path) ->
         ticks -= first["loop"]["ticks"] + first["loop"]["skipped"]
         assert ticks > 0.8 * RATE_HZ * 5.0, last["loop"]  # the schedule held
         assert last["t"] - first["t"] > 0.2 * 5.0 * RATE_HZ * 1e-3  # and the sim ran
-        lab.close()
 
 
 def _children(pid: int) -> list[int]:
@@ -386,8 +393,6 @@ def test_the_sim_process_killed_is_seen_as_disconnected_and_recovers(tmp_path: P
 def test_a_cut_teleop_link_ramps_the_velocity_to_zero(tmp_path: Path) -> None:
     """A teleop process refreshing a walking command is killed: the deadman holds the command
     DEADMAN_TIMEOUT_S, then ramps it to zero over DEADMAN_RAMP_S (wall time)."""
-    port = free_port()
-    endpoint = f"tcp/127.0.0.1:{port}"
     teleop = (
         "import sys, time\n"
         "from lab.client import LabClient\n"
@@ -397,10 +402,7 @@ def test_a_cut_teleop_link_ramps_the_velocity_to_zero(tmp_path: Path) -> None:
         "    print(lab.command('velocity', vx=0.2, vy=0.0, yaw_rate=0.0), flush=True)\n"
         "    time.sleep(0.1)\n"
     )
-    with processes() as running:
-        server = serve(tmp_path / "serve.log", port, "--headless")
-        running.append(server)
-        lab = ready_client(endpoint, server)
+    with headless_server(tmp_path) as (running, lab, endpoint):
         link = Process(tmp_path / "teleop.log", "-c", teleop, endpoint)
         running.append(link)
         lab.wait_telemetry(lambda m: m["command"]["vx"] == pytest.approx(0.2), timeout=STARTUP_S)
@@ -409,7 +411,6 @@ def test_a_cut_teleop_link_ramps_the_velocity_to_zero(tmp_path: Path) -> None:
         lab.wait_telemetry(lambda m: m["command"]["vx"] == 0.0, timeout=WAIT_S)
         assert time.monotonic() - cut >= DEADMAN_TIMEOUT_S + DEADMAN_RAMP_S - 0.15
         assert lab.command("info")["ok"]
-        lab.close()
 
 
 def test_a_restarted_router_reconnects_the_sim_and_its_clients(tmp_path: Path) -> None:
