@@ -3,7 +3,8 @@
 Zenoh's user/password authentication: the sim process reads a file of `user:password` lines
 (`lab serve --users FILE`) and refuses a link from anyone who does not present one of them;
 clients present theirs from LAB_ZENOH_USER / LAB_ZENOH_PASSWORD. Encryption (TLS) and access
-control lists are Zenoh's own configuration (`lab serve --zenoh-config FILE`). A non-loopback
+control lists are Zenoh's own configuration (`lab serve --zenoh-config FILE`; a client's in
+LAB_ZENOH_CONFIG). A non-loopback
 `--listen` with none of these is refused unless asked for with `--open`. docs/protocol.md,
 "Remote mode".
 """
@@ -15,6 +16,7 @@ from pathlib import Path
 
 ENV_USER = "LAB_ZENOH_USER"
 ENV_PASSWORD = "LAB_ZENOH_PASSWORD"
+ENV_CONFIG = "LAB_ZENOH_CONFIG"  # a client's Zenoh configuration file (TLS: the CA to trust)
 _LOOPBACK_HOST = re.compile(r"^(127\.\d+\.\d+\.\d+|localhost|\[::1\])$")
 
 

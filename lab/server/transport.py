@@ -6,6 +6,7 @@ See docs/protocol.md.
 """
 
 import json
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,7 +15,7 @@ import msgspec
 import numpy as np
 import zenoh
 
-from lab.server.access import Credentials, credentials_from_env, usrpwd_settings
+from lab.server.access import ENV_CONFIG, Credentials, credentials_from_env, usrpwd_settings
 
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
@@ -69,12 +70,13 @@ def client_config(
     endpoint: str = DEFAULT_ENDPOINT, credentials: Credentials | None = None
 ) -> zenoh.Config:
     """Client connecting to exactly `endpoint`, no scouting; presenting `credentials`, by
-    default those of LAB_ZENOH_USER / LAB_ZENOH_PASSWORD if set (access.py)."""
+    default those of LAB_ZENOH_USER / LAB_ZENOH_PASSWORD if set, over the Zenoh configuration
+    file LAB_ZENOH_CONFIG names if set (TLS: the CA to trust; access.py)."""
     settings: dict[str, object] = {"mode": "client", "connect/endpoints": [endpoint]}
     credentials = credentials or credentials_from_env()
     if credentials is not None:
         settings["transport/auth/usrpwd"] = usrpwd_settings(credentials=credentials)
-    return _config(settings)
+    return _config(settings, os.environ.get(ENV_CONFIG) or None)
 
 
 def _config(settings: dict[str, object], base_file: str | Path | None = None) -> zenoh.Config:
