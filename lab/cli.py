@@ -1,4 +1,5 @@
-"""`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab teleop`."""
+"""`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
+`lab teleop`."""
 
 import argparse
 import json
@@ -39,10 +40,24 @@ def _replay(argv: list[str]) -> int:
 
     parser = argparse.ArgumentParser(
         prog="lab replay",
-        description="Replay a recording through a new session and compare its torques.",
+        description="Replay a recording through a new session and compare its torques, or "
+        "serve it (--serve).",
     )
     parser.add_argument("recording", help="an MCAP file written by --record")
+    parser.add_argument(
+        "--serve",
+        action="store_true",
+        help="serve the recording over the protocol like a live session (pause, speed, seek)",
+    )
+    parser.add_argument(
+        "--port", type=int, default=7447, help="with --serve: TCP port on 127.0.0.1"
+    )
+    parser.add_argument("--speed", type=float, default=1.0, help="with --serve: times real time")
     args = parser.parse_args(argv)
+    if args.serve:
+        from lab.server.replay_serve import replay_serve_main
+
+        return replay_serve_main(args.recording, args.port, args.speed)
     try:
         check = replay(args.recording)
     except (OSError, ValueError, KeyError) as error:
@@ -64,6 +79,12 @@ def _serve(argv: list[str]) -> int:
     return serve_main(argv)
 
 
+def _soak(argv: list[str]) -> int:
+    from lab.server.soak import soak_main
+
+    return soak_main(argv)
+
+
 def _teleop(argv: list[str]) -> int:
     from lab.teleop import teleop_main
 
@@ -75,6 +96,7 @@ COMMANDS = {
     "replay": _replay,
     "bench": _bench,
     "serve": _serve,
+    "soak": _soak,
     "teleop": _teleop,
 }
 

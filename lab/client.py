@@ -13,7 +13,14 @@ from collections.abc import Callable
 
 import zenoh
 
-from lab.protocol import CMD_PREFIX, DEFAULT_ENDPOINT, KEY_EVENTS, KEY_STATE, KEY_TELEMETRY
+from lab.protocol import (
+    CMD_PREFIX,
+    DEFAULT_ENDPOINT,
+    KEY_ALIVE,
+    KEY_EVENTS,
+    KEY_STATE,
+    KEY_TELEMETRY,
+)
 from lab.server.transport import client_config
 
 COMMAND_TIMEOUT_S = 2.0
@@ -34,6 +41,31 @@ class LabClient:
         self._last: dict[str, dict | None] = {KEY_TELEMETRY: None, KEY_STATE: None}
         self._callbacks: list[zenoh.Subscriber] = []
         self._lock = threading.Lock()
+        self._connected = threading.Event()
+        self._alive = self._session.liveliness().declare_subscriber(
+            KEY_ALIVE, self._on_alive, history=True
+        )
+
+    @property
+    def connected(self) -> bool:
+        """Whether the sim process is reachable now: its liveliness token is seen (it vanishes
+        within about a second of the process dying or the link to it breaking)."""
+        return self._connected.is_set()
+
+    def wait_connected(self, connected: bool = True, timeout: float = 5.0) -> bool:
+        """Wait until `connected` is what the link is; True if it became so within `timeout`."""
+        end = time.monotonic() + timeout
+        while self.connected != connected:
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.01)
+        return True
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._connected.set()
+        else:
+            self._connected.clear()
 
     def command(self, verb: str, timeout: float | None = None, **fields: object) -> dict:
         """Send `verb` with `fields` as its JSON payload; return the server's reply."""
@@ -79,7 +111,7 @@ class LabClient:
         self._subscribe(KEY_EVENTS, callback)
 
     def close(self) -> None:
-        for subscriber in [*self._callbacks, *self._latest.values()]:
+        for subscriber in [self._alive, *self._callbacks, *self._latest.values()]:
             subscriber.undeclare()
         self._callbacks.clear()
         self._session.close()

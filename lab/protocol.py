@@ -17,6 +17,9 @@ CMD_PREFIX = "lab/cmd/"  # a command is a query on CMD_PREFIX + verb
 KEY_TELEMETRY = "lab/telemetry"
 KEY_STATE = "lab/state"
 KEY_EVENTS = "lab/events"
+# A liveliness token the sim process holds while it runs: clients see it appear and vanish (Zenoh
+# removes it when the process dies or the link to it breaks), which is how they say "disconnected".
+KEY_ALIVE = "lab/alive"
 MAX_PAYLOAD_BYTES = 64 * 1024  # of one command's JSON payload
 
 # ---------------------------------------------------------------------------------- command ranges

@@ -22,7 +22,7 @@ from mcap.writer import Writer
 
 from lab.server.limits import apply_limits
 from lab.server.session import Session, SessionConfig
-from lab.server.transport import encode
+from lab.server.transport import Request, ServerTransport, encode
 
 TOPICS = {
     "telemetry": "lab/telemetry",
@@ -70,6 +70,10 @@ SCHEMAS = {
 }
 TELEMETRY_PERIOD = 10  # ticks between recorded telemetry messages (100 Hz at 1 kHz)
 STATE_PERIOD = 16  # ticks between recorded drawing states (about 60 Hz)
+# s: a session time this far below the last one written is a reset (the session clock restarts
+# at 0); the recording's timeline then goes on from where it was. Events lag the clock by at most
+# one telemetry period (10 ms), far less.
+RESET_DROP_S = 0.05
 
 
 class Recorder:
@@ -92,6 +96,9 @@ class Recorder:
             self._channels[kind] = self._writer.register_channel(topic, "json", schema)
         self._writer.add_metadata("session", session_metadata(session, limits or {}))
         self._sequence = 0
+        self._last_t = 0.0  # the last session time written
+        self._offset = 0.0  # timeline minus session time: the session time before each reset
+        self._last_stamp = 0
 
     def after_tick(self, session: Session) -> None:
         """What a headless run records after each tick: telemetry and the drawing state at
@@ -102,14 +109,15 @@ class Recorder:
             self.state(session)
         self.events(session.pop_events())
 
-    def telemetry(self, session: Session) -> None:
-        """This tick's telemetry with its joint torques."""
-        message = session.telemetry()
-        message["tick"], message["tau"] = session.ticks, session.tau.tolist()
+    def telemetry(self, session: Session, message: dict | None = None) -> None:
+        """This tick's telemetry (`message`, if already built) with its joint torques."""
+        message = {**(message or session.telemetry()), "tick": session.ticks}
+        message["tau"] = session.tau.tolist()
         self._write("telemetry", session.time, message)
 
-    def state(self, session: Session) -> None:
-        self._write("state", session.time, session.drawing_state())
+    def state(self, session: Session, message: dict | None = None) -> None:
+        """This tick's drawing state (`message`, if already built)."""
+        self._write("state", session.time, message or session.drawing_state())
 
     def events(self, events: list[dict]) -> None:
         for event in events:
@@ -121,7 +129,12 @@ class Recorder:
         self._write("commands", session.time, {**message, "reply": reply})
 
     def _write(self, kind: str, t: float, message: dict) -> None:
-        stamp = max(0, round(t * 1e9))
+        """Log time: the session time `t` on a timeline that never runs back (a reset restarts
+        the session clock, the timeline goes on)."""
+        if t < self._last_t - RESET_DROP_S:
+            self._offset += self._last_t
+        self._last_t = t
+        stamp = self._last_stamp = max(self._last_stamp, round((t + self._offset) * 1e9))
         data = encode(message)  # the transport's encoder: non-finite floats as null, valid JSON
         self._sequence += 1
         self._writer.add_message(self._channels[kind], stamp, data, stamp, self._sequence)
@@ -136,6 +149,35 @@ class Recorder:
 
     def __exit__(self, *_: object) -> None:
         self.close()
+
+
+class RecordingTransport:
+    """The sim loop's transport with a recorder beside it (`lab serve --record`): what the loop
+    publishes and every reply it sends are written too, on the loop's thread."""
+
+    def __init__(self, transport: ServerTransport, recorder: Recorder, session: Session) -> None:
+        self._transport = transport
+        self._recorder = recorder
+        self._session = session
+
+    def receive(self) -> Request | None:
+        return self._transport.receive()
+
+    def reply(self, request: Request, body: dict[str, object]) -> None:
+        self._recorder.command(self._session, request.verb, request.payload, body)
+        self._transport.reply(request, body)
+
+    def publish_telemetry(self, message: dict[str, object]) -> None:
+        self._recorder.telemetry(self._session, message)
+        self._transport.publish_telemetry(message)
+
+    def publish_state(self, message: dict[str, object]) -> None:
+        self._recorder.state(self._session, message)
+        self._transport.publish_state(message)
+
+    def publish_event(self, message: dict[str, object]) -> None:
+        self._recorder.events([message])
+        self._transport.publish_event(message)
 
 
 def session_metadata(session: Session, limits: dict) -> dict[str, str]:

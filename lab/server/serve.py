@@ -2,16 +2,22 @@
 process (`python -m lab.ui`). SIGINT/SIGTERM stop both cleanly."""
 
 import argparse
+import os
 import signal
 import subprocess
 import sys
 import threading
+import time
+
+import zenoh
 
 from lab.protocol import DEFAULT_PORT
+from lab.server.access import is_loopback, read_users
 from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
 from lab.server.transport import ServerTransport, server_config
 
 UI_STOP_TIMEOUT_S = 2.0
+UI_RESTART_DELAY_S = 2.0  # a UI process that died is started again after this long
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,6 +38,27 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="ENDPOINT",
         help="also connect to this Zenoh endpoint (opt-in, e.g. a router)",
+    )
+    p.add_argument(
+        "--users",
+        metavar="FILE",
+        help="admit only Zenoh links that present a user:password line of FILE (remote mode; "
+        "clients set LAB_ZENOH_USER and LAB_ZENOH_PASSWORD)",
+    )
+    p.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        help="a Zenoh configuration (TLS, access control) the lab's settings are written over",
+    )
+    p.add_argument(
+        "--open",
+        action="store_true",
+        help="allow a non-loopback --listen with neither --users nor --zenoh-config",
+    )
+    p.add_argument(
+        "--record",
+        metavar="FILE.mcap",
+        help="record telemetry, state, events and commands with their replies to an MCAP file",
     )
     p.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default: 1000)")
     p.add_argument("--fast", action="store_true", help="no sleeping: run as fast as possible")
@@ -55,6 +82,22 @@ def serve_main(argv: list[str]) -> int:
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
         return 2
+    remote = [endpoint for endpoint in args.listen if not is_loopback(endpoint)]
+    if remote and not (args.users or args.zenoh_config or args.open):
+        print(
+            f"lab serve: --listen {remote[0]} is reachable from other machines: admit users with "
+            "--users FILE (and/or TLS with --zenoh-config FILE), or pass --open "
+            "(docs/protocol.md, 'Remote mode')",
+            file=sys.stderr,
+        )
+        return 2
+    ui_credentials = None
+    if args.users:
+        try:
+            ui_credentials = read_users(args.users)[0]  # the local UI logs in as the first user
+        except (OSError, ValueError) as error:
+            print(f"lab serve: --users: {error}", file=sys.stderr)
+            return 2
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
     try:
@@ -64,10 +107,28 @@ def serve_main(argv: list[str]) -> int:
         return 2
     if note := session.controller.kernel_note:
         print(f"lab serve: {note}: the Python kernel runs", file=sys.stderr)
-    transport = ServerTransport(server_config(args.port, args.listen, args.connect))
+    try:
+        transport = ServerTransport(
+            server_config(
+                args.port, args.listen, args.connect, args.users, ui_credentials, args.zenoh_config
+            )
+        )
+    except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
+        print(f"lab serve: Zenoh: {error}", file=sys.stderr)
+        return 2
+    recorder = None
+    if args.record:
+        from lab.server.recording import Recorder, RecordingTransport
+
+        try:
+            recorder = Recorder(args.record, session)
+        except OSError as error:
+            transport.close()
+            print(f"lab serve: --record: {error}", file=sys.stderr)
+            return 2
     loop = SimLoop(
         session,
-        transport,
+        transport if recorder is None else RecordingTransport(transport, recorder, session),
         LoopConfig(
             rate_hz=args.rate,
             fast=args.fast,
@@ -85,20 +146,34 @@ def serve_main(argv: list[str]) -> int:
     try:
         endpoint = (args.listen or [f"tcp/127.0.0.1:{args.port}"])[0]
         endpoint = endpoint.replace("/0.0.0.0:", "/127.0.0.1:")  # the UI runs on this host
+        ui_command = [sys.executable, "-m", "lab.ui", "--connect", endpoint]
+        ui_command += ["--port", str(args.ui_port)]
+        ui_env = os.environ | (ui_credentials.env() if ui_credentials else {})
         if not args.headless:
-            ui = subprocess.Popen(
-                [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--port", str(args.ui_port)]
-            )
+            ui = subprocess.Popen(ui_command, env=ui_env)
         mode = "fast" if args.fast else f"{args.rate:g} Hz, SCHED_{loop.wanted_sched.upper()}"
         if not args.fast and args.sched == "auto":
             mode += " (auto)"
         print(f"lab serve: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}", flush=True)
+        ui_died_at = None
         while not stop.wait(0.5):
-            pass
+            if ui is None or ui.poll() is None:
+                continue
+            # The UI process died (killed, crashed): the sim runs on; start a new UI, whose
+            # page the browser reconnects to (docs/reliability.md).
+            if ui_died_at is None:
+                ui_died_at = time.monotonic()
+                print(
+                    f"lab serve: the UI process exited ({ui.returncode}); restarting it", flush=True
+                )
+            elif time.monotonic() - ui_died_at >= UI_RESTART_DELAY_S:
+                ui, ui_died_at = subprocess.Popen(ui_command, env=ui_env), None
     finally:
         stop.set()
         thread.join()
         transport.close()
+        if recorder is not None:
+            recorder.close()
         if ui is not None:
             _stop_process(ui)
     if loop.error is not None:

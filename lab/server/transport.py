@@ -6,8 +6,10 @@ See docs/protocol.md.
 """
 
 import json
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import msgspec
 import numpy as np
@@ -17,15 +19,17 @@ from lab.protocol import (
     CMD_PREFIX,
     DEFAULT_ENDPOINT,
     DEFAULT_PORT,
+    KEY_ALIVE,
     KEY_EVENTS,
     KEY_STATE,
     KEY_TELEMETRY,
     MAX_PAYLOAD_BYTES,
 )
+from lab.server.access import ENV_CONFIG, Credentials, credentials_from_env, usrpwd_settings
 
 COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
 
-_NO_SCOUTING = {"multicast": {"enabled": False}, "gossip": {"enabled": False}}
+_NO_SCOUTING = {"scouting/multicast/enabled": False, "scouting/gossip/enabled": False}
 
 
 def _plain(value: object) -> object:
@@ -41,29 +45,47 @@ encode = msgspec.json.Encoder(enc_hook=_plain).encode
 
 
 def server_config(
-    port: int = DEFAULT_PORT, listen: Sequence[str] = (), connect: Sequence[str] = ()
+    port: int = DEFAULT_PORT,
+    listen: Sequence[str] = (),
+    connect: Sequence[str] = (),
+    users_file: str | Path | None = None,
+    credentials: Credentials | None = None,
+    base_file: str | Path | None = None,
 ) -> zenoh.Config:
     """Peer listening on 127.0.0.1:`port` only, no scouting; `listen`/`connect` are opt-ins
-    (a non-empty `listen` replaces the loopback endpoint)."""
-    return _config(
-        {
-            "mode": "peer",
-            "listen": {"endpoints": list(listen) or [f"tcp/127.0.0.1:{port}"]},
-            "connect": {"endpoints": list(connect)},
-            "scouting": _NO_SCOUTING,
-        }
-    )
+    (a non-empty `listen` replaces the loopback endpoint). `users_file` admits only the users in
+    it, `credentials` are presented to whom it connects to (access.py); `base_file` is a Zenoh
+    configuration (TLS, access control) these settings are written over."""
+    settings: dict[str, object] = {
+        "mode": "peer",
+        "listen/endpoints": list(listen) or [f"tcp/127.0.0.1:{port}"],
+        "connect/endpoints": list(connect),
+    }
+    if users_file is not None or credentials is not None:
+        settings["transport/auth/usrpwd"] = usrpwd_settings(users_file, credentials)
+    return _config(settings, base_file)
 
 
-def client_config(endpoint: str = DEFAULT_ENDPOINT) -> zenoh.Config:
-    """Client connecting to exactly `endpoint`, no scouting."""
-    return _config(
-        {"mode": "client", "connect": {"endpoints": [endpoint]}, "scouting": _NO_SCOUTING}
-    )
+def client_config(
+    endpoint: str = DEFAULT_ENDPOINT, credentials: Credentials | None = None
+) -> zenoh.Config:
+    """Client connecting to exactly `endpoint`, no scouting; presenting `credentials`, by
+    default those of LAB_ZENOH_USER / LAB_ZENOH_PASSWORD if set, over the Zenoh configuration
+    file LAB_ZENOH_CONFIG names if set (TLS: the CA to trust; access.py)."""
+    settings: dict[str, object] = {"mode": "client", "connect/endpoints": [endpoint]}
+    credentials = credentials or credentials_from_env()
+    if credentials is not None:
+        settings["transport/auth/usrpwd"] = usrpwd_settings(credentials=credentials)
+    return _config(settings, os.environ.get(ENV_CONFIG) or None)
 
 
-def _config(settings: dict[str, object]) -> zenoh.Config:
-    return zenoh.Config.from_json5(json.dumps(settings))
+def _config(settings: dict[str, object], base_file: str | Path | None = None) -> zenoh.Config:
+    """`settings` (keys are Zenoh configuration paths) over `base_file` or Zenoh's defaults,
+    with scouting off."""
+    config = zenoh.Config.from_file(str(base_file)) if base_file is not None else zenoh.Config()
+    for key, value in (settings | _NO_SCOUTING).items():
+        config.insert_json5(key, json.dumps(value))
+    return config
 
 
 @dataclass(frozen=True)
@@ -104,6 +126,7 @@ class ServerTransport:
         self._telemetry = self._session.declare_publisher(KEY_TELEMETRY)
         self._state = self._session.declare_publisher(KEY_STATE)
         self._events = self._session.declare_publisher(KEY_EVENTS)
+        self._alive = self._session.liveliness().declare_token(KEY_ALIVE)
 
     def receive(self) -> Request | None:
         """The oldest waiting command, without blocking."""
@@ -128,6 +151,6 @@ class ServerTransport:
         self._events.put(encode(message))
 
     def close(self) -> None:
-        for entity in (self._queryable, self._telemetry, self._state, self._events):
+        for entity in (self._alive, self._queryable, self._telemetry, self._state, self._events):
             entity.undeclare()
         self._session.close()

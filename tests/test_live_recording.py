@@ -1,0 +1,129 @@
+"""`lab serve --record` writes a live session to MCAP; `lab replay --serve` plays a recording
+over the protocol like a live session, steered by pause, resume, speed and seek."""
+
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ports import free_port
+from test_faults import WAIT_S, Process, ready_client, serve
+
+from lab.server.recording import read_recording
+from lab.server.replay_serve import Player, ReplayServer
+
+STOP_S = 10.0
+
+
+@pytest.fixture(scope="module")
+def live_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A live ANYmal session: pushed, a bad command, reset (its clock restarts), then on."""
+    tmp = tmp_path_factory.mktemp("live")
+    port, path = free_port(), tmp / "live.mcap"
+    server = serve(tmp / "serve.log", port, "--headless", "--record", str(path))
+    try:
+        with ready_client(f"tcp/127.0.0.1:{port}", server) as lab:
+            lab.wait_telemetry(lambda m: m["t"] > 0.4, timeout=WAIT_S)
+            assert lab.command("push", body="base", force=[0, 60, 0], duration=0.1)["ok"]
+            assert not lab.command("gains", task="no_such_task", kp=1.0)["ok"]
+            lab.wait_telemetry(lambda m: m["t"] > 0.8, timeout=WAIT_S)
+            assert lab.command("reset")["ok"]
+            lab.wait_telemetry(lambda m: 0.3 < m["t"] < 0.8, timeout=WAIT_S)
+        server.process.send_signal(signal.SIGINT)
+        assert server.process.wait(STOP_S) == 0, server.output()
+    finally:
+        server.kill()
+    return path
+
+
+def test_a_live_session_is_recorded_with_replies_events_and_a_timeline_that_goes_on(
+    live_recording: Path,
+) -> None:
+    _, messages = read_recording(live_recording)
+    messages = list(messages)
+    commands = [m.data for m in messages if m.kind == "commands"]
+    verbs = [(c["verb"], c["reply"]["ok"]) for c in commands]
+    assert ("push", True) in verbs and ("gains", False) in verbs and ("reset", True) in verbs
+    assert "reset" in [m.data["type"] for m in messages if m.kind == "events"]
+    telemetry = [m for m in messages if m.kind == "telemetry"]
+    assert len(telemetry) > 100 and all(len(m.data["tau"]) == 12 for m in telemetry)
+    session_times = np.array([m.data["t"] for m in telemetry])
+    assert np.any(np.diff(session_times) < -0.5)  # the reset restarted the session clock...
+    log_times = np.array([m.t for m in messages])
+    assert np.all(np.diff(log_times) >= 0.0)  # ...not the recording's timeline
+    assert log_times[-1] == pytest.approx(session_times.max() + session_times[-1], abs=0.05)
+
+
+def test_a_player_plays_at_its_speed_pauses_and_seeks(live_recording: Path) -> None:
+    _, messages = read_recording(live_recording)
+    player = Player([m for m in messages if m.kind != "commands"])
+    first = player.advance(0.1)
+    assert first and max(m.t for m in first) <= 0.1
+    player.speed = 4.0
+    assert max(m.t for m in player.advance(0.1)) == pytest.approx(0.5, abs=0.02)
+    player.paused = True
+    assert player.advance(1.0) == [] and player.position == pytest.approx(0.5)
+    shown = player.seek(0.25)
+    assert {m.kind for m in shown} == {"telemetry", "state"} and max(m.t for m in shown) <= 0.25
+    player.paused = False
+    assert min(m.t for m in player.advance(0.01)) > 0.25
+    player.seek(1e9)
+    assert player.position == player.duration and player.advance(1.0) == [] and player.ended
+
+
+def test_playback_commands_are_checked_and_other_verbs_are_refused(live_recording: Path) -> None:
+    server = ReplayServer(str(live_recording), transport=None)  # handle() publishes nothing...
+    info = server.handle("info", {})
+    assert info["ok"] and info["recorded"]["robot"] == "anymal" and info["replay"]["t"] == 0.0
+    assert server.handle("speed", {"factor": 2.5})["replay"]["speed"] == 2.5
+    for verb, payload, words in (
+        ("speed", {"factor": 0}, "factor must be in"),
+        ("speed", {"factor": float("nan")}, "finite number"),
+        ("speed", {"rate": 2}, "expected {'factor'"),
+        ("seek", {"t": "soon"}, "finite number"),
+        ("pause", {"now": True}, "takes no fields"),
+        ("push", {"body": "base"}, "read-only"),
+    ):
+        reply = server.handle(verb, payload)
+        assert not reply["ok"] and verb in reply["error"] and words in reply["error"], reply
+    assert server.player.speed == 2.5  # refused commands changed nothing
+    assert server.handle("pause", {})["replay"]["paused"] is True
+
+
+def test_a_recording_is_served_like_a_live_session(live_recording: Path, tmp_path: Path) -> None:
+    port = free_port()
+    replay = Process(
+        tmp_path / "replay.log",
+        "-m",
+        "lab",
+        "replay",
+        str(live_recording),
+        "--serve",
+        "--port",
+        str(port),
+        "--speed",
+        "0.5",
+    )
+    try:
+        with ready_client(f"tcp/127.0.0.1:{port}", replay) as lab:
+            info = lab.command("info")
+            assert info["recorded"]["robot"] == "anymal" and info["replay"]["duration"] > 1.0
+            assert lab.command("pause")["ok"]
+            time.sleep(0.3)
+            lab.latest_telemetry()
+            lab.command("seek", t=0.5)
+            shown = lab.wait_telemetry(timeout=WAIT_S)  # seek shows the telemetry at 0.5 s
+            assert 0.45 <= shown["t"] <= 0.5 and shown["robot"] == "anymal"
+            assert not lab.command("reset")["ok"]
+            assert lab.command("resume")["ok"] and lab.command("speed", factor=4.0)["ok"]
+            ended = []
+            lab.subscribe_events(lambda e: ended.append(e) if e["type"] == "replay_ended" else None)
+            deadline = time.monotonic() + WAIT_S
+            while not ended and time.monotonic() < deadline:
+                time.sleep(0.1)
+            assert ended and lab.command("info")["replay"]["ended"]
+        replay.process.send_signal(signal.SIGINT)
+        assert replay.process.wait(STOP_S) == 0, replay.output()
+    finally:
+        replay.kill()
