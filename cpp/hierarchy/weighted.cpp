@@ -1,6 +1,7 @@
 // All levels in one weighted QP (Raiola 2020, stack S1); mirrors
 // lab/controller/hierarchy/weighted.py.
 #include <algorithm>
+#include <limits>
 
 #include "hierarchy/problem.hpp"
 #include "hierarchy/qp.hpp"
@@ -8,6 +9,28 @@
 namespace lab {
 namespace {
 constexpr double kRegularization = 1e-9;  // times the lightest level weight
+constexpr double kBoundTol = 1e-9;        // a lower bound above an upper one by more: no x
+
+/// Whether rows with a single nonzero (bounds on one entry of x: normal forces, joint
+/// accelerations) contradict each other. eiquadprog cycles without end between its steps 2 and
+/// 2a on such a pair instead of calling the problem infeasible (tests/test_faults.py).
+bool contradictory_bounds(const Eigen::MatrixXd& C, const Eigen::VectorXd& d) {
+  const double inf = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd lower = Eigen::VectorXd::Constant(C.cols(), -inf);
+  Eigen::VectorXd upper = Eigen::VectorXd::Constant(C.cols(), inf);
+  for (Eigen::Index i = 0; i < C.rows(); ++i) {
+    Eigen::Index column = -1, nonzeros = 0;
+    for (Eigen::Index j = 0; j < C.cols() && nonzeros < 2; ++j)
+      if (C(i, j) != 0.0) column = j, ++nonzeros;
+    if (nonzeros != 1) continue;
+    const double a = C(i, column), bound = d(i) / a;  // a x_j <= d_i
+    if (a > 0.0)
+      upper(column) = std::min(upper(column), bound);
+    else
+      lower(column) = std::max(lower(column), bound);
+  }
+  return ((lower - upper).array() > kBoundTol).any();
+}
 }  // namespace
 
 HierarchySolution solve_weighted(const HierarchyProblem& problem) {
@@ -38,8 +61,10 @@ HierarchySolution solve_weighted(const HierarchyProblem& problem) {
   }
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
-  out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x);
-  if (!out.ok) {
+  if (contradictory_bounds(C, d)) {
+    out.message = "the weighted QP is infeasible: a lower bound on x exceeds its upper bound";
+    out.x = Eigen::VectorXd::Zero(nx);
+  } else if (!(out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x))) {
     out.message = "eiquadprog found no solution of the weighted QP";
     out.x = Eigen::VectorXd::Zero(nx);
   }

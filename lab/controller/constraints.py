@@ -56,7 +56,9 @@ class FrictionConstraint(Constraint):
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         # The rows depend only on which feet are active and on the bounds: reuse them.
         upper = refs.normal_force_max
-        key = (refs.contact_active.tobytes(), upper.tobytes(), self.limits.friction)
+        limits = self.limits
+        key = (refs.contact_active.tobytes(), upper.tobytes())
+        key += (limits.friction, limits.normal_min, limits.normal_max)
         if key not in self._cache:
             if len(self._cache) > 64:
                 self._cache.clear()
