@@ -220,7 +220,8 @@ class RandomUser:
         report.wall_seconds = time.monotonic() - self._wall_start
         report.error = None if loop_error is None else repr(loop_error)
         samples = self._rss or [(0.0, resident_bytes())]
-        warm = next((b for t, b in samples if t >= WARMUP_FRACTION * self.end), samples[-1][1])
+        warm_up = WARMUP_FRACTION * min(self.end, self.sim_time)  # of the run, if cut short
+        warm = next((b for t, b in samples if t >= warm_up), samples[-1][1])
         end = samples[-1][1]
         report.rss_mb = {
             "warm": round(warm / 2**20, 1),
