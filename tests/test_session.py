@@ -3,14 +3,16 @@
 import dataclasses
 import json
 import math
+import warnings
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from lab.controller import hierarchy
+from lab.controller.hierarchy.nullspace import ActiveSetCapWarning
 from lab.controller.qp import QPFailure
-from lab.server.session import FALL_CONTACT_S, Session, SessionConfig
+from lab.server.session import FALL_CONTACT_S, WARNING_HOLD_S, Session, SessionConfig
 
 
 @pytest.fixture(scope="module")
@@ -167,6 +169,29 @@ def test_a_shape_bug_fails_loudly(monkeypatch) -> None:
     monkeypatch.setitem(hierarchy.METHODS, "cascade", shape_bug)
     with pytest.raises(ValueError, match="broadcast"):
         session.tick()
+
+
+def test_a_controller_warning_shows_in_telemetry_while_it_lasts(monkeypatch) -> None:
+    """nullspace's active-set cap (or any warning the controller raises) is in telemetry, for
+    the status line, until WARNING_HOLD_S of sim time after the last tick that raised it."""
+    session = Session(SessionConfig(robot="anymal", kernel="python"))
+    cascade = hierarchy.METHODS["cascade"]
+
+    def capped(problem, solver):
+        warnings.warn("active set stopped at the cap", ActiveSetCapWarning, stacklevel=1)
+        return cascade(problem, solver)
+
+    monkeypatch.setitem(hierarchy.METHODS, "cascade", capped)
+    run(session, 0.02)
+    (warning,) = session.telemetry()["controller_warnings"]
+    assert warning["kind"] == "ActiveSetCapWarning" and warning["ticks"] == 20
+    assert warning["message"] == "active set stopped at the cap"
+    assert session.qp_ok  # a warning is not a failure: the controller's torques were applied
+    monkeypatch.undo()
+    run(session, WARNING_HOLD_S / 2)
+    assert len(session.telemetry()["controller_warnings"]) == 1
+    run(session, WARNING_HOLD_S)
+    assert session.telemetry()["controller_warnings"] == []
 
 
 def test_a_robot_switch_and_a_reset(session: Session) -> None:

@@ -12,15 +12,18 @@ from lab.description import ROBOT_NAMES, load_description
 from lab.protocol import VelocityCommand
 from lab.robot import build_robot
 from lab.ui import stack_edit as se
+from lab.ui.camera import followed, recentred
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import EventLog
 from lab.ui.gaits import gait_options
+from lab.ui.guard_rails import error_growth, stack_risks
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
 from lab.ui.plot_buffer import RollingBuffer
-from lab.ui.status import RealtimeFactor, status_markdown, warnings_of
+from lab.ui.plots import shown_csv
+from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
 
 STACK = [["contacts"], ["base_orientation", "com"], ["posture"]]
 
@@ -272,6 +275,27 @@ def test_status_line_warns_of_slow_ticks_fallbacks_falls_and_a_slow_sim() -> Non
     assert "behind" not in warnings_of(paused, rtf=0.0)  # a paused sim is not slow
 
 
+def test_status_line_warns_of_a_controller_warning_and_the_log_gets_it_once() -> None:
+    cap = {"kind": "ActiveSetCapWarning", "message": "active set stopped at the cap", "t": 1.0}
+    capped = _telemetry(controller_warnings=[{**cap, "ticks": 3}])
+    text = status_markdown(capped, rtf=1.0, fps=30.0)
+    assert "(ok)" not in text and "(**warning**)" in text
+    assert "⚠ controller warning: active set stopped at the cap" in text
+    in_effect: set[str] = set()
+    logged = []
+    for tel in (capped, capped, _telemetry(), capped):  # logged when it starts, not every frame
+        now = warnings_of(tel)
+        logged += started_warnings(now, in_effect)
+        in_effect = set(now)
+    assert logged == ["controller warning: active set stopped at the cap"] * 2
+    note = "the native kernel has no method 'nullspace'"
+    fell_back = _telemetry(kernel="python", kernel_note=note)
+    assert f"python kernel ran: {note}" in status_markdown(fell_back, rtf=1.0, fps=30.0)
+    assert "nullspace (qdd_force)/daqp · native kernel" in status_markdown(
+        _telemetry(kernel="native", kernel_note=""), rtf=1.0, fps=30.0
+    )
+
+
 @pytest.fixture(scope="module")
 def viser_server():
     import viser
@@ -376,3 +400,70 @@ def test_the_ui_process_imports_neither_pinocchio_nor_mujoco() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
     )
     assert result.stdout.strip() == "[]", result.stdout
+
+
+def test_the_camera_follows_the_base_horizontally_and_recentres() -> None:
+    position, look_at = np.array([1.0, -1.0, 1.0]), np.array([0.0, 0.0, 0.3])
+    moved = followed(position, look_at, np.array([0.4, 0.1, 0.45]))
+    assert moved is not None  # the orbit (position - look_at) is kept, the height too
+    assert np.allclose(moved[0], [1.4, -0.9, 1.0]) and np.allclose(moved[1], [0.4, 0.1, 0.3])
+    assert followed(position, look_at, np.array([0.005, 0.0, 0.2])) is None
+    # absolute: a stale camera (a report older than the last move) is still brought to the base
+    again = followed(position, look_at, np.array([0.4, 0.1, 0.5]))
+    assert again is not None and np.allclose(again[1], moved[1])
+    camera, target = recentred(np.array([5.0, 2.0, 0.5]))
+    assert np.allclose(target[:2], [5.0, 2.0]) and np.linalg.norm(camera - target) > 1.0
+
+
+def test_guard_rails_warn_of_a_stack_without_contact_or_without_tasks() -> None:
+    assert stack_risks([["contact"], ["com", "posture"]]) == []
+    (no_contact,) = stack_risks([["com"], ["posture"]])
+    assert no_contact.startswith("the robot will fall: no contact task")
+    (nothing,) = stack_risks([])
+    assert "every task is off" in nothing
+
+
+def test_a_fall_after_a_switch_names_the_tasks_that_lost_most() -> None:
+    def tel(errors: dict[str, float]) -> dict:
+        return {
+            "tasks": [
+                {"name": n, "level": i, "error": e} for i, (n, e) in enumerate(errors.items())
+            ]
+        }
+
+    before = tel({"contact": 1e-9, "com": 1e-4, "posture": 0.01})
+    after = tel({"contact": 1e-9, "com": 0.3, "posture": 0.02})
+    assert error_growth(before, after, top=1) == "level 1 com 0.0001 → 0.3"
+    assert error_growth(before, before) == "no task error grew"
+
+
+def test_the_plots_export_is_the_shown_window_as_csv() -> None:
+    t = np.array([1.0, 1.01, 1.02])
+    forces = ("Contact normal force [N]", ("LF", "RF"), (t, np.array([1.0, 2.0, 3.0]), t * 0))
+    qp = ("QP solve time [µs]", ("solve µs",), (t[1:], np.array([50.5, 60.0])))
+    lines = shown_csv([forces, qp]).splitlines()
+    assert lines[0] == (
+        '"t [s]","Contact normal force [N]: LF","Contact normal force [N]: RF",'
+        '"QP solve time [µs]: solve µs"'
+    )
+    assert lines[1:] == ["1.0,1.0,0.0,", "1.01,2.0,0.0,50.5", "1.02,3.0,0.0,60.0"]
+    assert shown_csv([("empty", (), ())]).splitlines() == ['"t [s]"']
+
+
+def test_the_panel_knows_the_app_only_through_its_narrow_host_interface() -> None:
+    import ast
+    import inspect
+
+    from lab.ui import panel
+    from lab.ui.app import LabApp
+
+    imported = {
+        node.module
+        for node in ast.walk(ast.parse(inspect.getsource(panel)))
+        if isinstance(node, ast.ImportFrom)
+    }
+    assert "lab.ui.app" not in imported  # no import cycle between panel and app
+    methods = [n for n, v in vars(panel.PanelHost).items() if callable(v) and not n.startswith("_")]
+    assert {"send", "report", "guard", "base_yaw"} <= set(methods)
+    missing = [name for name in methods if not callable(getattr(LabApp, name, None))]
+    assert not missing, f"LabApp lacks {missing} of PanelHost"

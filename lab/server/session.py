@@ -8,6 +8,7 @@ the drawing state) is built in `telemetry.py`.
 """
 
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -47,6 +48,9 @@ FALL_CONTACT_S = 0.5
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
+# s of sim time a warning of the controller (e.g. nullspace's ActiveSetCapWarning) stays in
+# telemetry's `controller_warnings` after the last tick that raised it
+WARNING_HOLD_S = 0.5
 # A fallen robot's joints are damped, as drives in a fall protection's damping mode: b = τ_max /
 # this speed, so the drive's full torque brakes a joint turning at it. Undamped, Solo12's 38 g
 # shanks spun at up to 900 rad/s (1 ms steps) and MuJoCo's integration diverged
@@ -75,6 +79,16 @@ class SessionConfig:
     gains: dict[str, dict[str, float]] = field(default_factory=dict)
     timestep: float = 1e-3
     kernel: str | None = None  # native | python; None: the robot's, else native when built
+
+
+@dataclass
+class ControllerWarning:
+    """A warning the controller raised: its last message, the sim time of the last tick that
+    raised it (s) and how many ticks did since the last reset."""
+
+    message: str
+    t: float
+    ticks: int
 
 
 @dataclass
@@ -150,6 +164,7 @@ class Session:
         self.tau = np.zeros(self.model.na)
         self.forces = np.zeros(self.model.nf)
         self._last_divergence = -DIVERGENCE_REPEAT_S
+        self._warnings: dict[str, ControllerWarning] = {}  # by category name
 
     def _set_behaviour(self, name: str, options: dict | None = None) -> dict:
         """Start behaviour `name` from the current state, with walking `options` (step_height,
@@ -225,28 +240,34 @@ class Session:
         q, v = self.plant.state()
         touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
-        try:
-            self.controller.update(q, v)
-            self.behaviour.update(self.time, self.model, self.velocity, touching)
-            out = self.controller.solve()
-            if not np.all(np.isfinite(out.tau)):
-                raise FloatingPointError("non-finite torques")
-            self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
-            self.solution = out.solution
-            if out.solution.fallback_levels:
-                levels = list(out.solution.fallback_levels)  # 0-based, as telemetry's tasks
-                self._report(
-                    "solver_fallback",
-                    f"the QP of stack level {levels} failed (counting from 0): the level keeps "
-                    "the solution of the levels above",
-                    levels=levels,
-                )
-        except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
-            self.tau, self.forces, self.qp_ok = self._fallback_torques(q, v), 0 * self.forces, False
-            self.solution = None
-            self.qp_failures += 1
-            self._report("solver_failure", f"{type(error).__name__}: {error}; fallback torques")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")  # every tick's warnings, for telemetry
+            try:
+                self.controller.update(q, v)
+                self.behaviour.update(self.time, self.model, self.velocity, touching)
+                out = self.controller.solve()
+                if not np.all(np.isfinite(out.tau)):
+                    raise FloatingPointError("non-finite torques")
+                self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
+                self.solution = out.solution
+                if out.solution.fallback_levels:
+                    levels = list(out.solution.fallback_levels)  # 0-based, as telemetry's tasks
+                    self._report(
+                        "solver_fallback",
+                        f"the QP of stack level {levels} failed (counting from 0): the level "
+                        "keeps the solution of the levels above",
+                        levels=levels,
+                    )
+            except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
+                self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
+                self.qp_ok, self.solution = False, None
+                self.qp_failures += 1
+                self._report("solver_failure", f"{type(error).__name__}: {error}; fallback torques")
         self.control_us = (time.perf_counter() - start) * 1e6
+        for caught_warning in caught:
+            kind = caught_warning.category.__name__
+            count = self._warnings[kind].ticks + 1 if kind in self._warnings else 1
+            self._warnings[kind] = ControllerWarning(str(caught_warning.message), self.time, count)
 
     def _recover(self, divergence: SimulationDiverged) -> None:
         """After a divergence: the robot standing again at the same sim time (the clock never runs
@@ -439,6 +460,15 @@ class Session:
     def telemetry(self) -> dict:
         """Everything the UI plots and the tests check, JSON-ready (see docs/protocol.md)."""
         return telemetry_message(self)
+
+    def recent_warnings(self) -> list[dict]:
+        """The controller's warnings (e.g. nullspace's active-set cap) raised within the last
+        WARNING_HOLD_S of sim time, one entry per kind (telemetry's `controller_warnings`)."""
+        return [
+            {"kind": kind, "message": w.message, "t": w.t, "ticks": w.ticks}
+            for kind, w in self._warnings.items()
+            if self.time - w.t <= WARNING_HOLD_S
+        ]
 
     def drawing_state(self) -> dict:
         """What the UI needs to draw the robot (`lab/state`)."""

@@ -54,6 +54,9 @@ class SessionView(Protocol):
     qp_failures: int
     solution: HierarchySolution | None
     control_us: float
+
+    def recent_warnings(self) -> list[dict]: ...
+
     forces: np.ndarray
     velocity: np.ndarray
     pushes: Mapping[str, PushView]
@@ -189,6 +192,7 @@ def telemetry_message(session: SessionView) -> dict:
         "hierarchy": hierarchy_report(controller),
         "kernel": controller.kernel_ran,
         "kernel_note": controller.kernel_note,
+        "controller_warnings": session.recent_warnings(),
         "qp": {
             "status": "ok" if session.qp_ok else "failed",
             "solve_us": session.control_us,

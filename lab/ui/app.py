@@ -23,13 +23,14 @@ from lab.description import load_description
 from lab.protocol import VelocityCommand
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import EventLog
+from lab.ui.guard_rails import error_growth
 from lab.ui.link import Link
 from lab.ui.overlays import OVERLAYS, Overlays
 from lab.ui.ownership import ControlOwnership
 from lab.ui.panel import ControlPanel
 from lab.ui.plots import Plots
 from lab.ui.robot_view import RobotView
-from lab.ui.status import RealtimeFactor, status_markdown, warnings_of
+from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
 from lab.ui.terrain_view import TerrainView
 
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
@@ -46,6 +47,8 @@ INFO_CHANGING_VERBS = frozenset(
 )
 CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow tick is judged
 ERROR_RETRY_S = 1.0  # after an exception in the render loop, wait this long before the next frame
+# s (wall): a fall this soon after a hierarchy switch is explained in the log by what it changed
+SWITCH_BLAME_S = 10.0
 P = ParamSpec("P")
 
 
@@ -61,6 +64,25 @@ class _FrameClock:
     frames_at_status: int = 0
 
 
+@dataclass
+class _Loading:
+    """A robot whose view the loader thread is building."""
+
+    robot: str
+    started: float  # monotonic s
+    job: Future
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.started
+
+
+def _remove_built(job: Future) -> None:
+    """Remove the view and overlays a superseded load built."""
+    if job.exception() is None:
+        for built in job.result():
+            built.remove()
+
+
 def _yaw(quat_xyzw: list[float]) -> float:
     x, y, z, w = quat_xyzw
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
@@ -70,6 +92,11 @@ class LabApp:
     def __init__(self, http_port: int, endpoint: str, host: str = "127.0.0.1") -> None:
         self.server = viser.ViserServer(host=host, port=http_port, label="WBC lab", verbose=False)
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
+        # No image-based lighting: viser draws the whole canvas at 5 % opacity until its HDR
+        # environment map has loaded and decoded, which took up to a minute in software WebGL on
+        # a busy machine (the robot "faded" after the page loaded). Plain lights draw at once.
+        self.server.scene.configure_environment_map(None)
+        self.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.link = Link(endpoint)
         self.ownership = ControlOwnership()
         self.info: dict | None = None
@@ -91,10 +118,13 @@ class LabApp:
         self._control_us: deque[float] = deque(maxlen=CONTROL_WINDOW)
         self.frames_drawn = 0
         self._draw_fps = 0.0
-        self._loading: str | None = None  # the robot whose meshes are being converted
+        self._loader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lab-ui-load")
+        self._loading: _Loading | None = None  # the robot whose view is being built
         self.log = EventLog()
         self._warnings: set[str] = set()  # kinds of status warnings in effect
         self._log_shown = -1
+        # the last hierarchy switch: (monotonic s, "cascade → weighted", telemetry before it)
+        self._switch: tuple[float, str, dict] | None = None
 
         gui = self.server.gui
         self.status = gui.add_markdown("Waiting for the lab server…", order=0)
@@ -105,8 +135,9 @@ class LabApp:
                 box = gui.add_checkbox(name, name != "friction cones")
                 self._overlay_visible[name] = box.value
                 box.on_update(lambda e, n=name: self._toggle_overlay(n, e.target.value))
-        self._plot_folder = gui.add_folder("Plots", order=11)
-        self.plots = Plots(gui, self._plot_folder)
+        # right below the push buttons: the charts are read while pushing
+        self._plot_folder = gui.add_folder("Plots", order=5.5)
+        self.plots = Plots(gui, self._plot_folder, self.guard)
         self.server.on_client_connect(self.guard(self._connect))
         self.server.on_client_disconnect(self.guard(self._disconnect))
 
@@ -191,11 +222,15 @@ class LabApp:
             self.notify_error(client, verb, "this browser is read-only: press Take control")
             return None
         sent = time.monotonic()
+        before, info = self.telemetry, self.info
         reply = self.link.request(verb, payload)
         if time.monotonic() - sent > SLOW_COMMAND_S:
             print(f"lab ui: {verb} took {time.monotonic() - sent:.1f} s to answer", flush=True)
         if not reply.get("ok"):
             self.notify_error(client, verb, str(reply.get("error", "rejected")))
+        elif verb == "hierarchy" and before is not None and info is not None:
+            old, new = info["hierarchy"]["method"], reply["hierarchy"]["method"]
+            self._switch = (time.monotonic(), f"{old} → {new}", before)
         if verb in INFO_CHANGING_VERBS:
             self.refresh_info()
         return reply
@@ -277,29 +312,44 @@ class LabApp:
             self.overlays.set_visible(name, visible)
 
     def _load_robot(self, name: str) -> None:
-        """Replace the drawn robot. The name is taken first: a robot that fails to load is
-        reported once, not retried every frame."""
+        """Start replacing the drawn robot: its view is built on a worker thread (converting
+        meshes on a cold cache takes tens of seconds) while the page stays live and the status
+        line reads "Loading". The name is taken first: a robot that fails to load is reported
+        once, not retried every frame."""
         self._robot_name, self._drag = name, None
         for old in (self.overlays, self.robot_view):
             if old is not None:
                 old.remove()
         self.robot_view = self.overlays = None
-        self._loading = name
-        self.status.content = f"**Loading {name}**: converting its meshes…  \n…  \n…"
-        start = time.monotonic()
+        if self._loading is not None:  # a newer switch: drop the older robot once it is built
+            self._loading.job.add_done_callback(_remove_built)
+        job = self._loader.submit(self._build_robot, name)
+        self._loading = _Loading(name, time.monotonic(), job)
+
+    def _build_robot(self, name: str) -> tuple[RobotView, Overlays]:
+        """The view and overlays of robot `name` (on the loader thread)."""
+        desc = load_description(name)
+        view = RobotView(self.server, desc, on_drag=self.guard(self._on_drag))
+        overlays = Overlays(
+            self.server, desc.contacts, desc.friction,
+            lambda frame: view.frame_placement(frame).rotation().as_matrix(),
+        )  # fmt: skip
+        for overlay, visible in self._overlay_visible.items():
+            overlays.set_visible(overlay, visible)
+        return view, overlays
+
+    def _finish_loading(self) -> None:
+        """Show the robot whose view the loader has built, or report why it could not be."""
+        loading = self._loading
+        if loading is None or not loading.job.done():
+            return
+        self._loading = None
         try:
-            desc = load_description(name)
-            view = RobotView(self.server, desc, on_drag=self.guard(self._on_drag))
-            self.robot_view = view
-            self.overlays = Overlays(
-                self.server, desc.contacts, desc.friction,
-                lambda frame: view.frame_placement(frame).rotation().as_matrix(),
-            )  # fmt: skip
-            for overlay, visible in self._overlay_visible.items():
-                self.overlays.set_visible(overlay, visible)
-        finally:
-            self._loading = None
-        print(f"lab ui: {name} loaded in {time.monotonic() - start:.1f} s", flush=True)
+            self.robot_view, self.overlays = loading.job.result()
+        except Exception as error:  # a robot that cannot be drawn: the page says so
+            self.report_exception(f"loading {loading.robot}", error)
+            return
+        print(f"lab ui: {loading.robot} loaded in {loading.elapsed():.1f} s", flush=True)
 
     def _load_scene(self, name: str) -> None:
         if self.terrain is not None:
@@ -331,7 +381,10 @@ class LabApp:
 
     def _status_text(self) -> str:
         if self._loading is not None:
-            return f"**Loading {self._loading}**: converting its meshes…  \n…  \n…"
+            return (
+                f"**Loading {self._loading.robot}** ({self._loading.elapsed():.0f} s): its meshes "
+                "are converted on first use, then read from a cache…  \n…  \n…"
+            )
         if self.telemetry is None:
             return "Waiting for telemetry from the lab server…"
         if self.robot_view is None:
@@ -352,6 +405,15 @@ class LabApp:
                 level = "error"
             message = event.get("message", kind)
             self.log.add(level, f"t {event.get('t', float('nan')):.2f} s · {kind}: {message}")
+            if kind == "fall" and self._switch is not None and self.telemetry is not None:
+                switched, what, before = self._switch
+                if time.monotonic() - switched < SWITCH_BLAME_S:
+                    self.log.add(
+                        "warning",
+                        f"the fall came {time.monotonic() - switched:.1f} s after the hierarchy "
+                        f"switch {what}; task errors that grew most: "
+                        f"{error_growth(before, self.telemetry)}",
+                    )
             if kind in ("session_rebuilt", "reset"):
                 self.refresh_info()
 
@@ -359,9 +421,8 @@ class LabApp:
         """A warning of the status line (slow ticks, fallbacks, a fall) into the log when it
         starts."""
         now = warnings_of(tel, self._typical_control_us(), self._rtf.value())
-        for kind, text in now.items():
-            if kind not in self._warnings:
-                self.log.add("warning", f"t {tel['t']:.2f} s · {text}")
+        for text in started_warnings(now, self._warnings):
+            self.log.add("warning", f"t {tel['t']:.2f} s · {text}")
         self._warnings = set(now)
 
     def run(self, stop: threading.Event) -> None:
@@ -389,6 +450,7 @@ class LabApp:
 
     def _frame(self, now: float, clock: "_FrameClock") -> bool:
         """One pass of the render loop; whether a browser is watching."""
+        self._finish_loading()
         tel = self._take_telemetry()  # plots keep recording while nobody watches
         state = self.link.latest_state()
         # With no browser connected only a robot switch is drawn: the UI then costs the
@@ -434,6 +496,7 @@ class LabApp:
         return True
 
     def close(self) -> None:
+        self._loader.shutdown(wait=True, cancel_futures=True)
         self._sender.shutdown(wait=True)
         self.link.close()
         self.server.stop()

@@ -5,6 +5,11 @@ baked to colours. That conversion cost ANYmal 8–24 s of CPU on a busy 2-core m
 converted mesh (vertices, faces, colours) is kept in `cache_dir()` under the SHA-256 of the source
 file and of the conversion's version: later loads read arrays. Primitive shapes (box, sphere,
 cylinder) become trimesh primitives.
+
+Meshes are decimated when converted (quadric decimation, `fast_simplification` through trimesh):
+a browser without a GPU renders every triangle in software, and ANYmal's 58k and Talos's 159k
+faces kept a busy machine's page faded for up to a minute and every redraw slow. A mesh keeps
+DECIMATE_KEEP of its faces (at least DECIMATE_FLOOR); colours follow to the nearest vertex.
 """
 
 import functools
@@ -15,10 +20,13 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from scipy.spatial import cKDTree
 
 from lab.urdf_visuals import DEFAULT_RGBA, Visual
 
-CONVERSION_VERSION = b"lab.ui.meshes 1"  # change when _convert changes: old entries are not read
+CONVERSION_VERSION = b"lab.ui.meshes 3"  # change when _convert changes: old entries are not read
+DECIMATE_KEEP = 0.15  # fraction of a mesh's faces drawn
+DECIMATE_FLOOR = 300  # faces: a mesh this small or smaller is drawn as it is
 
 
 def cache_dir() -> Path:
@@ -85,7 +93,21 @@ def _convert(path: str) -> trimesh.Trimesh:
         else:  # no usable texture coordinates: the material's main colour
             colour = mesh.visual.material.main_color
             mesh.visual = trimesh.visual.ColorVisuals(mesh, face_colors=colour)
-    return mesh
+    return decimate(mesh)
+
+
+def decimate(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """`mesh` with DECIMATE_KEEP of its faces (at least DECIMATE_FLOOR), its colours carried to
+    each kept vertex from the nearest original vertex."""
+    target = max(DECIMATE_FLOOR, int(len(mesh.faces) * DECIMATE_KEEP))
+    if len(mesh.faces) <= target:
+        return mesh
+    simple = mesh.simplify_quadric_decimation(face_count=target)
+    if isinstance(mesh.visual, trimesh.visual.ColorVisuals) and mesh.visual.kind is not None:
+        colours = mesh.visual.vertex_colors  # face colours are spread to vertices
+        nearest = cKDTree(mesh.vertices).query(simple.vertices)[1]
+        simple.visual = trimesh.visual.ColorVisuals(simple, vertex_colors=colours[nearest])
+    return simple
 
 
 def visual_mesh(visual: Visual) -> trimesh.Trimesh | None:

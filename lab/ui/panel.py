@@ -2,27 +2,55 @@
 velocity joystick, push buttons, reset/pause and the task stack editor with its presets.
 
 Each browser gets its own panel (viser `client.gui`), so a read-only browser sees disabled
-controls and a notice while the controlling one edits. Every edit goes through `LabApp.send`,
+controls and a notice while the controlling one edits. Every edit goes through `PanelHost.send`,
 which enforces ownership and reports rejected commands; the widgets then show what the server
-acknowledged (the app calls `show_info` with the fresh `info` reply).
+acknowledged (the host calls `show_info` with the fresh `info` reply). The panel knows its host
+only through `PanelHost` (the app implements it), never the app itself.
 """
 
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 import viser
 
 from lab.protocol import VelocityCommand
 from lab.ui import stack_edit
+from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
+from lab.ui.guard_rails import stack_risks
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 
-if TYPE_CHECKING:
-    from lab.ui.app import LabApp
+
+class PanelHost(Protocol):
+    """What a panel needs of the lab app: the acknowledged `info`, sending commands for its
+    browser, reporting, and the robot's heading and pushable base."""
+
+    info: dict | None
+
+    def guard(self, callback: Callable) -> Callable:
+        """`callback` with any exception reported in the page instead of raised."""
+
+    def send(self, client: viser.ClientHandle, verb: str, payload: dict) -> dict | None:
+        """Send a command for `client` (None when it does not hold control)."""
+
+    def take_control(self, client_id: int) -> None: ...
+
+    def set_velocity(self, client: viser.ClientHandle, cmd: VelocityCommand) -> None: ...
+
+    def report(self, level: str, text: str, client: viser.ClientHandle | None = None) -> None:
+        """A line in the event log, popped up in `client`'s browser when given."""
+
+    def notify_error(self, client: viser.ClientHandle, verb: str, error: str) -> None: ...
+
+    def base_yaw(self) -> float: ...
+
+    def base_body(self) -> str: ...
+
 
 PUSH_DIRECTIONS = {  # heading-frame unit vectors
     "front": (1.0, 0.0),
@@ -39,6 +67,10 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
     "O": ("turn right", "yaw_rate", -1),
 }
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
+ROBOT_NOTES = {  # shown under the Robot dropdown while that robot runs
+    "bolt": "⚠ **Bolt cannot stand**: a point-footed biped needs the stepping controller of the "
+    "biped issue, which has not landed. It falls about a second after every switch and reset.",
+}
 PUSH_FORCE_RANGE = NumberRange("Magnitude", 10.0, 600.0, "N")  # the slider's range
 PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")
 # Viser sends a typed number at most every 50 ms and a click in that window replaces the pending
@@ -59,7 +91,7 @@ def _levels_markdown(levels: list[list[str]], selected: str, disabled: list[str]
 
 
 class ControlPanel:
-    def __init__(self, app: LabApp, client: viser.ClientHandle) -> None:
+    def __init__(self, app: PanelHost, client: viser.ClientHandle) -> None:
         self.app = app
         self.client = client
         self.limits = JoystickLimits()
@@ -77,13 +109,27 @@ class ControlPanel:
         with gui.add_folder("Robot & controller", order=3):
             self.robot = gui.add_dropdown("Robot", ("…",))
             self.scene = gui.add_dropdown("Scene", ("…",))
+            self.robot_note = gui.add_markdown("", visible=False)
             self.method = gui.add_dropdown("Hierarchy", ("…",))
+            self.kernel = gui.add_dropdown(
+                "Kernel", ("…",), hint="native (C++) or python; the status line says which ran"
+            )
             self.solver = gui.add_dropdown("QP solver", ("…",))
             self.formulation = gui.add_dropdown(
                 "Formulation", ("…",), hint="nullspace only: its optimization vector"
             )
             row = gui.add_button_group("Sim", ("Reset", "Pause", "Resume"))
-        self._controls += [self.robot, self.scene, self.method, self.solver, self.formulation, row]
+            default_stack = gui.add_button(
+                "Default stack",
+                hint="reset the robot with its default task stack and gains (Reset keeps them)",
+            )
+            self.camera_follow = gui.add_checkbox(
+                "Camera follows robot", True, hint="the view moves with the base as it walks"
+            )
+            recentre = gui.add_button("Re-centre camera")
+        self._controls += [self.robot, self.scene, self.method, self.kernel, self.solver]
+        self._controls += [self.formulation, row, default_stack]
+        self._camera_base: np.ndarray | None = None  # the base's last position
         self.robot.on_update(
             app.guard(lambda e: self._switch(e, "robot", {"name": self.robot.value}))
         )
@@ -91,6 +137,9 @@ class ControlPanel:
             app.guard(lambda e: self._switch(e, "scene", {"name": self.scene.value}))
         )
         self.method.on_update(app.guard(self._hierarchy))
+        self.kernel.on_update(app.guard(self._hierarchy))
+        default_stack.on_click(app.guard(lambda _: self._default_stack()))
+        recentre.on_click(app.guard(lambda _: self.recentre()))
         self.solver.on_update(app.guard(self._hierarchy))
         self.formulation.on_update(app.guard(self._hierarchy))
         row.on_click(app.guard(lambda e: app.send(client, e.target.value.lower(), {})))
@@ -199,6 +248,7 @@ class ControlPanel:
                 (self.robot, info["robots"], info["robot"]),
                 (self.scene, info["scenes"], info["scene"]),
                 (self.method, info["methods"], info["hierarchy"]["method"]),
+                (self.kernel, info["kernels"], info["kernel"]),
                 (self.solver, info["solvers"], info["hierarchy"]["solver"]),
                 (self.formulation, info["formulations"], info["hierarchy"]["formulation"]),
                 (self.gait, gait_options(info["gaits"], info["gait"]), info["gait"]),
@@ -212,6 +262,8 @@ class ControlPanel:
                 self.task.value = current
             if info["stack_presets"]:
                 self.preset.options = tuple(info["stack_presets"])
+            note = ROBOT_NOTES.get(info["robot"], "")
+            self.robot_note.content, self.robot_note.visible = note, bool(note)
             self._show_task()
         finally:
             self._syncing = False
@@ -247,8 +299,24 @@ class ControlPanel:
         )
 
     def follow_robot(self, position: np.ndarray, yaw: float) -> None:
+        """Keep the joystick pad over the base and, when following, the camera on it."""
         self._follow.position = position + np.array([0.0, 0.0, JOYSTICK_HEIGHT])
         self._follow.wxyz = np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+        self._camera_base = position
+        if not self.camera_follow.value:
+            return
+        camera = self.client.camera
+        moved = followed(camera.position, camera.look_at, position)
+        if moved is not None:
+            with self.client.atomic():
+                camera.position, camera.look_at = moved
+
+    def recentre(self) -> None:
+        """The camera back to the default view of the base."""
+        if self._camera_base is not None:
+            position, look_at = recentred(self._camera_base)
+            with self.client.atomic():
+                self.client.camera.position, self.client.camera.look_at = position, look_at
 
     # ---- commands --------------------------------------------------------------------------
     def _switch(self, event: viser.GuiEvent, verb: str, payload: dict) -> None:
@@ -261,8 +329,16 @@ class ControlPanel:
                 "method": self.method.value,
                 "solver": self.solver.value,
                 "formulation": self.formulation.value,
+                "kernel": self.kernel.value,
             }
             self.app.send(self.client, "hierarchy", payload)
+
+    def _default_stack(self) -> None:
+        """A robot switch to the same robot: the server rebuilds it with its default stack."""
+        info = self.app.info
+        if info is not None:
+            self.app.send(self.client, "robot", {"name": info["robot"]})
+            self.app.report("info", f"{info['robot']} reset with its default stack and gains")
 
     def _choose_gait(self, _: viser.GuiEvent) -> None:
         if self._syncing:
@@ -391,7 +467,28 @@ class ControlPanel:
             self._syncing = was
 
     def _send_stack(self, levels: list[list[str]]) -> None:
-        self.app.send(self.client, "stack", {"levels": levels})
+        """Send `levels`; a stack that will drop the robot is first explained in a dialog that
+        applies it only on *Apply anyway* (a lab allows it)."""
+        risks = stack_risks(levels)
+        if not risks:
+            self.app.send(self.client, "stack", {"levels": levels})
+            return
+        gui = self.client.gui
+        with gui.add_modal("This stack will drop the robot") as modal:
+            gui.add_markdown("\n\n".join(f"⚠ {risk}" for risk in risks))
+            apply = gui.add_button("Apply anyway", color="red")
+            cancel = gui.add_button("Cancel")
+
+        def decide(applied: bool) -> None:
+            modal.close()
+            if applied:
+                self.app.report("warning", f"stack applied anyway: {'; '.join(risks)}")
+                self.app.send(self.client, "stack", {"levels": levels})
+            else:
+                self._show_task()  # the editor shows the stack the server still holds
+
+        apply.on_click(self.app.guard(lambda _: decide(True)))
+        cancel.on_click(self.app.guard(lambda _: decide(False)))
 
     def _move(self, which: str) -> None:
         info = self.app.info
@@ -426,10 +523,6 @@ class ControlPanel:
                 new = stack_edit.disable_task(levels, task)
         except ValueError as exc:
             self.app.notify_error(self.client, "stack", str(exc))
-            return
-        if not new:
-            self.app.notify_error(self.client, "stack", "the stack cannot be empty")
-            self._show_task()
             return
         self._send_stack(new)
 

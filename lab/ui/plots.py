@@ -1,12 +1,16 @@
-"""Live uPlot charts of telemetry: rolling 10 s, redrawn at the caller's rate (20-30 Hz).
+"""Live uPlot charts of telemetry: a rolling window (10, 30 or 60 s), redrawn at the caller's
+rate (20-30 Hz) unless paused, the shown window exportable as CSV.
 
 Each chart is a `Chart`: a title, a function giving its series labels for the current telemetry
 layout (contacts, stack) and one giving the values of one message. When the labels change (robot
-switch, stack edit) the chart is rebuilt with fresh buffers.
+switch, stack edit) the chart is rebuilt with fresh buffers. Buffers keep MAX_WINDOW_S whatever
+the window shown, so a longer window shows the past at once. While paused, the charts keep what
+they show (uPlot's drag-to-zoom then holds: a redraw resets it) and recording goes on.
 """
 
+import io
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,8 +20,10 @@ import viser.uplot as uplot
 from lab.ui.plot_buffer import RollingBuffer
 from lab.ui.support import polygon_bounds
 
-WINDOW_S = 10.0
-MAX_POINTS = 250  # points per series sent to the browser (25 per second of window)
+WINDOWS_S = (10, 30, 60)  # the windows the panel offers; the first is the default
+MAX_WINDOW_S = float(max(WINDOWS_S))
+BUFFER_SAMPLES = 8192  # > MAX_WINDOW_S at 100 Hz telemetry
+MAX_POINTS = 250  # points per series sent to the browser
 TOP_LEVELS = 3  # task errors are plotted for this many highest-priority levels
 ERROR_FLOOR = 1e-12  # a task error of 0 plots as 10⁻¹²
 Y_AXIS_PX = 64  # room for tick labels such as "12,500"
@@ -122,23 +128,29 @@ class Chart:
         self.title = spec.title
         self.labels: tuple[str, ...] | None = None
         self.buffer: RollingBuffer | None = None
+        self.shown: tuple[np.ndarray, ...] = ()  # (t, series…) last drawn, full resolution
         self._handle: viser.GuiUplotHandle | None = None
 
     def record(self, tel: dict) -> None:
         labels = self.spec.labels_of(tel)
         if labels != self.labels:
             self.labels = labels
-            self.buffer = RollingBuffer(len(labels), window=WINDOW_S)
+            self.buffer = RollingBuffer(len(labels), MAX_WINDOW_S, BUFFER_SAMPLES)
+            self.shown = ()
             if self._handle is not None:
                 self._handle.remove()
                 self._handle = None
         if labels:
             self.buffer.append(tel["t"], self.spec.values_of(tel))
 
-    def draw(self) -> None:
+    def draw(self, window_s: float) -> None:
+        """Show the last `window_s` of data (at most MAX_POINTS points per series)."""
         if self.buffer is None or not self.labels or len(self.buffer) < 2:
             return
         data = self.buffer.arrays()
+        first = np.searchsorted(data[0], data[0][-1] - window_s)
+        data = tuple(a[first:] for a in data)
+        self.shown = data  # full resolution: what an export writes
         step = max(1, len(data[0]) // MAX_POINTS)
         data = tuple(np.ascontiguousarray(a[::step]) for a in data)
         if self._handle is None:
@@ -168,8 +180,41 @@ class Chart:
         )
 
 
+def shown_csv(charts: Sequence[tuple[str, Sequence[str], Sequence[np.ndarray]]]) -> str:
+    """CSV of what charts show: one row per sample time of any chart, a column "t [s]" and one
+    per series named "<chart title>: <series>" (empty where that chart has no sample)."""
+    columns = [f"{title}: {label}" for title, labels, _ in charts for label in labels]
+    rows: dict[float, dict[str, float]] = {}
+    for title, labels, data in charts:
+        if len(data) == 0:
+            continue
+        for i, t in enumerate(data[0]):
+            row = rows.setdefault(float(t), {})
+            for label, series in zip(labels, data[1:], strict=True):
+                row[f"{title}: {label}"] = float(series[i])
+    out = io.StringIO()
+    out.write(",".join(f'"{c}"' for c in ["t [s]", *columns]) + "\n")
+    for t in sorted(rows):
+        values = [repr(rows[t][c]) if c in rows[t] else "" for c in columns]
+        out.write(",".join([repr(t), *values]) + "\n")
+    return out.getvalue()
+
+
 class Plots:
-    def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle) -> None:
+    """The charts with their controls: pause, window length, CSV export of what is shown."""
+
+    def __init__(
+        self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, guard: Callable = lambda f: f
+    ) -> None:
+        with folder:
+            self.paused = gui.add_checkbox(
+                "Pause plots", False, hint="freeze the charts (recording goes on); drag to zoom"
+            )
+            self.window = gui.add_dropdown(
+                "Window [s]", tuple(str(w) for w in WINDOWS_S), str(WINDOWS_S[0])
+            )
+            export = gui.add_button("Export CSV", hint="the shown window of every chart")
+        export.on_click(guard(self._export))
         self.charts = [Chart(gui, folder, spec) for spec in CHARTS]
 
     def record(self, tel: dict) -> None:
@@ -177,5 +222,15 @@ class Plots:
             chart.record(tel)
 
     def draw(self) -> None:
+        if self.paused.value:
+            return
         for chart in self.charts:
-            chart.draw()
+            chart.draw(float(self.window.value))
+
+    def csv(self) -> str:
+        """What the charts show, as CSV (`shown_csv`)."""
+        return shown_csv([(c.title, c.labels or (), c.shown) for c in self.charts])
+
+    def _export(self, event: viser.GuiEvent) -> None:
+        if event.client is not None:
+            event.client.send_file_download("lab-plots.csv", self.csv().encode())

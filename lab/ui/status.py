@@ -29,10 +29,20 @@ def warnings_of(tel: dict, control_us: float | None = None, rtf: float = math.na
             f"slow ticks: the controller takes {control_us / 1000:.1f} ms per tick, over the "
             f"{budget / 1000:.1f} ms period"
         )
+    if tel.get("kernel_note"):
+        found["kernel"] = f"{tel['kernel']} kernel ran: {tel['kernel_note']}"
+    for warning in tel.get("controller_warnings", ()):
+        found[f"controller {warning['kind']}"] = f"controller warning: {warning['message']}"
     realtime = tel.get("loop", {}).get("realtime", False)
     if realtime and not tel["paused"] and math.isfinite(rtf) and rtf < SLOW_RTF:
         found["behind"] = f"the sim runs at {rtf:.2f}× real time"
     return found
+
+
+def started_warnings(now: dict[str, str], before: set[str]) -> list[str]:
+    """The texts of the warnings in effect `now` (by kind) that were not in effect `before`: what
+    the event log gets, once per start."""
+    return [text for kind, text in now.items() if kind not in before]
 
 
 def qp_state(tel: dict, warnings: dict) -> str:
@@ -41,6 +51,8 @@ def qp_state(tel: dict, warnings: dict) -> str:
         return "**fallback**"
     if "slow" in warnings:
         return "**slow**"
+    if any(kind.startswith("controller ") for kind in warnings):
+        return "**warning**"
     return tel["qp"]["status"]
 
 
@@ -58,7 +70,7 @@ def status_markdown(tel: dict, rtf: float, fps: float, control_us: float | None 
     rtf_text = f"{rtf:.2f}" if math.isfinite(rtf) else "–"
     text = (
         f"**{tel['robot']}** on {tel['scene']} · {tel['gait']} · {method}/"
-        f"{hierarchy['solver']}{flags}  \n"
+        f"{hierarchy['solver']} · {tel.get('kernel', '?')} kernel{flags}  \n"
         f"t {tel['t']:.2f} s · RTF {rtf_text} · on-time "
         f"{100.0 * loop.get('on_time_fraction', math.nan):.2f} % · control "
         f"{shown_us:.0f} µs ({qp_state(tel, warnings)}) · failures {qp['failures']} · view "
