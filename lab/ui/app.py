@@ -470,7 +470,8 @@ class LabApp:
             info = self.info
             if info is not None and (tel["stack"], tel["gait"]) != (info["stack"], info["gait"]):
                 self.refresh_info()  # someone else changed the stack or the gait
-            if tel["robot"] == self._robot_name:
+            view = self.robot_view  # a view built but not yet posed has no frames to look up
+            if tel["robot"] == self._robot_name and view is not None and view.drawn:
                 self.overlays.update(tel)
             position = np.array(tel["base"]["position"])
             with self._lock:

@@ -78,6 +78,11 @@ class RobotView:
                     node.position = placement.translation()
                     node.wxyz = placement.rotation().wxyz
 
+    @property
+    def drawn(self) -> bool:
+        """Whether a state of this robot has posed it (placements exist only from then on)."""
+        return bool(self._placements)
+
     def frame_placement(self, frame: str) -> vtf.SE3:
         """World placement of a link or contact frame at the last drawn state."""
         if frame not in self._placements:
