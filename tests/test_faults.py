@@ -367,6 +367,29 @@ def test_the_ui_process_killed_is_restarted_and_the_sim_runs_on(tmp_path: Path) 
         lab.close()
 
 
+def _running(pid: int) -> bool:
+    """Whether process `pid` exists and is not a zombie."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state not in ("Z", "X")
+
+
+def test_a_killed_serve_takes_its_ui_process_along(tmp_path: Path) -> None:
+    """SIGKILL to `lab serve` (no cleanup runs): its UI process sees its parent gone and stops,
+    instead of serving a dead sim's page and holding the port."""
+    port, ui_port = free_port(), free_port()
+    with processes() as running:
+        server = serve(tmp_path / "serve.log", port, "--ui-port", str(ui_port))
+        running.append(server)
+        wait_for(lambda: _page(ui_port) == 200, STARTUP_S, "the UI page")
+        (ui,) = _children(server.process.pid)
+        server.kill()
+        wait_for(lambda: not _running(ui), WAIT_S, "the orphaned UI process to stop")
+        assert _page(ui_port) is None
+
+
 def test_the_sim_process_killed_is_seen_as_disconnected_and_recovers(tmp_path: Path) -> None:
     """SIGKILL to the sim process: the client says disconnected, commands get "no reply"
     errors instead of hanging; a new sim process on the same port is found again by the same

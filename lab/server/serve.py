@@ -146,7 +146,7 @@ def serve_main(argv: list[str]) -> int:
     try:
         endpoint = (args.listen or [f"tcp/127.0.0.1:{args.port}"])[0]
         endpoint = endpoint.replace("/0.0.0.0:", "/127.0.0.1:")  # the UI runs on this host
-        ui_command = [sys.executable, "-m", "lab.ui", "--connect", endpoint]
+        ui_command = [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--exit-with-parent"]
         ui_command += ["--port", str(args.ui_port)]
         ui_env = os.environ | (ui_credentials.env() if ui_credentials else {})
         if not args.headless:

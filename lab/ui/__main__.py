@@ -1,11 +1,14 @@
 """`python -m lab.ui --port <http> --connect <zenoh endpoint>`: the browser lab process."""
 
 import argparse
+import os
 import signal
 import threading
 
 from lab.protocol import DEFAULT_ENDPOINT
 from lab.ui.app import LabApp
+
+PARENT_CHECK_S = 1.0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -13,10 +16,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--port", type=int, default=8080, help="HTTP port (default: 8080)")
     parser.add_argument("--host", default="127.0.0.1", help="HTTP bind address (default: loopback)")
     parser.add_argument("--connect", default=DEFAULT_ENDPOINT, help="Zenoh endpoint of the server")
+    parser.add_argument(
+        "--exit-with-parent",
+        action="store_true",
+        help="stop when the process that started this one dies (lab serve passes it)",
+    )
     args = parser.parse_args(argv)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
+    if args.exit_with_parent:
+        threading.Thread(target=_watch_parent, args=(stop,), daemon=True).start()
     app = LabApp(args.port, args.connect, host=args.host)
     print(f"lab ui: http://{args.host}:{args.port} (Zenoh {args.connect})", flush=True)
     try:
@@ -24,6 +34,16 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         app.close()
     return 0
+
+
+def _watch_parent(stop: threading.Event) -> None:
+    """Set `stop` once the parent is gone (a `lab serve` killed by SIGKILL runs no cleanup: its
+    UI would otherwise serve a page of a dead sim, holding its port)."""
+    parent = os.getppid()
+    while not stop.wait(PARENT_CHECK_S):
+        if os.getppid() != parent:
+            print("lab ui: lab serve is gone; stopping", flush=True)
+            stop.set()
 
 
 if __name__ == "__main__":
