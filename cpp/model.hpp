@@ -18,7 +18,7 @@ constexpr int BASE_DOF = 6;
 
 enum class ContactKind { point, flat };
 
-/// One foot (lab/controller/contact.py ContactSpec).
+/// One foot (lab/protocol.py ContactSpec).
 struct ContactSpec {
   std::string name;
   std::string frame;
