@@ -61,11 +61,12 @@ HierarchySolution solve_weighted(const HierarchyProblem& problem) {
   }
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
-  if (contradictory_bounds(C, d)) {
-    out.message = "the weighted QP is infeasible: a lower bound on x exceeds its upper bound";
-    out.x = Eigen::VectorXd::Zero(nx);
-  } else if (!(out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x))) {
-    out.message = "eiquadprog found no solution of the weighted QP";
+  const bool bounds_conflict = contradictory_bounds(C, d);
+  out.ok = !bounds_conflict && solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x);
+  if (!out.ok) {
+    out.message = bounds_conflict
+                      ? "the weighted QP is infeasible: a lower bound on x exceeds its upper bound"
+                      : "eiquadprog found no solution of the weighted QP";
     out.x = Eigen::VectorXd::Zero(nx);
   }
   if (!problem.levels.empty()) clock.lap(0);  // one QP for all levels: charged to the first
