@@ -399,6 +399,7 @@ def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pu
     """Viser drops a typed number that a click follows within its 50 ms throttle: the panel
     refuses such a click, or the push it sends is the number the box then shows."""
     box = slider_box(page, "Magnitude [N]")
+    lab.wait_telemetry(lambda m: not m["pushes"], timeout=20.0)  # earlier pushes have ended
     pushes.seen.clear()
     type_keys(box, "432", delay_ms=0)
     press(page, "back")
