@@ -222,6 +222,22 @@ def test_event_log_is_newest_first_and_counts_repeats() -> None:
         log.add("loud", "x")
 
 
+def test_a_warning_that_comes_and_goes_keeps_one_line_and_pushes_nothing_out() -> None:
+    log = EventLog(size=3)
+    log.add("error", "kp = -5 is below the limit 0", wall=0.0)
+    for k in range(50):  # the sim falls behind real time and catches up, again and again
+        log.add("warning", f"t {k:.2f} s · the sim runs at 0.8× real time", wall=k, kind="behind")
+        if k == 25:
+            log.add("info", "pushed front", wall=k + 0.5)
+    texts = [e.text for e in log.entries()]
+    assert texts == [
+        "t 49.00 s · the sim runs at 0.8× real time",
+        "pushed front",
+        "kp = -5 is below the limit 0",
+    ]
+    assert "(×50)" in log.markdown().splitlines()[2]
+
+
 def test_realtime_factor_restarts_with_the_sim_clock() -> None:
     rtf = RealtimeFactor(window_s=2.0)
     for k in range(20):  # 1 s of sim per 1 s of wall
@@ -285,7 +301,7 @@ def test_status_line_warns_of_a_controller_warning_and_the_log_gets_it_once() ->
     logged = []
     for tel in (capped, capped, _telemetry(), capped):  # logged when it starts, not every frame
         now = warnings_of(tel)
-        logged += started_warnings(now, in_effect)
+        logged += [text for _, text in started_warnings(now, in_effect)]
         in_effect = set(now)
     assert logged == ["controller warning: active set stopped at the cap"] * 2
     note = "the native kernel has no method 'nullspace'"

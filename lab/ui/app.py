@@ -421,8 +421,8 @@ class LabApp:
         """A warning of the status line (slow ticks, fallbacks, a fall) into the log when it
         starts."""
         now = warnings_of(tel, self._typical_control_us(), self._rtf.value())
-        for text in started_warnings(now, self._warnings):
-            self.log.add("warning", f"t {tel['t']:.2f} s · {text}")
+        for kind, text in started_warnings(now, self._warnings):
+            self.log.add("warning", f"t {tel['t']:.2f} s · {text}", kind=kind)
         self._warnings = set(now)
 
     def run(self, stop: threading.Event) -> None:
