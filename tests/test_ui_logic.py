@@ -22,7 +22,7 @@ from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
 from lab.ui.plot_buffer import RollingBuffer
-from lab.ui.plots import shown_csv
+from lab.ui.plot_export import Shown, shown_csv, shown_png
 from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
 
 STACK = [["contacts"], ["base_orientation", "com"], ["posture"]]
@@ -464,6 +464,25 @@ def test_the_plots_export_is_the_shown_window_as_csv() -> None:
     )
     assert lines[1:] == ["1.0,1.0,0.0,", "1.01,2.0,0.0,50.5", "1.02,3.0,0.0,60.0"]
     assert shown_csv([("empty", (), ())]).splitlines() == ['"t [s]"']
+
+
+def test_the_plots_export_as_png_draws_one_panel_per_chart_with_data() -> None:
+    import io
+
+    from PIL import Image
+
+    t = np.linspace(0.0, 1.0, 50)
+    charts = [
+        Shown("Contact normal force [N]", ("LF",), (t, 100 * np.sin(6 * t))),
+        Shown("CoP vs support polygon [m]", ("CoP x",), (t, 0.1 * t)),
+        Shown("QP solve time [µs]", (), ()),  # nothing recorded: no panel
+    ]
+    image = np.asarray(Image.open(io.BytesIO(shown_png(charts))).convert("L"))
+    assert image.shape == (440, 700)  # two panels of 2.2 in × 7 in at 100 dpi
+    for panel in (image[:220], image[220:]):  # each panel has its curve: dark pixels
+        assert (panel < 128).sum() > 500
+    empty = np.asarray(Image.open(io.BytesIO(shown_png([]))).convert("L"))
+    assert empty.shape == (220, 700)
 
 
 def test_the_panel_knows_the_app_only_through_its_narrow_host_interface() -> None:
