@@ -5,9 +5,12 @@ random user instead of Zenoh: every ~COMMAND_INTERVAL_S of sim time it sends a v
 (velocity, gait, push, stack preset, hierarchy method, momentum mode, gains, scene, pause and
 resume), encodes everything the loop publishes as the server would, and watches telemetry. Times are
 sim time run so far (a reset restarts the session's clock, not the soak's). A fall
-is answered by a reset after FALLEN_S; RESET_CHECK_S later the robot must stand again (else it is
-a fall it cannot reset from). The resident memory is sampled every MEMORY_SAMPLE_S of sim time;
-growth is measured from the end of the warm-up to the end. docs/reliability.md has the numbers.
+is answered as a user would: `reset` after FALLEN_S (the robot stands up under the controller the
+random user left); if RESET_CHECK_S later it is still down, the page's "Default stack" (the
+`robot` command: the robot's default stack, method and gains); RESET_CHECK_S after that it must
+stand (else it is a fall it cannot reset from). The resident memory is sampled every
+MEMORY_SAMPLE_S of sim time; growth is measured from the end of the warm-up to the end.
+docs/reliability.md has the numbers.
 """
 
 import argparse
@@ -72,7 +75,8 @@ class SoakReport:
     events: dict[str, int] = field(default_factory=dict)  # by type
     falls: int = 0
     resets_after_fall: int = 0
-    unrecovered_falls: int = 0  # still down RESET_CHECK_S after a reset
+    down_after_plain_reset: int = 0  # still down after `reset`, under the user's controller
+    unrecovered_falls: int = 0  # still down RESET_CHECK_S after a reset to the defaults
     divergences: int = 0
     qp_failures: int = 0
     rss_mb: dict[str, float] = field(default_factory=dict)  # warm (after warm-up), end, max
@@ -107,6 +111,7 @@ class RandomUser:
         self._queue: list[tuple[str, dict]] = []
         self._fell_at: float | None = None
         self._check_at: float | None = None  # sim time of the standing check after a reset
+        self._checking_defaults = False  # the reset being checked restored the defaults
         self._unpausing = False  # a reset is on its way to a paused session
         self._next_sample = 0.0
         self._next_progress = PROGRESS_S
@@ -169,7 +174,13 @@ class RandomUser:
             if t >= self._check_at:
                 self._check_at = None
                 down = telemetry["base"]["position"][2] < self.standing_height * STANDING_FRACTION
-                self.report.unrecovered_falls += telemetry["fell"] or down
+                if (telemetry["fell"] or down) and self._checking_defaults:
+                    self.report.unrecovered_falls += 1
+                elif telemetry["fell"] or down:  # the user's controller cannot stand it up
+                    self.report.down_after_plain_reset += 1
+                    self._queue.append(("robot", {"name": self.info["robot"]}))
+                    self._check_at = t + RESET_CHECK_S
+                self._checking_defaults = self._check_at is not None
             return
         if telemetry["fell"]:
             if self._fell_at is None:
