@@ -196,6 +196,17 @@ class GaitCommand:
     footholds: str | None = None
 
 
+RECORD_ACTIONS = ("start", "stop")
+
+
+@dataclass(frozen=True)
+class RecordCommand:
+    """Start or stop recording the live session to an MCAP file (`lab serve` picks the file,
+    in its recording directory, and names it in the reply)."""
+
+    action: str
+
+
 Command = (
     InfoCommand
     | VelocityCommand
@@ -210,4 +221,5 @@ Command = (
     | ResumeCommand
     | GaitCommand
     | MomentumCommand
+    | RecordCommand
 )

@@ -20,6 +20,7 @@ from lab.protocol import (
     POINT_COORD_MAX,
     PUSH_DURATION_MAX,
     PUSH_FORCE_MAX,
+    RECORD_ACTIONS,
     STACK_MAX_LEVELS,
     STACK_MAX_TASKS,
     STEP_HEIGHT_MAX,
@@ -35,6 +36,7 @@ from lab.protocol import (
     MomentumCommand,
     PauseCommand,
     PushCommand,
+    RecordCommand,
     ResetCommand,
     ResumeCommand,
     RobotCommand,
@@ -238,6 +240,15 @@ def _momentum(f: _Fields) -> MomentumCommand:
     return MomentumCommand(mode=f.name("mode"))
 
 
+def _record(f: _Fields) -> RecordCommand:
+    f.only("action")
+    action = f.name("action")
+    if action not in RECORD_ACTIONS:
+        known = ", ".join(RECORD_ACTIONS)
+        raise CommandError(f"record: action must be one of {known}, got {action!r}")
+    return RecordCommand(action=action)
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -252,6 +263,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "resume": _no_fields(ResumeCommand),
     "gait": _gait,
     "momentum": _momentum,
+    "record": _record,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

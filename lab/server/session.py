@@ -387,6 +387,11 @@ class Session:
             case cmd.GainsCommand(task=task, kp=kp, kd=kd, weight=weight):
                 gains = self.controller.set_gains(task, kp, kd, weight)
                 return {"task": task, "kp": gains.kp, "kd": gains.kd, "weight": gains.weight}
+            case cmd.RecordCommand():
+                raise cmd.CommandError(
+                    "record: this session has no recorder (`lab serve` records; `lab run` takes "
+                    "--record FILE)"
+                )
             case cmd.ResetCommand():
                 self._reset_state()
                 self._event("reset", "reset to the standing posture")
