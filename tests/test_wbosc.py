@@ -12,6 +12,7 @@ from lab.controller.hierarchy.wbosc import WboscStackError
 from lab.controller.internal_force import internal_force_map, internal_forces
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack
+from lab.controller.walk_references import WalkReferences
 from lab.description import load_description
 from lab.robot import build_robot
 from lab.server.session import Session, SessionConfig
@@ -177,3 +178,32 @@ def test_the_internal_force_command_and_telemetry() -> None:
     assert report["source"] == "torques" and len(report["sensed"]) == 1
     # Sensed from the torques (eq. 13) the internal force is the one commanded a tick before.
     assert report["sensed"][0] == pytest.approx(4.0, abs=0.2)
+
+
+def test_a_contact_transition_ramps_the_dual_contact_force(bolt) -> None:
+    """Kim §III-F: a foot being unloaded leaves the contact set and carries w times the force
+    it had in dual contact (eqs. 9–10); the other foot stays still and the dynamics hold."""
+    controller = bolt_controller(bolt)
+    model, q = bolt
+    base = controller.references
+    controller.references = WalkReferences(**vars(base), force_weight=np.array([np.nan, 1.0]))
+    controller.update(q, np.zeros(model.nv))
+    dual = solve_wbosc_without_transition(controller)
+    right = slice(3, 6)
+    for w in (1.0, 0.6, 0.0):
+        controller.references.force_weight[1] = w
+        out = controller.solve()
+        assert np.allclose(out.forces[right], w * dual.forces[right], atol=1e-9)
+        assert np.linalg.norm(model.Jc[:3] @ out.qdd + model.Jc_dot_v[:3]) < 1e-9
+        generalized = model.M @ out.qdd + model.h - model.Jc.T @ out.forces
+        assert np.allclose(generalized, np.r_[np.zeros(6), out.tau], atol=1e-9)
+        if w == 1.0:  # the dual contact's forces: its torques too, no jump (eq. 9's aim)
+            assert np.linalg.norm(out.tau - dual.tau) < 1e-6 * np.linalg.norm(dual.tau)
+
+
+def solve_wbosc_without_transition(controller: WholeBodyController):
+    weights = controller.references.force_weight.copy()
+    controller.references.force_weight[:] = np.nan
+    out = controller.solve()
+    controller.references.force_weight[:] = weights
+    return out

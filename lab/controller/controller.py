@@ -34,6 +34,7 @@ from lab.controller.rows import PerContactSet, no_rows, read_only
 from lab.controller.stack import Stack
 from lab.controller.tasks import TASK_TYPES, Task, TaskGains
 from lab.controller.tasks.internal_force import InternalForceTask
+from lab.controller.walk_references import WalkReferences
 
 
 @dataclass
@@ -203,7 +204,9 @@ class WholeBodyController:
                 weight /= self.config.level_weight_ratio
         self._errors = errors
         support = self._support.get(robot, refs.contact_active)
-        terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support, robot.Jc_dot_v)
+        terms = DynamicsTerms(
+            robot.M, robot.h, robot.Jc, support, robot.Jc_dot_v, _transition_weights(robot, refs)
+        )
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
 
     def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:
@@ -300,6 +303,14 @@ def _stacked(
     if len(rows) == 1:
         return rows[0], rhs[0]
     return np.concatenate(rows), np.concatenate(rhs)
+
+
+def _transition_weights(robot: RobotModel, refs: References) -> np.ndarray | None:
+    """The load weight w of each row of F whose contact is being loaded or unloaded (NaN
+    elsewhere), from a walking behaviour's references; None when they carry none."""
+    if not isinstance(refs, WalkReferences) or len(refs.force_weight) != len(robot.contacts):
+        return None
+    return np.repeat(refs.force_weight, robot.force_dims)
 
 
 def _support_mask(robot: RobotModel, active: np.ndarray) -> np.ndarray:

@@ -29,7 +29,8 @@ class DynamicsTerms:
 
     M q̈ + h − J_cᵀ F = Sᵀ τ with S = [0 I] selecting the actuated joints; `support` marks the rows
     of F that belong to contacts in support (the others carry no force); `drift` is J̇_c v
-    (wbosc reads it).
+    and `transition` the weight w ∈ [0, 1] of each row of F whose contact is being loaded or
+    unloaded (NaN: not changing), both for wbosc.
     """
 
     M: np.ndarray
@@ -37,6 +38,7 @@ class DynamicsTerms:
     Jc: np.ndarray
     support: np.ndarray
     drift: np.ndarray | None = None
+    transition: np.ndarray | None = None
 
 
 @dataclass

@@ -23,7 +23,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from lab.controller.contact_dynamics import contact_dynamics, psd_pinv
+from lab.controller.contact_dynamics import ContactDynamics, contact_dynamics, psd_pinv
 from lab.controller.hierarchy.problem import HierarchyProblem, Level
 from lab.controller.hierarchy.solution import (
     EXACT,
@@ -54,14 +54,54 @@ def check_stack(names: Iterable[str]) -> None:
 
 
 def solve_wbosc(problem: HierarchyProblem, solver: str = "") -> HierarchySolution:
-    """x = [q̈, F] from the WBOSC torques (module docstring); `solver` is unused (no QP)."""
+    """x = [q̈, F] from the WBOSC torques (module docstring); `solver` is unused (no QP).
+
+    A foot in a contact transition (`terms.transition` w ∈ [0, 1], Kim §III-F) leaves the
+    contact set; the force it would carry in dual contact, from a first solve with it in
+    (eq. 10), is applied to it scaled by w as a known external force (eq. 9)."""
     terms = problem.terms
     if terms is None or terms.drift is None:
         raise ValueError("wbosc needs the dynamics terms M, h, J_c and J̇_c v in the problem")
     clock = LevelClock(len(problem.levels))
     nv = terms.M.shape[0]
     support = np.flatnonzero(terms.support)
-    dyn = contact_dynamics(terms.M, terms.h, terms.Jc[support], terms.drift[support])
+    bias = terms.h
+    leaving = np.zeros(0, dtype=int)
+    external = np.zeros(0)
+    if terms.transition is not None:
+        changing = terms.support & np.isfinite(terms.transition)
+        if np.any(changing):
+            dual = _solve(
+                problem,
+                contact_dynamics(terms.M, bias, terms.Jc[support], terms.drift[support]),
+                support,
+                clock,
+            )
+            leaving = np.flatnonzero(changing)
+            external = terms.transition[leaving] * dual.x[nv + leaving]  # f = w f_dual (eq. 9–10)
+            bias = bias - terms.Jc[leaving].T @ external
+            support = np.flatnonzero(terms.support & ~changing)
+    dyn = contact_dynamics(terms.M, bias, terms.Jc[support], terms.drift[support])
+    solution = _solve(problem, dyn, support, clock)
+    if len(leaving):
+        x = solution.x.copy()
+        x[nv + leaving] = external
+        solution = HierarchySolution(
+            x,
+            solution.levels,
+            level_residuals(problem.levels, x),
+            level_seconds=tuple(clock.seconds),
+            violations=tuple(_violations(problem.levels, x)),
+        )
+    return solution
+
+
+def _solve(
+    problem: HierarchyProblem, dyn: ContactDynamics, support: np.ndarray, clock: LevelClock
+) -> HierarchySolution:
+    """The WBOSC torques for the contact-consistent dynamics `dyn` of the rows `support` of F,
+    and the x they give."""
+    nv = dyn.qdd_of_torque.shape[0]
     na = dyn.phi.shape[0]
     # A level with rows but no freedom left for any of them is `no_freedom`.
     with_rows = {k for k, level in enumerate(problem.levels) if len(level.b)}
