@@ -21,12 +21,20 @@ def psd_pinv(matrix: np.ndarray, scale: float | None = None) -> tuple[np.ndarray
     below RANK_TOLERANCE times `scale` (default: the largest eigenvalue) count as zero. A
     projected matrix passes the scale of the unprojected one, so that what the projection
     removed (to rounding) is not inverted."""
+    inverse, null_space = _psd_pinv_and_null_space(matrix, scale)
+    return inverse, matrix.shape[0] - null_space.shape[1]
+
+
+def _psd_pinv_and_null_space(
+    matrix: np.ndarray, scale: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """`psd_pinv`'s pseudo-inverse and an orthonormal basis (columns) of the null space."""
     if matrix.size == 0:
-        return np.zeros_like(matrix), 0
+        return np.zeros_like(matrix), np.zeros((len(matrix), 0))
     values, vectors = np.linalg.eigh(0.5 * (matrix + matrix.T))
     keep = values > RANK_TOLERANCE * max(values[-1] if scale is None else scale, 1e-300)
     inverse = (vectors[:, keep] / values[keep]) @ vectors[:, keep].T
-    return inverse, int(np.count_nonzero(keep))
+    return inverse, vectors[:, ~keep]
 
 
 @dataclass(frozen=True)
@@ -70,10 +78,7 @@ def contact_dynamics(
     B = Minv @ Ns.T[:, BASE_DOF:]  # A⁻¹ N_sᵀ Uᵀ: τ → q̈ (eq. 30)
     qdd_free = -Minv @ (Ns.T @ h + Js.T @ (Lambda_s @ drift))
     phi = Ns[BASE_DOF:] @ B
-    phi = 0.5 * (phi + phi.T)
-    phi_pinv, rank = psd_pinv(phi)
-    _, vectors = np.linalg.eigh(phi)
-    internal_basis = vectors[:, : phi.shape[0] - rank]  # eigenvalues ascend: the null space
+    phi_pinv, internal_basis = _psd_pinv_and_null_space(phi)
     # λ = J̄_sᵀ (Uᵀτ − h) + Λ_s J̇_s v (eq. 29) and F = −λ.
     force_of_torque = -Jbar[BASE_DOF:].T
     force_free = Jbar.T @ h - Lambda_s @ drift
