@@ -171,6 +171,16 @@ class MomentumCommand:
 
 
 @dataclass(frozen=True)
+class InternalForceCommand:
+    """Set the internal force between point feet (Kim 2016 §IV): its reference F_int,ref (N,
+    > 0 pushing the feet apart) and where the sensed value comes from (`contacts` or `torques`);
+    None keeps the current one. The feedback gain K_F is the `internal_force` task's kp."""
+
+    reference: float | None = None
+    source: str | None = None
+
+
+@dataclass(frozen=True)
 class ResetCommand:
     """Put the robot back at its standing posture and clear pushes and velocity commands."""
 
@@ -222,4 +232,5 @@ Command = (
     | GaitCommand
     | MomentumCommand
     | RecordCommand
+    | InternalForceCommand
 )

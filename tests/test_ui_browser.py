@@ -475,8 +475,8 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
     choose(page, dropdown, value)
     lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
     wait_drawn(page, robot)
-    if robot == "bolt":  # the page says Bolt cannot stand yet
-        page.get_by_text("Bolt cannot stand").first.wait_for()
+    if robot == "bolt":  # the page says how Bolt stands and that it cannot step yet
+        page.get_by_text("Bolt stands on its two point feet").first.wait_for()
     pushes.seen.clear()
     press(page, "front")
     pushes.wait(100.0)

@@ -33,6 +33,7 @@ from lab.protocol import (
     GaitCommand,
     HierarchyCommand,
     InfoCommand,
+    InternalForceCommand,
     MomentumCommand,
     PauseCommand,
     PushCommand,
@@ -249,6 +250,17 @@ def _record(f: _Fields) -> RecordCommand:
     return RecordCommand(action=action)
 
 
+def _internal_force(f: _Fields) -> InternalForceCommand:
+    f.only("reference", "source")
+    reference = (
+        f.number("reference", -PUSH_FORCE_MAX, PUSH_FORCE_MAX) if f.has("reference") else None
+    )
+    source = f.name("source") if f.has("source") else None
+    if reference is None and source is None:
+        raise CommandError("internal_force: give at least one of 'reference', 'source'")
+    return InternalForceCommand(reference=reference, source=source)
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -264,6 +276,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "gait": _gait,
     "momentum": _momentum,
     "record": _record,
+    "internal_force": _internal_force,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

@@ -32,6 +32,7 @@ from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
+    internal_force_report,
     momentum_report,
     state_message,
     task_gains_report,
@@ -244,6 +245,7 @@ class Session:
             warnings.simplefilter("always")  # every tick's warnings, for telemetry
             try:
                 self.controller.update(q, v)
+                self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
                 self.behaviour.update(self.time, self.model, self.velocity, touching)
                 out = self.controller.solve()
                 if not np.all(np.isfinite(out.tau)):
@@ -406,6 +408,13 @@ class Session:
                     if getattr(gait, key) is not None
                 }
                 return self._set_behaviour(name, options)
+            case cmd.InternalForceCommand(reference=reference, source=source):
+                task = self.controller.internal_force
+                if source is not None:
+                    task.set_source(source)  # ValueError names the sources, changes nothing
+                if reference is not None:
+                    task.reference = reference
+                return {"internal_force": internal_force_report(self.controller)}
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": momentum_report(self.controller)}

@@ -68,8 +68,8 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
 }
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
 ROBOT_NOTES = {  # shown under the Robot dropdown while that robot runs
-    "bolt": "⚠ **Bolt cannot stand**: a point-footed biped needs the stepping controller of the "
-    "biped issue, which has not landed. It falls about a second after every switch and reset.",
+    "bolt": "Bolt stands on its two point feet by leaning its CoM to balance about the line "
+    "between them (docs/controller.md); it cannot step yet, so a push across that line fells it.",
 }
 PUSH_FORCE_RANGE = NumberRange("Magnitude", 10.0, 600.0, "N")  # the slider's range
 PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")

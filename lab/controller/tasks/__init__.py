@@ -8,6 +8,7 @@ from lab.controller.tasks.base import ALL_GAINS, Task, TaskGains, TaskRows
 from lab.controller.tasks.com import ComTask, ComXYTask
 from lab.controller.tasks.contact import ContactTask
 from lab.controller.tasks.feet import SwingFeetTask
+from lab.controller.tasks.internal_force import InternalForceTask
 from lab.controller.tasks.momentum import MomentumTask
 from lab.controller.tasks.objectives import (
     ForceInterpolationTask,
@@ -43,6 +44,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         SwingFeetTask,
         ComXYTask,
         MovingPostureTask,
+        InternalForceTask,
     )
 }
 
