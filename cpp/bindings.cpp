@@ -409,17 +409,14 @@ NB_MODULE(_kernel, m) {
       .def(
           "solve_into",
           [](lab::Kernel& k, nb::handle refs, OutVector tau, OutVector x) {
-            lab::Kernel* kernel = &k;
             reference_reader(k).read(k, refs);
             const auto& robot = k.robot();
             if (tau.size() != static_cast<std::size_t>(robot.na) ||
                 x.size() != static_cast<std::size_t>(robot.nx))
               throw std::invalid_argument("solve_into: tau needs na entries and x nx");
-            const lab::TickResult* result;
-            {
-              nb::gil_scoped_release release;
-              result = &kernel->solve();
-            }
+            // The GIL stays held: releasing it for a solve of tens of µs lets another thread
+            // take it, and the loop's tick then waits for it to come back.
+            const lab::TickResult* result = &k.solve();
             const auto& solution = result->solution;
             if (solution.ok) {
               Eigen::Map<Eigen::VectorXd>(tau.data(), robot.na) = result->tau;

@@ -215,6 +215,12 @@ class NativeController(WholeBodyController):
         self._native.set_level_weight_ratio(numbers[3])
         self._synced = (arrays, numbers)
 
+    @property
+    def kernel_seconds(self) -> tuple[float, float] | None:
+        """Seconds the native kernel's last model update and last solve took, measured inside
+        it (no Python around them); None when the last tick ran on the Python kernel."""
+        return self._native.seconds if self.kernel_ran == "native" else None
+
     def task_errors(self) -> dict[str, float]:
         """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
         if self.kernel_ran == "native":
