@@ -59,12 +59,14 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
   d.resize(inequalities);
   Eigen::Index row = 0;
   for (const Level& level : problem.levels) {
-    H.noalias() += level.weight * level.A.transpose() * level.A;
+    // H is symmetric: the lower triangle's rank update only, mirrored below.
+    H.selfadjointView<Eigen::Lower>().rankUpdate(level.A.transpose(), level.weight);
     g.noalias() -= level.weight * level.A.transpose() * level.b;
     C.middleRows(row, level.d.size()) = level.C;
     d.segment(row, level.d.size()) = level.d;
     row += level.d.size();
   }
+  H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
   const bool bounds_conflict = contradictory_bounds(C, d);
