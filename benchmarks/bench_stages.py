@@ -23,30 +23,32 @@ STAGES = ("state", "touch", "model", "behaviour", "rows", "solve", "torques", "p
 NATIVE_STAGES = ("state", "touch", "model", "behaviour", "controller", "plant step")
 
 
-def measure_native(session: Session, ticks: int) -> dict[str, float]:
-    """Stages of a native tick: the session's own calls, one by one."""
-    controller, model, plant = session.controller, session.model, session.plant
-    clock = time.thread_time
-    spent = np.zeros((ticks, len(NATIVE_STAGES)))
-    for i in range(ticks):
-        marks = [clock()]
-        q, v = plant.state()
-        marks.append(clock())
-        touching = plant.feet_touching(TOUCH_FORCE)
-        marks.append(clock())
-        controller.update(q, v)
-        marks.append(clock())
-        session.behaviour.update(session.time, model, session.velocity, touching)
-        marks.append(clock())
-        tau = controller.solve().tau
-        marks.append(clock())
-        plant.set_torques(tau)
-        plant.step()
-        marks.append(clock())
-        spent[i] = np.diff(marks)
-    if controller.kernel_ran != "native":
-        raise SystemExit(f"the native kernel did not run: {controller.kernel_note}")
-    return dict(zip(NATIVE_STAGES, np.median(spent, axis=0) * 1e6, strict=True))
+def python_controller(
+    session: Session, q: np.ndarray, v: np.ndarray, touching, marks
+) -> np.ndarray:
+    """The Python kernel's stages: model update, behaviour, rows, method, torques."""
+    controller, model, clock = session.controller, session.model, time.thread_time
+    model.update(q, v)
+    marks.append(clock())
+    session.behaviour.update(session.time, model, session.velocity, touching)
+    marks.append(clock())
+    problem = controller.build_problem()
+    marks.append(clock())
+    x = METHODS[controller.config.method](problem, controller.config.solver).x
+    marks.append(clock())
+    return model.joint_torques(x)
+
+
+def native_controller(
+    session: Session, q: np.ndarray, v: np.ndarray, touching, marks
+) -> np.ndarray:
+    """The native kernel's stages: its model update, behaviour, then one controller.solve()."""
+    controller, clock = session.controller, time.thread_time
+    controller.update(q, v)
+    marks.append(clock())
+    session.behaviour.update(session.time, session.model, session.velocity, touching)
+    marks.append(clock())
+    return controller.solve().tau
 
 
 def measure(robot: str, trot: bool, ticks: int, kernel: str = "python") -> dict[str, float]:
@@ -56,32 +58,26 @@ def measure(robot: str, trot: bool, ticks: int, kernel: str = "python") -> dict[
         session.handle("velocity", {"vx": 0.5})
     for _ in range(WARM_UP_TICKS):
         session.tick()
-    if kernel == "native":
-        return measure_native(session, ticks)
-    controller, model, plant = session.controller, session.model, session.plant
-    clock = time.thread_time
-    spent = np.zeros((ticks, len(STAGES)))
+    plant, clock = session.plant, time.thread_time
+    stages, control = (
+        (NATIVE_STAGES, native_controller) if kernel == "native" else (STAGES, python_controller)
+    )
+    spent = np.zeros((ticks, len(stages)))
     for i in range(ticks):
         marks = [clock()]
         q, v = plant.state()
         marks.append(clock())
         touching = plant.feet_touching(TOUCH_FORCE)
         marks.append(clock())
-        model.update(q, v)
-        marks.append(clock())
-        session.behaviour.update(session.time, model, session.velocity, touching)
-        marks.append(clock())
-        problem = controller.build_problem()
-        marks.append(clock())
-        x = METHODS[controller.config.method](problem, controller.config.solver).x
-        marks.append(clock())
-        tau = model.joint_torques(x)
+        tau = control(session, q, v, touching, marks)
         marks.append(clock())
         plant.set_torques(tau)
         plant.step()
         marks.append(clock())
         spent[i] = np.diff(marks)
-    return dict(zip(STAGES, np.median(spent, axis=0) * 1e6, strict=True))
+    if kernel == "native" and session.controller.kernel_ran != "native":
+        raise SystemExit(f"the native kernel did not run: {session.controller.kernel_note}")
+    return dict(zip(stages, np.median(spent, axis=0) * 1e6, strict=True))
 
 
 def main() -> None:
