@@ -257,25 +257,21 @@ ReferenceReader& reference_reader(lab::Kernel& k) {
 
 /// (ok, message, statuses, residuals, qp_solves, errors, level_seconds) as plain Python objects.
 nb::tuple solution_tuple(const lab::Kernel& kernel, const lab::HierarchySolution& solution) {
-  const auto levels = solution.levels.size();
-  nb::tuple statuses = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(levels)));
-  nb::tuple residuals = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(levels)));
-  for (std::size_t i = 0; i < levels; ++i) {
-    const auto at = static_cast<Py_ssize_t>(i);
-    PyTuple_SET_ITEM(statuses.ptr(), at,
-                     PyUnicode_InternFromString(lab::level_status_name(solution.levels[i])));
-    PyTuple_SET_ITEM(residuals.ptr(), at, PyFloat_FromDouble(solution.residuals[i]));
-  }
-  nb::tuple seconds =
-      nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(solution.level_seconds.size())));
-  for (std::size_t i = 0; i < solution.level_seconds.size(); ++i)
-    PyTuple_SET_ITEM(seconds.ptr(), static_cast<Py_ssize_t>(i),
-                     PyFloat_FromDouble(solution.level_seconds[i]));
+  const auto as_tuple = [](const auto& values, auto&& item) {
+    nb::tuple out = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(values.size())));
+    for (std::size_t i = 0; i < values.size(); ++i)
+      PyTuple_SET_ITEM(out.ptr(), static_cast<Py_ssize_t>(i), item(values[i]));
+    return out;
+  };
+  const auto status = [](lab::LevelStatus s) {
+    return PyUnicode_InternFromString(lab::level_status_name(s));
+  };
   nb::dict errors;
   kernel.visit_task_errors(
       [&](const std::string& name, double error) { errors[name.c_str()] = error; });
-  return nb::make_tuple(solution.ok, solution.message, statuses, residuals, solution.qp_solves,
-                        errors, seconds);
+  return nb::make_tuple(solution.ok, solution.message, as_tuple(solution.levels, status),
+                        as_tuple(solution.residuals, PyFloat_FromDouble), solution.qp_solves,
+                        errors, as_tuple(solution.level_seconds, PyFloat_FromDouble));
 }
 
 nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
