@@ -245,6 +245,48 @@ def test_bad_input_raises_a_clear_error_and_changes_nothing() -> None:
     assert A.shape == (robot.model.nv - 6, kernel.nx) and np.all(np.isfinite(b))
 
 
+def test_solve_into_reads_the_references_object_changed_in_place_or_replaced() -> None:
+    """NativeController's one crossing per tick: the kernel reads the References object itself,
+    sees an array the behaviour changed in place or replaced, and writes the τ and x the tuple
+    API returns for the same references; bad references raise and change nothing."""
+    controller, robot = controller_for("anymal")
+    model = controller.robot
+    kernel = kernel_of(controller)
+    kernel.set_stack(controller.config.stack.as_lists())
+    rng = np.random.default_rng(8)
+    q, v = random_state(robot, rng)
+    model.update(q, v)
+    kernel.update(q, v)
+    tau, x = np.zeros(model.na), np.zeros(model.nx)
+    plain = copy.deepcopy(controller.references)
+    walking = random_references(model, rng, walk=True)
+    walking.contact_active[:] = True
+    for refs in (plain, walking, plain):
+        for change in ("as given", "in place", "replaced"):
+            if change == "in place":
+                refs.com += 0.02
+                refs.posture[0] += 0.1
+            elif change == "replaced":
+                refs.com = refs.com - 0.03
+                refs.base_height += 0.01
+            ok, message, levels, residuals, _, errors, _ = kernel.solve_into(refs, tau, x)
+            send_references(kernel, refs)
+            want_tau, want_qdd, want_forces, want_ok, *_ = kernel.solve()
+            what = f"{type(refs).__name__} {change}"
+            assert ok and want_ok, f"{what}: {message}"
+            np.testing.assert_array_equal(tau, want_tau, err_msg=what)
+            np.testing.assert_array_equal(x, np.r_[want_qdd, want_forces], err_msg=what)
+            assert isinstance(levels, tuple) and len(levels) == len(residuals), what
+            assert set(errors) <= set(controller.config.stack.names()), what
+    bad = copy.deepcopy(walking)
+    bad.posture = np.zeros(3)
+    before = tau.copy()
+    with pytest.raises(ValueError, match="posture has 3 entries"):
+        kernel.solve_into(bad, tau, x)
+    np.testing.assert_array_equal(tau, before)
+    assert kernel.solve_into(walking, tau, x)[0]
+
+
 def test_a_stack_the_kernel_lacks_runs_on_python_and_says_so() -> None:
     description = load_description("anymal")
     robot = build_robot(description)

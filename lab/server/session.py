@@ -248,7 +248,7 @@ class Session:
                 self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
                 self.behaviour.update(self.time, self.model, self.velocity, touching)
                 out = self.controller.solve()
-                if not np.all(np.isfinite(out.tau)):
+                if not np.isfinite(out.tau).all():
                     raise FloatingPointError("non-finite torques")
                 self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
                 self.solution = out.solution
