@@ -171,6 +171,14 @@ class MomentumCommand:
 
 
 @dataclass(frozen=True)
+class StanceCommand:
+    """Stand on both soles or lift one (Herzog 2016 §5.4): `double`, `left` or `right` (a biped
+    with flat feet; the stance sole is the one named)."""
+
+    side: str
+
+
+@dataclass(frozen=True)
 class ResetCommand:
     """Put the robot back at its standing posture and clear pushes and velocity commands."""
 
@@ -210,4 +218,5 @@ Command = (
     | ResumeCommand
     | GaitCommand
     | MomentumCommand
+    | StanceCommand
 )

@@ -37,6 +37,7 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "resume",
         "gait",
         "momentum",
+        "stance",
     }
 
 

@@ -40,6 +40,7 @@ from lab.protocol import (
     RobotCommand,
     SceneCommand,
     StackCommand,
+    StanceCommand,
     VelocityCommand,
 )
 
@@ -238,6 +239,11 @@ def _momentum(f: _Fields) -> MomentumCommand:
     return MomentumCommand(mode=f.name("mode"))
 
 
+def _stance(f: _Fields) -> StanceCommand:
+    f.only("side")
+    return StanceCommand(side=f.name("side"))
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -252,6 +258,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "resume": _no_fields(ResumeCommand),
     "gait": _gait,
     "momentum": _momentum,
+    "stance": _stance,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

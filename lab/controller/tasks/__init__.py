@@ -16,6 +16,7 @@ from lab.controller.tasks.objectives import (
     TorqueTask,
 )
 from lab.controller.tasks.posture import MovingPostureTask, PostureTask
+from lab.controller.tasks.sole import SwingSoleTask
 from lab.controller.tasks.trunk import (
     BaseHeightTask,
     BaseOrientationTask,
@@ -43,6 +44,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         SwingFeetTask,
         ComXYTask,
         MovingPostureTask,
+        SwingSoleTask,
     )
 }
 
