@@ -2,6 +2,7 @@
 balancing under the Table 2 stack with either momentum law."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -10,9 +11,11 @@ import scipy.integrate
 
 from lab.controller.momentum import GainSchedule, LqrCost, LqrDesign, contact_map, lqr_design
 from lab.controller.tasks.momentum import MomentumTask
+from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
 from tests.test_controller import controller_for, disturbed_state
 
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 FD_STEP = 1e-6  # s, central differences of the momentum along a trajectory
 
 
@@ -200,3 +203,18 @@ def test_talos_survives_the_ui_push_under_table_2(mode: str, push: str) -> None:
     assert not session.fell and session.qp_failures == 0
     assert worst < 0.08
     assert np.linalg.norm(session.model.com[:2] - start) < 0.75 * worst
+
+
+def test_the_table_3_campaign_reports_each_push() -> None:
+    """The campaign's first push (98 N for 32 ms at the torso from the front), run short: the
+    `pushes` metric reports its force and impulse as scheduled, a CoG error that is there but
+    small (under 2 cm) and no fall."""
+    scenario = load_scenario(SCENARIOS / "herzog_table3_pd.toml")
+    report = run_scenario(scenario, duration=1.5)
+    metrics = report["metrics"]
+    assert not report["fell"] and report["rejected_events"] == []
+    assert metrics["push0_peak_force_n"] == pytest.approx(97.6)
+    assert metrics["push0_impulse_ns"] == pytest.approx(97.6 * 0.0324, rel=0.05)
+    assert 1e-4 < metrics["push0_max_cog_error_m"] < 0.02
+    assert metrics["push0_max_linear_momentum"] > 1.0  # ~3 N s went into the robot
+    assert metrics["push0_fell"] == 0.0 and "push1_peak_force_n" not in metrics

@@ -11,6 +11,7 @@ import numpy as np
 
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
+from lab.server.push_metrics import PushMetrics
 
 if TYPE_CHECKING:
     from lab.server.session import Session
@@ -45,5 +46,6 @@ class StandingMetrics:
 METRICS: dict[str, type] = {
     "standing": StandingMetrics,
     "locomotion": LocomotionMetrics,
+    "pushes": PushMetrics,
     **LOAD_METRICS,
 }
