@@ -95,6 +95,16 @@ class FrictionConstraint(Constraint):
         return C, d
 
 
+def _soles_in_support(robot: RobotModel, contact_active: np.ndarray) -> list[tuple]:
+    """(contact, column of its wrench's first entry in x) of each flat foot in support."""
+    pairs = zip(robot.contacts, robot.force_slices, contact_active, strict=True)
+    return [
+        (contact, robot.nv + rows.start)
+        for contact, rows, active in pairs
+        if contact.kind == "flat" and active
+    ]
+
+
 INNER_COP_MARGIN = 0.15  # fraction of each half size of a sole
 
 
@@ -120,12 +130,7 @@ class CopConstraint(Constraint):
         self, robot: RobotModel, contact_active: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         blocks = []
-        for contact, rows, active in zip(
-            robot.contacts, robot.force_slices, contact_active, strict=True
-        ):
-            if contact.kind != "flat" or not active:
-                continue
-            col = robot.nv + rows.start
+        for contact, col in _soles_in_support(robot, contact_active):
             C, _ = _rows(4, robot)
             for k, (torque_axis, half) in enumerate(
                 ((3, self.scale * contact.half_width), (4, self.scale * contact.half_length))
@@ -179,12 +184,7 @@ class SoleTorsionConstraint(Constraint):
         robot: RobotModel, contact_active: np.ndarray, friction: float
     ) -> tuple[np.ndarray, np.ndarray]:
         blocks = []
-        for contact, rows, active in zip(
-            robot.contacts, robot.force_slices, contact_active, strict=True
-        ):
-            if contact.kind != "flat" or not active:
-                continue
-            col = robot.nv + rows.start
+        for contact, col in _soles_in_support(robot, contact_active):
             radius = np.sqrt(0.5) * min(contact.half_length, contact.half_width)
             C, _ = _rows(2, robot)
             C[0, col + 5], C[0, col + 2] = 1.0, -friction * radius
