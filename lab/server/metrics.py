@@ -12,6 +12,7 @@ import numpy as np
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
 from lab.server.push_metrics import PushMetrics
+from lab.server.tracking_metrics import CogTrackingMetrics
 
 if TYPE_CHECKING:
     from lab.server.session import Session
@@ -47,5 +48,6 @@ METRICS: dict[str, type] = {
     "standing": StandingMetrics,
     "locomotion": LocomotionMetrics,
     "pushes": PushMetrics,
+    "cog_tracking": CogTrackingMetrics,
     **LOAD_METRICS,
 }
