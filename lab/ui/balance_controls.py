@@ -27,7 +27,7 @@ class CommandHost(Protocol):
 def add_balance_controls(app: CommandHost, client: viser.ClientHandle, order: int) -> list:
     """Add the folder to `client`'s panel; returns its controls (greyed out while read-only)."""
     gui = client.gui
-    with gui.add_folder("Balance (Herzog 2016)", order=order, expand_by_default=False):
+    with gui.add_folder("Balance (Herzog 2016)", order=order):
         momentum = gui.add_button_group("Momentum", tuple(MOMENTUM_LABELS))
         stance = gui.add_button_group("Stance", tuple(STANCE_LABELS))
         note = gui.add_markdown("")
