@@ -181,6 +181,14 @@ class InternalForceCommand:
 
 
 @dataclass(frozen=True)
+class StanceCommand:
+    """Stand on both soles or lift one (Herzog 2016 §5.4): `double`, `left` or `right` (a biped
+    with flat feet; the stance sole is the one named)."""
+
+    side: str
+
+
+@dataclass(frozen=True)
 class ResetCommand:
     """Put the robot back at its standing posture and clear pushes and velocity commands."""
 
@@ -233,4 +241,5 @@ Command = (
     | MomentumCommand
     | RecordCommand
     | InternalForceCommand
+    | StanceCommand
 )

@@ -39,6 +39,7 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "momentum",
         "internal_force",
         "record",
+        "stance",
     }
 
 

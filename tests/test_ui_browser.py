@@ -297,6 +297,22 @@ def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
     )
 
 
+def test_the_balance_buttons_send_the_momentum_law_and_a_refused_stance_says_why(
+    page, lab: LabClient
+) -> None:
+    """PD and LQR reach the server; `On left` on ANYmal (point feet) is refused, and the page
+    says why."""
+    for label, mode in (("PD", "pd"), ("LQR", "lqr")):
+        press(page, label)
+        end = time.monotonic() + UI_ACTION_TIMEOUT_S
+        while lab.command("info")["momentum"]["mode"] != mode and time.monotonic() < end:
+            time.sleep(0.1)
+        assert lab.command("info")["momentum"]["mode"] == mode
+    press(page, "On left")
+    page.get_by_text("not a biped with flat soles").first.wait_for(timeout=PAGE_TIMEOUT_MS)
+    assert lab.command("info")["gait"] == "stand"
+
+
 def slider_box(pg, label: str):
     """The number box beside a viser slider (the slider's label points at the slider)."""
     slider = pg.locator("label", has_text=label).first.get_attribute("for")

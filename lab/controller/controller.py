@@ -15,7 +15,9 @@ from lab.controller.constraints import (
     ContactLimits,
     CopConstraint,
     FrictionConstraint,
+    InnerCopConstraint,
     JointLimitConstraint,
+    SoleTorsionConstraint,
     TorqueLimitConstraint,
 )
 from lab.controller.hierarchy import (
@@ -97,6 +99,8 @@ class WholeBodyController:
         }
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
+            self.constraints["cop_inner"] = InnerCopConstraint()
+            self.constraints["sole_torsion"] = SoleTorsionConstraint(config.limits)
         self._support = PerContactSet(_support_mask)
         self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
         self.set_stack(config.stack)

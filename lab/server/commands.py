@@ -43,6 +43,7 @@ from lab.protocol import (
     RobotCommand,
     SceneCommand,
     StackCommand,
+    StanceCommand,
     VelocityCommand,
 )
 
@@ -261,6 +262,11 @@ def _internal_force(f: _Fields) -> InternalForceCommand:
     return InternalForceCommand(reference=reference, source=source)
 
 
+def _stance(f: _Fields) -> StanceCommand:
+    f.only("side")
+    return StanceCommand(side=f.name("side"))
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -277,6 +283,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "momentum": _momentum,
     "record": _record,
     "internal_force": _internal_force,
+    "stance": _stance,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
+from lab.controller.behaviours.stance import Stance
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig
 from lab.controller.hierarchy import METHODS, HierarchySolution
@@ -63,6 +64,9 @@ DIVERGENCE_REPEAT_S = 1.0
 # The stack a gait that lifts feet brings along when the current one has no swing_feet task
 # (a robot's default stack is for standing): Raiola's S3, the stack of the trot scenarios.
 WALKING_PRESET = "raiola_s3"
+STANCE_PRESET = (
+    "herzog_table4"  # the `stance` command's stack when the current one cannot lift a sole
+)
 
 
 @dataclass
@@ -418,7 +422,29 @@ class Session:
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": momentum_report(self.controller)}
+            case cmd.StanceCommand(side=side):
+                return self._stance(side)
         return {}
+
+    def _stance(self, side: str) -> dict:
+        """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py); starts the
+        stance behaviour, with STANCE_PRESET if the stack has no `swing_sole`. Raises ValueError
+        for a robot without two flat soles or an unknown side, changing nothing."""
+        contacts = self.model.contacts
+        if len(contacts) != 2 or any(contact.kind != "flat" for contact in contacts):
+            raise ValueError(f"stance: robot {self.config.robot!r} is not a biped with flat soles")
+        reply: dict = {}
+        if not isinstance(self.behaviour, Stance):
+            self.model.update(*self.plant.state())
+            behaviour = Stance(self.model, self.robot.q_standing)
+            behaviour.request(side)  # raises before anything changes
+            self.behaviour = behaviour
+            self.controller.references = behaviour.references
+            if "swing_sole" not in self.controller.config.stack.names():
+                reply = self._use_preset(STANCE_PRESET)
+        else:
+            self.behaviour.request(side)
+        return {"stance": side, **reply}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None

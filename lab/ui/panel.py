@@ -19,6 +19,7 @@ import viser
 
 from lab.protocol import VelocityCommand
 from lab.ui import stack_edit
+from lab.ui.balance_controls import add_balance_controls
 from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import stack_risks
@@ -182,6 +183,7 @@ class ControlPanel:
             handle.on_update(app.guard(lambda e, r=limits: self._slider_changed(e, r)))
         pushes.on_click(app.guard(lambda e: self.push(e.target.value)))
 
+        self._controls += add_balance_controls(app, client, order=5.5)
         with gui.add_folder("Task stack", order=6):
             self.stack_view = gui.add_markdown("")
             self.task = gui.add_dropdown("Task", ("…",))

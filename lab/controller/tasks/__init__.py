@@ -17,6 +17,7 @@ from lab.controller.tasks.objectives import (
     TorqueTask,
 )
 from lab.controller.tasks.posture import MovingPostureTask, PostureTask
+from lab.controller.tasks.sole import SwingSoleTask
 from lab.controller.tasks.trunk import (
     BaseHeightTask,
     BaseOrientationTask,
@@ -45,6 +46,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         ComXYTask,
         MovingPostureTask,
         InternalForceTask,
+        SwingSoleTask,
     )
 }
 
