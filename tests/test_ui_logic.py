@@ -502,3 +502,20 @@ def test_the_panel_knows_the_app_only_through_its_narrow_host_interface() -> Non
     assert {"send", "report", "guard", "base_yaw"} <= set(methods)
     missing = [name for name in methods if not callable(getattr(LabApp, name, None))]
     assert not missing, f"LabApp lacks {missing} of PanelHost"
+
+
+@pytest.mark.parametrize("kernel", ["python", "native"])
+def test_the_per_level_chart_has_one_series_per_stack_level_of_the_live_session(kernel) -> None:
+    from lab.server.session import Session, SessionConfig
+    from lab.ui.plots import CHARTS
+
+    session = Session(SessionConfig(robot="anymal", kernel=kernel))
+    for _ in range(5):
+        session.tick()
+    tel = session.telemetry()
+    (chart,) = [c for c in CHARTS if c.title.startswith("Solve time per level")]
+    levels = len(tel["stack"])
+    assert chart.labels_of(tel) == tuple(f"level {k}" for k in range(levels))
+    times = chart.values_of(tel)
+    assert len(times) == levels and all(t > 0.0 for t in times), times  # every level was timed
+    assert chart.labels_of({**tel, "solution": None}) == ()  # fallback torques: no solution

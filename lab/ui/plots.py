@@ -81,6 +81,15 @@ def _tasks(tel: dict) -> list[float]:
     ]
 
 
+def _labels_levels(tel: dict) -> tuple[str, ...]:
+    solution = tel.get("solution") or {}
+    return tuple(f"level {k}" for k in range(len(solution.get("level_us", ()))))
+
+
+def _levels(tel: dict) -> list[float]:
+    return list(tel["solution"]["level_us"])
+
+
 def _labels_qp(tel: dict) -> tuple[str, ...]:
     return ("solve µs",)
 
@@ -107,6 +116,7 @@ CHARTS = (
     ChartSpec("Angular momentum [kg m²/s]", _labels_angular, _angular, min_span=0.5),
     ChartSpec("Task errors, top levels [log₁₀ SI]", _labels_tasks, _tasks),
     ChartSpec("QP solve time [µs]", _labels_qp, _qp),
+    ChartSpec("Solve time per level [µs]", _labels_levels, _levels),
 )
 
 

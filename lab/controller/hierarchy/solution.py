@@ -58,13 +58,15 @@ class HierarchySolution:
         return "violated" if self.violations else "ok"
 
     def summary(self) -> dict:
-        """JSON-ready status, fallback levels, level statuses, residuals and QP count."""
+        """JSON-ready status, fallback levels, level statuses, residuals, QP count and the time
+        spent on each level (µs)."""
         return {
             "status": self.status,
             "fallback_levels": list(self.fallback_levels),
             "levels": list(self.levels),
             "residuals": list(self.residuals),
             "qp_solves": self.qp_solves,
+            "level_us": [1e6 * s for s in self.level_seconds],
             "violations": list(self.violations),
         }
 
