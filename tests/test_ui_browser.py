@@ -489,7 +489,13 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
     """Choose `value` in `dropdown`, wait until the sim runs it and `robot` is drawn, push, and
     check the UI is alive."""
     choose(page, dropdown, value)
-    lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
+    try:
+        lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
+    except TimeoutError:  # seen once at load 24: the sim never got the switch
+        shown = page.get_by_label(dropdown, exact=True).first.input_value()
+        assert shown != value, f"the page shows {value}, the sim never switched: {event_log(page)}"
+        choose(page, dropdown, value)  # the option click was lost: a user clicks again
+        lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
     wait_drawn(page, robot)
     if robot == "bolt":  # the page says how Bolt stands and that it cannot step yet
         page.get_by_text("Bolt stands on its two point feet").first.wait_for()
