@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from lab.server.com_metrics import ComMetrics
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
 
@@ -46,4 +47,5 @@ METRICS: dict[str, type] = {
     "standing": StandingMetrics,
     "locomotion": LocomotionMetrics,
     **LOAD_METRICS,
+    "com": ComMetrics,
 }
