@@ -1,5 +1,5 @@
 """`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
-`lab teleop`, `lab sweep`."""
+`lab teleop`, `lab sweep`, `lab router`."""
 
 import argparse
 import json
@@ -85,6 +85,12 @@ def _soak(argv: list[str]) -> int:
     return soak_main(argv)
 
 
+def _router(argv: list[str]) -> int:
+    from lab.server.router import router_main
+
+    return router_main(argv)
+
+
 def _sweep(argv: list[str]) -> int:
     from lab.sweep.cli import sweep_main
 
@@ -105,6 +111,7 @@ COMMANDS = {
     "soak": _soak,
     "teleop": _teleop,
     "sweep": _sweep,
+    "router": _router,
 }
 
 
