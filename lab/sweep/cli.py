@@ -63,7 +63,7 @@ def sweep_main(argv: list[str]) -> int:
     rate = f", {60 * run / outcome.wall_s:.1f} points/min" if run else ""
     print(
         f"{sweep.name}: {outcome.ok} ok, {outcome.failed} failed, {outcome.skipped} already in "
-        f"{output}; {outcome.wall_s:.0f} s{rate}"
+        f"{output}; {outcome.wall_s:.0f} s (Ray start {outcome.ray_start_s:.0f} s){rate}"
         + (" (interrupted)" if outcome.interrupted else "")
     )
     rows = read_rows(output)
