@@ -95,7 +95,7 @@ def local_ray():
 
     from lab.sweep.runner import _start_ray
 
-    _start_ray(ray, 2, None)
+    _start_ray(2, None)
     yield ray
     ray.shutdown()
 

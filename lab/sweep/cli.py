@@ -53,11 +53,14 @@ def sweep_main(argv: list[str]) -> int:
         sweep.timeout = args.timeout
     output = Path(args.output or OUTPUT_DIR / f"{sweep.name}.csv")
     try:
-        from lab.sweep.runner import run_sweep
-
-        outcome = run_sweep(sweep, output, args.workers, args.address, args.retry_failed)
+        from lab.sweep.runner import RayUnavailable, run_sweep
     except ImportError as error:
         print(f"lab sweep: {error}: install with pip install -e '.[sweep]'", file=sys.stderr)
+        return 2
+    try:
+        outcome = run_sweep(sweep, output, args.workers, args.address, args.retry_failed)
+    except RayUnavailable as error:
+        print(f"lab sweep: {error}", file=sys.stderr)
         return 2
     run = outcome.ok + outcome.failed
     rate = f", {60 * run / outcome.wall_s:.1f} points/min" if run else ""

@@ -16,7 +16,9 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from types import ModuleType
+
+import ray
+from tqdm import tqdm
 
 from lab.sweep.spec import Point, Sweep, check_scenario
 from lab.sweep.table import ERROR, KEY, read_rows, result_row, write_rows
@@ -66,15 +68,13 @@ def run_sweep(
     todo = [point for point in sweep.points if point.key not in done]
     outcome = SweepOutcome(skipped=len(sweep.points) - len(todo))
     if todo:
-        import ray
-
         ours = not ray.is_initialized()  # a caller's own Ray session is used and left running
         if ours:
-            _start_ray(ray, workers, address)
+            _start_ray(workers, address)
             outcome.ray_start_s = time.monotonic() - start
         try:
             slots = workers or int(ray.cluster_resources().get("CPU", 1))
-            _stream(ray, sweep, todo, rows, Path(output), slots, outcome, progress)
+            _stream(sweep, todo, rows, Path(output), slots, outcome, progress)
         finally:
             if ours:
                 ray.shutdown()
@@ -82,13 +82,26 @@ def run_sweep(
     return outcome
 
 
-def _start_ray(ray: ModuleType, workers: int | None, address: str | None) -> None:
+class RayUnavailable(RuntimeError):
+    """Ray did not start, or the cluster at `--address` could not be joined."""
+
+
+def _start_ray(workers: int | None, address: str | None) -> None:
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no usage report leaves the machine
+    try:
+        _init_ray(workers, address)
+    except (ConnectionError, ValueError, ray.exceptions.RayError) as error:
+        where = f"the Ray cluster at {address}" if address else "a local Ray instance"
+        raise RayUnavailable(f"{where}: {str(error).splitlines()[0]}") from error
+
+
+def _init_ray(workers: int | None, address: str | None) -> None:
     quiet = {"log_to_driver": False, "logging_level": logging.WARNING}
     if address:
         ray.init(address=address, **quiet)
     else:
         ray.init(
+            address="local",  # a new instance, never a cluster a `ray start` left recorded
             num_cpus=workers or os.cpu_count(),
             include_dashboard=False,
             object_store_memory=OBJECT_STORE_BYTES,
@@ -98,7 +111,6 @@ def _start_ray(ray: ModuleType, workers: int | None, address: str | None) -> Non
 
 
 def _stream(
-    ray: ModuleType,
     sweep: Sweep,
     todo: list[Point],
     rows: list[dict],
@@ -108,8 +120,6 @@ def _stream(
     progress: bool,
 ) -> None:
     """Keep `slots` tasks in flight, write each result as it comes, until done or Ctrl-C."""
-    from tqdm import tqdm
-
     task = ray.remote(num_cpus=1, max_retries=0)(run_point)
     order = {point.key: i for i, point in enumerate(sweep.points)}
     pending = deque(todo)
