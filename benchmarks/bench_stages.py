@@ -1,10 +1,13 @@
 """Where a session tick goes: median thread-CPU time of each stage (a benchmark, not a test).
 
     .venv/bin/python benchmarks/bench_stages.py [--robot anymal] [--trot] [--ticks 3000]
+                                                [--kernel python|native]
 
 Standing uses the robot's default stack; `--trot` trots at 0.5 m/s under Raiola's S3 (the stack
 the gait command brings). Each stage is timed with `time.thread_time()` after 1.5 s of warm-up,
-so time the thread spent descheduled does not count.
+so time the thread spent descheduled does not count. With `--kernel native` the model update is
+the kernel's (it fills the Python model's arrays for the behaviour) and `controller` is
+`controller.solve()`: references read, rows, method and torques in one call.
 """
 
 import argparse
@@ -17,39 +20,64 @@ from lab.server.session import TOUCH_FORCE, Session, SessionConfig
 
 WARM_UP_TICKS = 1500
 STAGES = ("state", "touch", "model", "behaviour", "rows", "solve", "torques", "plant step")
+NATIVE_STAGES = ("state", "touch", "model", "behaviour", "controller", "plant step")
 
 
-def measure(robot: str, trot: bool, ticks: int) -> dict[str, float]:
-    session = Session(SessionConfig(robot=robot))
+def python_controller(
+    session: Session, q: np.ndarray, v: np.ndarray, touching, marks
+) -> np.ndarray:
+    """The Python kernel's stages: model update, behaviour, rows, method, torques."""
+    controller, model, clock = session.controller, session.model, time.thread_time
+    model.update(q, v)
+    marks.append(clock())
+    session.behaviour.update(session.time, model, session.velocity, touching)
+    marks.append(clock())
+    problem = controller.build_problem()
+    marks.append(clock())
+    x = METHODS[controller.config.method](problem, controller.config.solver).x
+    marks.append(clock())
+    return model.joint_torques(x)
+
+
+def native_controller(
+    session: Session, q: np.ndarray, v: np.ndarray, touching, marks
+) -> np.ndarray:
+    """The native kernel's stages: its model update, behaviour, then one controller.solve()."""
+    controller, clock = session.controller, time.thread_time
+    controller.update(q, v)
+    marks.append(clock())
+    session.behaviour.update(session.time, session.model, session.velocity, touching)
+    marks.append(clock())
+    return controller.solve().tau
+
+
+def measure(robot: str, trot: bool, ticks: int, kernel: str = "python") -> dict[str, float]:
+    session = Session(SessionConfig(robot=robot, kernel=kernel))
     if trot:
         session.handle("gait", {"name": "trot"})
         session.handle("velocity", {"vx": 0.5})
     for _ in range(WARM_UP_TICKS):
         session.tick()
-    controller, model, plant = session.controller, session.model, session.plant
-    clock = time.thread_time
-    spent = np.zeros((ticks, len(STAGES)))
+    plant, clock = session.plant, time.thread_time
+    stages, control = (
+        (NATIVE_STAGES, native_controller) if kernel == "native" else (STAGES, python_controller)
+    )
+    spent = np.zeros((ticks, len(stages)))
     for i in range(ticks):
         marks = [clock()]
         q, v = plant.state()
         marks.append(clock())
         touching = plant.feet_touching(TOUCH_FORCE)
         marks.append(clock())
-        model.update(q, v)
-        marks.append(clock())
-        session.behaviour.update(session.time, model, session.velocity, touching)
-        marks.append(clock())
-        problem = controller.build_problem()
-        marks.append(clock())
-        x = METHODS[controller.config.method](problem, controller.config.solver).x
-        marks.append(clock())
-        tau = model.joint_torques(x)
+        tau = control(session, q, v, touching, marks)
         marks.append(clock())
         plant.set_torques(tau)
         plant.step()
         marks.append(clock())
         spent[i] = np.diff(marks)
-    return dict(zip(STAGES, np.median(spent, axis=0) * 1e6, strict=True))
+    if kernel == "native" and session.controller.kernel_ran != "native":
+        raise SystemExit(f"the native kernel did not run: {session.controller.kernel_note}")
+    return dict(zip(stages, np.median(spent, axis=0) * 1e6, strict=True))
 
 
 def main() -> None:
@@ -57,10 +85,14 @@ def main() -> None:
     parser.add_argument("--robot", default="anymal")
     parser.add_argument("--trot", action="store_true", help="trot at 0.5 m/s instead of standing")
     parser.add_argument("--ticks", type=int, default=3000)
+    parser.add_argument("--kernel", choices=("python", "native"), default="python")
     args = parser.parse_args()
-    medians = measure(args.robot, args.trot, args.ticks)
+    medians = measure(args.robot, args.trot, args.ticks, args.kernel)
     doing = "trotting" if args.trot else "standing"
-    print(f"{args.robot} {doing}, median µs of thread CPU time over {args.ticks} ticks:")
+    print(
+        f"{args.robot} {doing}, {args.kernel} kernel, median µs of thread CPU time over "
+        f"{args.ticks} ticks:"
+    )
     for stage, us in medians.items():
         print(f"  {stage:11s} {us:6.0f}")
     print(f"  {'sum':11s} {sum(medians.values()):6.0f}")

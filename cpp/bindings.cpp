@@ -8,6 +8,9 @@
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
+#include <array>
+#include <memory>
+
 #include "controller.hpp"
 #if __has_include("hierarchy/python.hpp")
 #include "hierarchy/python.hpp"  // solve_hierarchy: the native methods on a given problem
@@ -45,6 +48,118 @@ std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tup
   }
   return specs;
 }
+
+/// The array fields of References / WalkReferences, in this order (ReferenceReader::kNames).
+constexpr std::size_t kArrayFields = 14;
+using ReferenceArrays = std::array<Doubles, kArrayFields>;
+
+/// Copy the references into the kernel; raises ValueError naming a field of the wrong size.
+void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_height,
+                       const Flags& contact_active) {
+  const auto& [com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
+               base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
+               surface_normal, force_weight, posture_velocity, posture_weight] = a;
+  lab::References& refs = k.references();
+  copy_vector3(refs.com, com, "com");
+  copy_flat(refs.posture, posture);
+  refs.base_height = base_height;
+  if (base_rotation.size() != 9)
+    throw std::invalid_argument("references: base_rotation needs 3 x 3 entries");
+  refs.base_rotation =
+      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(base_rotation.data());
+  copy_vector3(refs.com_velocity, com_velocity, "com_velocity");
+  copy_vector3(refs.base_angular_velocity, base_angular_velocity, "base_angular_velocity");
+  refs.contact_active = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
+      contact_active.data(), static_cast<Eigen::Index>(contact_active.size()));
+  copy_flat(refs.normal_force_max, normal_force_max);
+  copy_vector3(refs.base_linear_velocity, base_linear_velocity, "base_linear_velocity");
+  copy_flat(refs.foot_position, foot_position);
+  copy_flat(refs.foot_velocity, foot_velocity);
+  copy_flat(refs.foot_acceleration, foot_acceleration);
+  copy_flat(refs.surface_normal, surface_normal);
+  copy_flat(refs.force_weight, force_weight);
+  copy_flat(refs.posture_velocity, posture_velocity);
+  copy_flat(refs.posture_weight, posture_weight);
+  k.check_references();
+}
+
+/// Reads a References (or WalkReferences) object's fields straight from Python each tick: an
+/// array seen on the last tick is read through the buffer already imported (so a behaviour's
+/// in-place change shows), one the behaviour replaced is imported anew. A plain References has
+/// no walking fields: they read as empty.
+class ReferenceReader {
+ public:
+  static constexpr const char* kNames[kArrayFields] = {"com",
+                                                       "posture",
+                                                       "base_rotation",
+                                                       "com_velocity",
+                                                       "base_angular_velocity",
+                                                       "normal_force_max",
+                                                       "base_linear_velocity",
+                                                       "foot_position",
+                                                       "foot_velocity",
+                                                       "foot_acceleration",
+                                                       "surface_normal",
+                                                       "force_weight",
+                                                       "posture_velocity",
+                                                       "posture_weight"};
+  static constexpr std::size_t kWalkingFrom = 7;  // foot_position on: WalkReferences only
+
+  ReferenceReader() {
+    nb::object empty = nb::module_::import_("numpy").attr("zeros")(0);
+    empty_ = nb::cast<Doubles>(empty);
+    empty_owner_ = empty;
+  }
+
+  void read(lab::Kernel& k, nb::handle refs) {
+    nb::handle type = refs.type();
+    if (!type.is(type_)) {  // a new References class: does it have the walking fields?
+      type_ = nb::borrow(type);
+      walking_ = nb::hasattr(refs, "foot_position");
+    }
+    for (std::size_t i = 0; i < kArrayFields; ++i) {
+      if (i >= kWalkingFrom && !walking_) {
+        arrays_[i] = empty_;
+        seen_[i] = nb::object();
+        continue;
+      }
+      nb::object value = refs.attr(kNames[i]);
+      if (seen_[i].is_valid() && value.is(seen_[i])) continue;  // the same array as last tick
+      arrays_[i] = import<Doubles>(value, kNames[i], seen_[i]);
+    }
+    nb::object active = refs.attr("contact_active");
+    if (!(active_seen_.is_valid() && active.is(active_seen_)))
+      active_ = import<Flags>(active, "contact_active", active_seen_);
+    const double base_height = nb::cast<double>(refs.attr("base_height"));
+    assign_references(k, arrays_, base_height, active_);
+  }
+
+ private:
+  /// `value` as an array; `seen` keeps it when it was taken without a copy (later ticks then
+  /// read it in place), and is cleared otherwise (a converted copy is made again each tick).
+  template <typename Array>
+  static Array import(const nb::object& value, const char* name, nb::object& seen) {
+    Array array;
+    if (nb::try_cast(value, array, false)) {
+      seen = value;
+      return array;
+    }
+    seen = nb::object();
+    if (!nb::try_cast(value, array, true))
+      throw std::invalid_argument(std::string("references: ") + name +
+                                  " is not an array of the right type");
+    return array;
+  }
+
+  ReferenceArrays arrays_;
+  std::array<nb::object, kArrayFields> seen_;
+  Flags active_;
+  nb::object active_seen_;
+  nb::object type_;
+  bool walking_ = false;
+  Doubles empty_;
+  nb::object empty_owner_;
+};
 
 nb::dict problem_dict(const lab::HierarchyProblem& problem) {
   nb::list levels;
@@ -131,6 +246,33 @@ class ModelMirror {
   Out q_, v_, M_, h_, Jc_, Jc_dot_v_, com_, com_velocity_, com_drift_, Jcom_, centroidal_map_,
       base_rotation_, contact_positions_, contact_rotations_;
 };
+
+using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+/// The kernel's ReferenceReader, made at its first use and freed with the kernel.
+ReferenceReader& reference_reader(lab::Kernel& k) {
+  if (!k.binding_state) k.binding_state = std::make_shared<ReferenceReader>();
+  return *static_cast<ReferenceReader*>(k.binding_state.get());
+}
+
+/// (ok, message, statuses, residuals, qp_solves, errors, level_seconds) as plain Python objects.
+nb::tuple solution_tuple(const lab::Kernel& kernel, const lab::HierarchySolution& solution) {
+  const auto as_tuple = [](const auto& values, auto&& item) {
+    nb::tuple out = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(values.size())));
+    for (std::size_t i = 0; i < values.size(); ++i)
+      PyTuple_SET_ITEM(out.ptr(), static_cast<Py_ssize_t>(i), item(values[i]));
+    return out;
+  };
+  const auto status = [](lab::LevelStatus s) {
+    return PyUnicode_InternFromString(lab::level_status_name(s));
+  };
+  nb::dict errors;
+  kernel.visit_task_errors(
+      [&](const std::string& name, double error) { errors[name.c_str()] = error; });
+  return nb::make_tuple(solution.ok, solution.message, as_tuple(solution.levels, status),
+                        as_tuple(solution.residuals, PyFloat_FromDouble), solution.qp_solves,
+                        errors, as_tuple(solution.level_seconds, PyFloat_FromDouble));
+}
 
 nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
   const auto& solution = result.solution;
@@ -223,29 +365,12 @@ NB_MODULE(_kernel, m) {
              const Doubles& foot_acceleration, const Doubles& surface_normal,
              const Doubles& force_weight, const Doubles& posture_velocity,
              const Doubles& posture_weight) {
-            lab::References& refs = k.references();
-            copy_vector3(refs.com, com, "com");
-            copy_flat(refs.posture, posture);
-            refs.base_height = base_height;
-            if (base_rotation.size() != 9)
-              throw std::invalid_argument("references: base_rotation needs 3 x 3 entries");
-            refs.base_rotation = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
-                base_rotation.data());
-            copy_vector3(refs.com_velocity, com_velocity, "com_velocity");
-            copy_vector3(refs.base_angular_velocity, base_angular_velocity,
-                         "base_angular_velocity");
-            refs.contact_active = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
-                contact_active.data(), static_cast<Eigen::Index>(contact_active.size()));
-            copy_flat(refs.normal_force_max, normal_force_max);
-            copy_vector3(refs.base_linear_velocity, base_linear_velocity, "base_linear_velocity");
-            copy_flat(refs.foot_position, foot_position);
-            copy_flat(refs.foot_velocity, foot_velocity);
-            copy_flat(refs.foot_acceleration, foot_acceleration);
-            copy_flat(refs.surface_normal, surface_normal);
-            copy_flat(refs.force_weight, force_weight);
-            copy_flat(refs.posture_velocity, posture_velocity);
-            copy_flat(refs.posture_weight, posture_weight);
-            k.check_references();
+            assign_references(
+                k,
+                {com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
+                 base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
+                 surface_normal, force_weight, posture_velocity, posture_weight},
+                base_height, contact_active);
           },
           "com"_a, "posture"_a, "base_height"_a, "base_rotation"_a, "com_velocity"_a,
           "base_angular_velocity"_a, "contact_active"_a, "normal_force_max"_a,
@@ -277,6 +402,35 @@ NB_MODULE(_kernel, m) {
             return tick_tuple(k, *result);
           },
           "Rows, method and torques at the state of the last update; the same tuple as tick.")
+      .def(
+          "solve_into",
+          [](lab::Kernel& k, nb::handle refs, OutVector tau, OutVector x) {
+            reference_reader(k).read(k, refs);
+            const auto& robot = k.robot();
+            if (tau.size() != static_cast<std::size_t>(robot.na) ||
+                x.size() != static_cast<std::size_t>(robot.nx))
+              throw std::invalid_argument("solve_into: tau needs na entries and x nx");
+            // The GIL stays held: releasing it for a solve of tens of µs lets another thread
+            // take it, and the loop's tick then waits for it to come back.
+            const lab::TickResult* result = &k.solve();
+            const auto& solution = result->solution;
+            if (solution.ok) {
+              Eigen::Map<Eigen::VectorXd>(tau.data(), robot.na) = result->tau;
+              Eigen::Map<Eigen::VectorXd>(x.data(), robot.nx) = solution.x;
+            }
+            return solution_tuple(k, solution);
+          },
+          "refs"_a, "tau"_a, "x"_a,
+          "One crossing per tick: read the References object `refs`, solve at the state of the "
+          "last update, write τ and x = [q̈, F] into the given float64 arrays (when ok) and "
+          "return (ok, message, level statuses, level residuals, qp solves, task errors, level "
+          "seconds).")
+      .def_prop_ro(
+          "seconds",
+          [](const lab::Kernel& k) {
+            return std::make_pair(k.update_seconds(), k.solve_seconds());
+          },
+          "Seconds the last update and the last solve took inside the kernel.")
       .def(
           "rows", [](lab::Kernel& k, const std::string& name) { return k.rows(name); }, "name"_a,
           "(A, b) of a task or (C, d) of a constraint at the last update, unweighted.")

@@ -1,10 +1,17 @@
 #include "controller.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <set>
 
 namespace lab {
 namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 void check_finite(const Eigen::Ref<const Eigen::VectorXd>& x, const char* what, Eigen::Index n) {
   if (x.size() != n)
@@ -137,11 +144,13 @@ void Kernel::check_references() const {
 
 void Kernel::update(const Eigen::Ref<const Eigen::VectorXd>& q,
                     const Eigen::Ref<const Eigen::VectorXd>& v) {
+  const auto start = Clock::now();
   check_finite(q, "q", robot_.nq);
   check_finite(v, "v", robot_.nv);
   robot_.update(q, v);
   updated_ = true;
   if (on_update) on_update(robot_);
+  update_seconds_ = seconds_since(start);
 }
 
 const HierarchyProblem& Kernel::build_problem() {
@@ -203,10 +212,14 @@ const TickResult& Kernel::tick(const Eigen::Ref<const Eigen::VectorXd>& q,
 const TickResult& Kernel::solve() {
   if (stack_.empty()) throw std::logic_error("the kernel has no stack: call set_stack first");
   if (!updated_) throw std::logic_error("the kernel has no state: call update first");
+  const auto start = Clock::now();
   check_references();
   const HierarchyProblem& problem = build_problem();
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
-  result_.solution = method_ == "cascade" ? solve_cascade(problem) : solve_weighted(problem);
+  if (method_ == "cascade")
+    solve_cascade(problem, result_.solution);
+  else
+    solve_weighted(problem, result_.solution);
 #else
   (void)problem;
   throw std::runtime_error("the native hierarchy solvers are not built (cpp/hierarchy)");
@@ -217,6 +230,7 @@ const TickResult& Kernel::solve() {
     result_.forces = x.tail(robot_.nf);
     robot_.joint_torques(x, result_.tau);
   }
+  solve_seconds_ = seconds_since(start);
   return result_;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -68,6 +69,16 @@ class Kernel {
                          const Eigen::Ref<const Eigen::VectorXd>& v);
   /// Norm of each stacked task's tracking error at the last rows (tasks with an error only).
   std::vector<std::pair<std::string, double>> task_errors() const;
+  /// f(name, norm) for each stacked task with a tracking error at the last rows, in stack order.
+  template <typename F>
+  void visit_task_errors(F&& f) const {
+    for (const auto& level : stack_)
+      for (const auto& [name, task] : level.tasks)
+        if (task->error.size()) f(name, task->error.norm());
+  }
+  /// Seconds the last update() and the last solve() took inside the kernel (steady clock).
+  double update_seconds() const { return update_seconds_; }
+  double solve_seconds() const { return solve_seconds_; }
 
   /// One task's or constraint's unweighted rows at the last update, for tests.
   std::pair<Eigen::MatrixXd, Eigen::VectorXd> rows(const std::string& name);
@@ -76,6 +87,8 @@ class Kernel {
 
   /// Called after every model update (the bindings fill the Python model's arrays with it).
   std::function<void(const RobotModel&)> on_update;
+  /// What the Python bindings keep with this kernel (cpp/bindings.cpp), freed with it.
+  std::shared_ptr<void> binding_state;
   const std::string& method() const { return method_; }
 
  private:
@@ -96,6 +109,7 @@ class Kernel {
   HierarchyProblem problem_;
   TickResult result_;
   bool updated_ = false;  // solve() needs a state
+  double update_seconds_ = 0.0, solve_seconds_ = 0.0;
 };
 
 }  // namespace lab

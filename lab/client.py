@@ -33,7 +33,7 @@ class LabClient:
 
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT, connect_timeout: float = 5.0) -> None:
         self.endpoint = endpoint
-        self._session = _open(endpoint, connect_timeout)
+        self._session = open_session(endpoint, connect_timeout)
         self._latest: dict[str, zenoh.Subscriber] = {
             key: self._session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
             for key in (KEY_TELEMETRY, KEY_STATE)
@@ -163,8 +163,9 @@ def query(
     return no_reply
 
 
-def _open(endpoint: str, timeout: float) -> zenoh.Session:
-    """Open a client session, retrying while the server is still starting."""
+def open_session(endpoint: str, timeout: float) -> zenoh.Session:
+    """Open a client session to `endpoint`, retrying for `timeout` s while the server is
+    still starting (a Zenoh client cannot open a session with nothing to connect to)."""
     end = time.monotonic() + timeout
     while True:
         try:

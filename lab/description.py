@@ -9,7 +9,7 @@ standing posture.
 
 import importlib.metadata
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 
@@ -55,6 +55,8 @@ class RobotDescription:
     stack: tuple[tuple[str, ...], ...]
     gains: dict[str, TaskGains]
     kernel: str | None = None  # native | python: which kernel runs the tick (None: native)
+    # Joint angles (rad) that replace the SRDF posture's in the standing posture, by joint name.
+    standing_joints: dict[str, float] = field(default_factory=dict)
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -112,4 +114,5 @@ def load_description(name: str) -> RobotDescription:
         stack=tuple(tuple(level) for level in data["stack"]),
         gains=gains,
         kernel=kernel,
+        standing_joints={j: float(a) for j, a in data.get("standing_joints", {}).items()},
     )

@@ -171,6 +171,24 @@ class MomentumCommand:
 
 
 @dataclass(frozen=True)
+class InternalForceCommand:
+    """Set the internal force between point feet (Kim 2016 §IV): its reference F_int,ref (N,
+    > 0 pushing the feet apart) and where the sensed value comes from (`contacts` or `torques`);
+    None keeps the current one. The feedback gain K_F is the `internal_force` task's kp."""
+
+    reference: float | None = None
+    source: str | None = None
+
+
+@dataclass(frozen=True)
+class StanceCommand:
+    """Stand on both soles or lift one (Herzog 2016 §5.4): `double`, `left` or `right` (a biped
+    with flat feet; the stance sole is the one named)."""
+
+    side: str
+
+
+@dataclass(frozen=True)
 class ResetCommand:
     """Put the robot back at its standing posture and clear pushes and velocity commands."""
 
@@ -196,6 +214,17 @@ class GaitCommand:
     footholds: str | None = None
 
 
+RECORD_ACTIONS = ("start", "stop")
+
+
+@dataclass(frozen=True)
+class RecordCommand:
+    """Start or stop recording the live session to an MCAP file (`lab serve` picks the file,
+    in its recording directory, and names it in the reply)."""
+
+    action: str
+
+
 Command = (
     InfoCommand
     | VelocityCommand
@@ -210,4 +239,7 @@ Command = (
     | ResumeCommand
     | GaitCommand
     | MomentumCommand
+    | RecordCommand
+    | InternalForceCommand
+    | StanceCommand
 )

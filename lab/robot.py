@@ -91,6 +91,10 @@ def build_robot(desc: RobotDescription) -> Robot:
     """Build the pinocchio model (free flyer, locked joints removed, contact frames added)."""
     full = pin.buildModelFromUrdf(str(desc.urdf_path), pin.JointModelFreeFlyer())
     q_ref = _reference_posture(full, desc)
+    for joint, angle in desc.standing_joints.items():
+        if not full.existJointName(joint):
+            raise KeyError(f"robot {desc.name!r}: standing joint {joint!r} is not in the URDF")
+        q_ref[full.joints[full.getJointId(joint)].idx_q] = angle
     missing = [j for j in desc.locked_joints if not full.existJointName(j)]
     if missing:
         raise KeyError(f"robot {desc.name!r}: locked joints {missing} are not in the URDF")

@@ -32,8 +32,8 @@ SERVE_OPTIONS = ("--sched", "other")
 class LabServe:
     """`lab serve` (sim process + UI process) on free ports, output to `log`."""
 
-    def __init__(self, log: Path, *args: str) -> None:
-        self.port = free_port()
+    def __init__(self, log: Path, *args: str, port: int | None = None) -> None:
+        self.port = free_port() if port is None else port
         self.ui_port = free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.url = f"http://127.0.0.1:{self.ui_port}"

@@ -37,7 +37,17 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "resume",
         "gait",
         "momentum",
+        "internal_force",
+        "record",
+        "stance",
     }
+
+
+def test_record_takes_start_or_stop_and_names_a_wrong_action() -> None:
+    assert parse_command("record", {"action": "stop"}).action == "stop"
+    for payload, words in (({}, "'action' is missing"), ({"action": "rewind"}, "start, stop")):
+        with pytest.raises(CommandError, match=words):
+            parse_command("record", payload)
 
 
 def test_velocity_defaults_missing_components_to_zero() -> None:

@@ -123,7 +123,7 @@ def test_inequalities_bind_the_solution(seed: int) -> None:
     assert np.max(limits.C @ free - limits.d) > 1e-2
 
 
-@pytest.mark.parametrize("method", sorted(METHODS))
+@pytest.mark.parametrize("method", sorted(set(METHODS) - {"wbosc"}))  # wbosc solves no QP
 @pytest.mark.parametrize("seed", SEEDS)
 def test_daqp_and_clarabel_agree(method: str, seed: int) -> None:
     problem = with_inequalities(np.random.default_rng(seed), 3)

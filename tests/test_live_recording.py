@@ -109,12 +109,15 @@ def test_a_recording_is_served_like_a_live_session(live_recording: Path, tmp_pat
         with ready_client(f"tcp/127.0.0.1:{port}", replay) as lab:
             info = lab.command("info")
             assert info["recorded"]["robot"] == "anymal" and info["replay"]["duration"] > 1.0
+            # the recorded session's own info, so the page draws the recorded robot's panels
+            assert info["robot"] == "anymal" and "contact" in info["known"]
             assert lab.command("pause")["ok"]
             time.sleep(0.3)
             lab.latest_telemetry()
             lab.command("seek", t=0.5)
             shown = lab.wait_telemetry(timeout=WAIT_S)  # seek shows the telemetry at 0.5 s
             assert 0.45 <= shown["t"] <= 0.5 and shown["robot"] == "anymal"
+            assert shown["replay"]["t"] == 0.5 and shown["replay"]["paused"]  # the timeline
             assert not lab.command("reset")["ok"]
             assert lab.command("resume")["ok"] and lab.command("speed", factor=4.0)["ok"]
             ended = []
@@ -127,3 +130,44 @@ def test_a_recording_is_served_like_a_live_session(live_recording: Path, tmp_pat
         assert replay.process.wait(STOP_S) == 0, replay.output()
     finally:
         replay.kill()
+
+
+def test_the_record_command_starts_and_stops_a_recording_of_the_live_session(
+    tmp_path: Path,
+) -> None:
+    """What the page's Record button sends: `lab serve` writes a file in --record-dir whose
+    timeline starts at 0 although the session had run; telemetry says a recording runs; a
+    second start or a stop with nothing running is refused and changes nothing."""
+    port, folder = free_port(), tmp_path / "recordings"
+    server = serve(tmp_path / "serve.log", port, "--headless", "--record-dir", str(folder))
+    try:
+        with ready_client(f"tcp/127.0.0.1:{port}", server) as lab:
+            stop = lab.command("record", action="stop")
+            assert not stop["ok"] and "nothing is being recorded" in stop["error"]
+            assert not lab.command("record", action="rewind")["ok"]
+            lab.wait_telemetry(lambda m: m["t"] > 0.5, timeout=WAIT_S)
+            assert lab.wait_telemetry(timeout=WAIT_S)["recording"] is None
+            started = lab.command("record", action="start")
+            assert started["ok"], started
+            path = Path(started["recording"]["file"])
+            assert path.parent == folder and path.name.startswith("lab-anymal-")
+            again = lab.command("record", action="start")
+            assert not again["ok"] and "already recording" in again["error"]
+            assert lab.command("push", body="base", force=[0, 40, 0], duration=0.1)["ok"]
+            running = lab.wait_telemetry(
+                lambda m: (m["recording"] or {}).get("seconds", 0) > 0.4, timeout=WAIT_S
+            )
+            assert running["recording"]["file"] == str(path)
+            done = lab.command("record", action="stop")
+            assert done["ok"] and done["recorded"]["bytes"] == path.stat().st_size > 0
+            assert lab.wait_telemetry(timeout=WAIT_S)["recording"] is None
+    finally:
+        server.kill()
+    _, messages = read_recording(path)
+    messages = list(messages)
+    times = [m.t for m in messages]
+    assert times[0] < 0.05 and times[-1] == pytest.approx(done["recorded"]["seconds"], abs=0.05)
+    verbs = [m.data["verb"] for m in messages if m.kind == "commands"]
+    assert "push" in verbs and "record" not in verbs
+    telemetry = [m.data for m in messages if m.kind == "telemetry"]
+    assert telemetry[0]["t"] > 0.5  # the session had run before the recording began

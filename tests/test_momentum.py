@@ -2,6 +2,7 @@
 balancing under the Table 2 stack with either momentum law."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -10,9 +11,11 @@ import scipy.integrate
 
 from lab.controller.momentum import GainSchedule, LqrCost, LqrDesign, contact_map, lqr_design
 from lab.controller.tasks.momentum import MomentumTask
+from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
 from tests.test_controller import controller_for, disturbed_state
 
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 FD_STEP = 1e-6  # s, central differences of the momentum along a trajectory
 
 
@@ -148,3 +151,70 @@ def test_the_momentum_law_is_chosen_live_and_a_bad_one_changes_nothing() -> None
     reply = session.handle("momentum", {"mode": "pid"})
     assert not reply["ok"] and "pid" in reply["error"] and "lqr" in reply["error"]
     assert session.telemetry()["momentum_control"] == {"mode": "pd"}
+
+
+def test_a_sole_holds_no_more_yaw_torque_than_its_torsional_friction() -> None:
+    """|τ_z| ≤ μ r f_z per loaded sole (r = √2/2 of the sole's smaller half size): a wrench 1 %
+    inside the bound passes, 1 % outside is refused; an unloaded sole holds no yaw torque."""
+    controller, _ = controller_for("talos")
+    model = controller.robot
+    constraint = controller.constraints["sole_torsion"]
+    C, d = constraint.rows(model, controller.references)
+    mu = controller.config.limits.friction
+    for contact, rows in zip(model.contacts, model.force_slices, strict=True):
+        torsion = mu * np.sqrt(0.5) * min(contact.half_length, contact.half_width)
+        for fz, scale, holds in ((400.0, 0.99, True), (400.0, 1.01, False), (0.0, 1.0, True)):
+            for sign in (1.0, -1.0):
+                x = np.zeros(model.nx)
+                x[model.nv + rows.start + 2] = fz
+                x[model.nv + rows.start + 5] = sign * scale * torsion * fz
+                assert bool(np.all(C @ x <= d + 1e-9)) == holds
+        x = np.zeros(model.nx)
+        x[model.nv + rows.start + 5] = 1.0  # any yaw torque on an unloaded sole
+        assert not np.all(C @ x <= d)
+
+
+# The UI's default push (150 N for 0.2 s, 30 N s) from the side, and a harder-hitting 200 N for
+# 0.1 s from the front, at the pelvis: Talos keeps both feet down under Table 2 with either law.
+# Bounds: the CoG (horizontal) at most 8 cm off on the way (the feet span ±15 cm sideways and
+# 22 cm lengthwise), no QP failure, and on its way back 1.2 s after the push starts.
+UI_PUSHES = {
+    "side_150N_0.2s": ((0.0, 150.0, 0.0), 0.2),
+    "front_200N_0.1s": ((200.0, 0.0, 0.0), 0.1),
+}
+
+
+@pytest.mark.parametrize("mode", ["pd", "lqr"])
+@pytest.mark.parametrize("push", UI_PUSHES)
+def test_talos_survives_the_ui_push_under_table_2(mode: str, push: str) -> None:
+    force, duration = UI_PUSHES[push]
+    session = Session(SessionConfig(robot="talos"))
+    assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
+    assert session.handle("momentum", {"mode": mode})["ok"]
+    for _ in range(200):
+        session.tick()
+    start = session.model.com[:2].copy()
+    body = session.robot.base_link
+    assert session.handle("push", {"body": body, "force": list(force), "duration": duration})["ok"]
+    worst = 0.0
+    for _ in range(1200):
+        session.tick()
+        worst = max(worst, float(np.linalg.norm(session.model.com[:2] - start)))
+    assert not session.fell and session.qp_failures == 0
+    assert worst < 0.08
+    assert np.linalg.norm(session.model.com[:2] - start) < 0.75 * worst
+
+
+def test_the_table_3_campaign_reports_each_push() -> None:
+    """The campaign's first push (98 N for 32 ms at the torso from the front), run short: the
+    `pushes` metric reports its force and impulse as scheduled, a CoG error that is there but
+    small (under 2 cm) and no fall."""
+    scenario = load_scenario(SCENARIOS / "herzog_table3_pd.toml")
+    report = run_scenario(scenario, duration=1.5)
+    metrics = report["metrics"]
+    assert not report["fell"] and report["rejected_events"] == []
+    assert metrics["push0_peak_force_n"] == pytest.approx(97.6)
+    assert metrics["push0_impulse_ns"] == pytest.approx(97.6 * 0.0324, rel=0.05)
+    assert 1e-4 < metrics["push0_max_cog_error_m"] < 0.02
+    assert metrics["push0_max_linear_momentum"] > 1.0  # ~3 N s went into the robot
+    assert metrics["push0_fell"] == 0.0 and "push1_peak_force_n" not in metrics

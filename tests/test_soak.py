@@ -32,10 +32,11 @@ def test_a_short_soak_ends_standing_with_every_fall_undone_and_flat_memory() -> 
     assert report.loop["ticks"] == report.ticks
 
 
-def test_the_soak_command_refuses_a_bad_duration_and_an_unknown_robot() -> None:
+def test_the_soak_command_refuses_a_bad_duration_an_unknown_robot_and_method() -> None:
     for args, message in (
         (["--sim-seconds", "0"], "--sim-seconds must be positive"),
         (["--sim-seconds", "1", "--robot", "nobody"], "unknown robot 'nobody'"),
+        (["--sim-seconds", "1", "--methods", "cascade,simplex"], "unknown method(s) simplex"),
     ):
         run = subprocess.run(
             [sys.executable, "-m", "lab", "soak", *args], capture_output=True, text=True
@@ -69,16 +70,23 @@ def _telemetry(t: float, fell: bool, height: float, ticks: int) -> dict:
 
 def test_a_fall_is_reset_and_checked_on_the_soaks_clock_not_the_sessions() -> None:
     """The session's clock restarts at 0 on a reset; the soak's goes on. A robot standing
-    RESET_CHECK_S after the reset is a fall undone; one still down is not."""
-    info = {"robot": "test", "gaits": ["stand"], "base": "base"}
-    for height_after, unrecovered in ((0.5, 0), (0.1, 1)):
+    RESET_CHECK_S after the reset is a fall undone. One still down gets the defaults back (the
+    `robot` command, as the page's "Default stack"); still down RESET_CHECK_S after that is a
+    fall the lab cannot reset from."""
+    info = {"robot": "test", "gaits": ["stand"], "base": "base", "hierarchy": {"method": "cascade"}}
+    for heights, plain, unrecovered in (((0.5,), 0, 0), ((0.1, 0.5), 1, 0), ((0.1, 0.1), 1, 1)):
         user = RandomUser(info, weight_n=500.0, standing_height=0.5, sim_seconds=10.0, seed=0)
         user.publish_telemetry(_telemetry(2.0, True, 0.1, 2000))  # fell at 2 s
         user.publish_telemetry(_telemetry(2.0 + FALLEN_S, True, 0.1, 3000))
         assert user.receive().verb == "reset" and user.report.resets_after_fall == 1
-        user.publish_telemetry(_telemetry(0.01, False, 0.5, 3010))  # the clock restarted
-        user.publish_telemetry(
-            _telemetry(RESET_CHECK_S + 0.01, height_after < 0.4, height_after, 4000)
-        )
-        assert user.report.unrecovered_falls == unrecovered and user.report.falls == 1
-        assert user.sim_time == pytest.approx(3.0 + RESET_CHECK_S + 0.01)
+        for k, height in enumerate(heights):
+            user.publish_telemetry(_telemetry(0.01, False, 0.5, 3010))  # the clock restarted
+            check = _telemetry(RESET_CHECK_S + 0.01, height < 0.4, height, 4000 + k)
+            user.publish_telemetry(check)
+            if k == 0 and height < 0.4:  # the default method, then the default stack
+                sent = [(r.verb, r.payload) for r in (user.receive(), user.receive())]
+                assert sent == [("hierarchy", {"method": "cascade"}), ("robot", {"name": "test"})]
+        assert user.report.down_after_plain_reset == plain and user.report.falls == 1
+        assert user.report.unrecovered_falls == unrecovered
+        expected = 3.0 + len(heights) * (RESET_CHECK_S + 0.01)
+        assert user.sim_time == pytest.approx(expected)

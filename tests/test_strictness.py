@@ -120,7 +120,8 @@ def random_controller(robot_name: str, rng: np.random.Generator):
     names = [names[i] for i in rng.permutation(len(names))][: rng.integers(4, len(names) + 1)]
     if "contact" not in names:
         names.append("contact")
-    cuts = sorted(rng.choice(np.arange(1, len(names)), rng.integers(1, 5), replace=False))
+    cuts = rng.integers(1, 5)  # at most one cut between each two names
+    cuts = sorted(rng.choice(np.arange(1, len(names)), min(cuts, len(names) - 1), replace=False))
     levels = [list(level) for level in np.split(np.array(names), cuts) if len(level)]
     config = ControllerConfig(
         Stack.of(levels),

@@ -20,7 +20,7 @@ base = "{BASE}"
 duration = 0.8
 
 [set]
-metrics = ["com"]
+metrics = ["cog_tracking"]
 "push.t" = 0.3
 "push.duration" = 0.15
 
@@ -51,7 +51,7 @@ def test_fields_reach_the_scenario(tmp_path):
     }
     scenario = check_scenario(point.scenario, BASE)
     assert scenario.duration == 0.8 and scenario.config.method == "cascade"
-    assert "com" in scenario.metrics
+    assert "cog_tracking" in scenario.metrics
     (push,) = scenario.events
     assert push.t == 0.3 and push.payload["duration"] == 0.15
     assert push.payload["force"] == pytest.approx([0.0, 120.0, 0.0], abs=1e-9)
@@ -119,7 +119,7 @@ def test_sweep_matches_single_runs_and_resumes(local_ray, tmp_path):
         assert row["sim_time_s"] == pytest.approx(single["sim_time_s"], abs=1e-9)
         for name, value in single["metrics"].items():
             assert row[f"metrics.{name}"] == pytest.approx(value, rel=1e-3, abs=1e-6), name
-    assert rows[0]["metrics.max_com_error_m"] > 0.0  # the push moved the CoM
+    assert rows[0]["metrics.cog_error_max_m"] > 0.0  # the push moved the CoM
 
     # A rerun runs nothing; a row lost (as when a sweep is killed) is run again, alone.
     assert run_sweep(sweep, table, workers=2, progress=False).skipped == 5
@@ -144,7 +144,7 @@ def test_push_map_png(tmp_path):
 
     rows = [
         {KEY: str(i), ERROR: "", "controller.method": method, "push.force_n": force}
-        | {"push.direction_deg": 45.0 * i, "fell": force > 200, "metrics.max_com_error_m": 0.01}
+        | {"push.direction_deg": 45.0 * i, "fell": force > 200, "metrics.cog_error_max_m": 0.01}
         for i, (method, force) in enumerate([("cascade", 100), ("cascade", 300), ("weighted", 100)])
     ]
     rows.append(rows[0] | {KEY: "x", ERROR: "timeout", "controller.method": "weighted"})

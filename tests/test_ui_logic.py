@@ -22,7 +22,7 @@ from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
 from lab.ui.plot_buffer import RollingBuffer
-from lab.ui.plots import shown_csv
+from lab.ui.plot_export import Shown, shown_csv, shown_png
 from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
 
 STACK = [["contacts"], ["base_orientation", "com"], ["posture"]]
@@ -222,6 +222,22 @@ def test_event_log_is_newest_first_and_counts_repeats() -> None:
         log.add("loud", "x")
 
 
+def test_a_warning_that_comes_and_goes_keeps_one_line_and_pushes_nothing_out() -> None:
+    log = EventLog(size=3)
+    log.add("error", "kp = -5 is below the limit 0", wall=0.0)
+    for k in range(50):  # the sim falls behind real time and catches up, again and again
+        log.add("warning", f"t {k:.2f} s · the sim runs at 0.8× real time", wall=k, kind="behind")
+        if k == 25:
+            log.add("info", "pushed front", wall=k + 0.5)
+    texts = [e.text for e in log.entries()]
+    assert texts == [
+        "t 49.00 s · the sim runs at 0.8× real time",
+        "pushed front",
+        "kp = -5 is below the limit 0",
+    ]
+    assert "(×50)" in log.markdown().splitlines()[2]
+
+
 def test_realtime_factor_restarts_with_the_sim_clock() -> None:
     rtf = RealtimeFactor(window_s=2.0)
     for k in range(20):  # 1 s of sim per 1 s of wall
@@ -285,7 +301,7 @@ def test_status_line_warns_of_a_controller_warning_and_the_log_gets_it_once() ->
     logged = []
     for tel in (capped, capped, _telemetry(), capped):  # logged when it starts, not every frame
         now = warnings_of(tel)
-        logged += started_warnings(now, in_effect)
+        logged += [text for _, text in started_warnings(now, in_effect)]
         in_effect = set(now)
     assert logged == ["controller warning: active set stopped at the cap"] * 2
     note = "the native kernel has no method 'nullspace'"
@@ -450,6 +466,25 @@ def test_the_plots_export_is_the_shown_window_as_csv() -> None:
     assert shown_csv([("empty", (), ())]).splitlines() == ['"t [s]"']
 
 
+def test_the_plots_export_as_png_draws_one_panel_per_chart_with_data() -> None:
+    import io
+
+    from PIL import Image
+
+    t = np.linspace(0.0, 1.0, 50)
+    charts = [
+        Shown("Contact normal force [N]", ("LF",), (t, 100 * np.sin(6 * t))),
+        Shown("CoP vs support polygon [m]", ("CoP x",), (t, 0.1 * t)),
+        Shown("QP solve time [µs]", (), ()),  # nothing recorded: no panel
+    ]
+    image = np.asarray(Image.open(io.BytesIO(shown_png(charts))).convert("L"))
+    assert image.shape == (440, 700)  # two panels of 2.2 in × 7 in at 100 dpi
+    for panel in (image[:220], image[220:]):  # each panel has its curve: dark pixels
+        assert (panel < 128).sum() > 500
+    empty = np.asarray(Image.open(io.BytesIO(shown_png([]))).convert("L"))
+    assert empty.shape == (220, 700)
+
+
 def test_the_panel_knows_the_app_only_through_its_narrow_host_interface() -> None:
     import ast
     import inspect
@@ -467,3 +502,20 @@ def test_the_panel_knows_the_app_only_through_its_narrow_host_interface() -> Non
     assert {"send", "report", "guard", "base_yaw"} <= set(methods)
     missing = [name for name in methods if not callable(getattr(LabApp, name, None))]
     assert not missing, f"LabApp lacks {missing} of PanelHost"
+
+
+@pytest.mark.parametrize("kernel", ["python", "native"])
+def test_the_per_level_chart_has_one_series_per_stack_level_of_the_live_session(kernel) -> None:
+    from lab.server.session import Session, SessionConfig
+    from lab.ui.plots import CHARTS
+
+    session = Session(SessionConfig(robot="anymal", kernel=kernel))
+    for _ in range(5):
+        session.tick()
+    tel = session.telemetry()
+    (chart,) = [c for c in CHARTS if c.title.startswith("Solve time per level")]
+    levels = len(tel["stack"])
+    assert chart.labels_of(tel) == tuple(f"level {k}" for k in range(levels))
+    times = chart.values_of(tel)
+    assert len(times) == levels and all(t > 0.0 for t in times), times  # every level was timed
+    assert chart.labels_of({**tel, "solution": None}) == ()  # fallback torques: no solution

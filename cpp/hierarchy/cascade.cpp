@@ -27,36 +27,66 @@ bool satisfies(const Eigen::MatrixXd& C, const Eigen::VectorXd& u, const Eigen::
   return d.size() == 0 || ((C * u - d).array() <= kFeasibilityTol).all();
 }
 
+/// What the cascade keeps from tick to tick: no allocation on the equality path once the
+/// stack's shapes have been seen (one set per thread, as the QP solver's).
+struct Buffers {
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  Eigen::MatrixXd Z_all, Z0, Z;  // the dynamics' null space: all columns, support ones; a copy
+  Eigen::VectorXd x0, x, rows;   // the dynamics' solution; the equality pass's; row scratch
+  std::vector<LeastSquaresStep> steps;  // one per level
+};
+
+Buffers& buffers() {
+  thread_local Buffers b;
+  return b;
+}
+
 /// Z and x of level 0: the Newton-Euler rows, with no force on a contact out of support.
-bool dynamics_solution(const HierarchyProblem& problem, Eigen::MatrixXd& Z, Eigen::VectorXd& x) {
-  Eigen::MatrixXd Z_all;
-  if (!solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b, Z_all, x))
+bool dynamics_solution(const HierarchyProblem& problem, Buffers& b) {
+  Eigen::MatrixXd& Z_all = b.Z_all;
+  if (!solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b, Z_all, b.x0,
+                                                b.lu))
     return false;
   const Eigen::Index nf = problem.support.size();
   const Eigen::Index nj = Z_all.cols() - nf;  // Z's columns: joint accelerations, then forces
   const Eigen::Index kept = nj + problem.support.count();
   if (kept == Z_all.cols()) {
-    Z = std::move(Z_all);
+    b.Z0 = Z_all;
     return true;
   }
-  Z.resize(Z_all.rows(), kept);
-  Z.leftCols(nj) = Z_all.leftCols(nj);
+  b.Z0.resize(Z_all.rows(), kept);
+  b.Z0.leftCols(nj) = Z_all.leftCols(nj);
   Eigen::Index column = nj;
   for (Eigen::Index i = 0; i < nf; ++i)
-    if (problem.support(i)) Z.col(column++) = Z_all.col(nj + i);
+    if (problem.support(i)) b.Z0.col(column++) = Z_all.col(nj + i);
   return true;
 }
 
-/// The cascade of the equality rows alone: one least squares and null space per level.
-Eigen::VectorXd equalities_only(const HierarchyProblem& problem, Eigen::MatrixXd Z,
-                                Eigen::VectorXd x, LevelClock& clock) {
+/// The cascade of the equality rows alone: one least squares and null space per level, into
+/// b.x. The last level with equality rows takes its step without shrinking Z.
+void equalities_only(const HierarchyProblem& problem, Buffers& b, LevelClock& clock) {
   clock.start();
+  b.Z = b.Z0;
+  b.x = b.x0;
+  Eigen::Index first = 0, cols = b.Z.cols();
+  std::size_t last = 0;
+  for (std::size_t depth = 0; depth < problem.levels.size(); ++depth)
+    if (problem.levels[depth].b.size()) last = depth;
+  b.steps.resize(problem.levels.size());
   for (std::size_t depth = 0; depth < problem.levels.size(); ++depth) {
     const Level& level = problem.levels[depth];
-    if (level.b.size() && Z.cols()) least_squares_step(Z, x, level.A, level.b);
+    if (level.b.size() && cols)
+      least_squares_step(b.Z, first, cols, b.x, level.A, level.b, b.steps[depth], depth != last);
     clock.lap(depth);
   }
-  return x;
+}
+
+/// Whether C x <= d holds within kFeasibilityTol, with `rows` as scratch.
+bool satisfies(const Eigen::MatrixXd& C, const Eigen::VectorXd& x, const Eigen::VectorXd& d,
+               Eigen::VectorXd& rows) {
+  if (d.size() == 0) return true;
+  rows.noalias() = C * x;
+  return ((rows - d).array() <= kFeasibilityTol).all();
 }
 
 /// Stack rows [top; bottom] (either may be empty).
@@ -220,29 +250,45 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
 
 }  // namespace
 
-HierarchySolution solve_cascade(const HierarchyProblem& problem) {
-  HierarchySolution out;
+void solve_cascade(const HierarchyProblem& problem, HierarchySolution& out) {
+  Buffers& b = buffers();
+  out.ok = false;
+  out.message.clear();
+  out.qp_solves = 0;
   out.levels.assign(problem.levels.size(), LevelStatus::exact);
+  out.residuals.clear();
   LevelClock clock(out.level_seconds, problem.levels.size());
-  Eigen::MatrixXd Z;
-  Eigen::VectorXd x;
-  if (!dynamics_solution(problem, Z, x)) {
+  if (!dynamics_solution(problem, b)) {
     out.message = "the base block of the mass matrix is singular";
-    return out;
+    return;
   }
-  out.x = equalities_only(problem, Z, x, clock);
+  equalities_only(problem, b, clock);
   bool feasible = true;
   for (const Level& level : problem.levels)
-    feasible = feasible && satisfies(level.C, out.x, level.d);
-  if (!feasible) with_inequalities(problem, std::move(Z), std::move(x), out, clock);
+    feasible = feasible && satisfies(level.C, b.x, level.d, b.rows);
+  if (feasible)
+    out.x = b.x;
+  else
+    with_inequalities(problem, b.Z0, b.x0, out, clock);
   out.ok = out.x.allFinite();
   if (!out.ok) out.message = "non-finite solution";
   for (const LevelStatus status : out.levels)
     if (status == LevelStatus::kept_above)
       out.message = "a level QP failed; it keeps the solution of the levels above";
-  out.residuals.reserve(problem.levels.size());
-  for (const Level& level : problem.levels)
-    out.residuals.push_back(level.b.size() ? (level.A * out.x - level.b).norm() : 0.0);
+  for (const Level& level : problem.levels) {
+    if (!level.b.size()) {
+      out.residuals.push_back(0.0);
+      continue;
+    }
+    b.rows = level.b;
+    b.rows.noalias() -= level.A * out.x;
+    out.residuals.push_back(b.rows.norm());
+  }
+}
+
+HierarchySolution solve_cascade(const HierarchyProblem& problem) {
+  HierarchySolution out;
+  solve_cascade(problem, out);
   return out;
 }
 

@@ -6,25 +6,24 @@
 namespace lab {
 
 bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                              Eigen::MatrixXd& Z, Eigen::VectorXd& x) {
+                                              Eigen::MatrixXd& Z, Eigen::VectorXd& x,
+                                              Eigen::PartialPivLU<Eigen::MatrixXd>& lu) {
   const Eigen::Index k = A.rows(), n = A.cols();
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu(A.leftCols(k));
+  lu.compute(A.leftCols(k));
   if (!(std::abs(lu.determinant()) > 0.0)) return false;
-  Z.setZero(n, n - k);
-  Z.topRows(k).noalias() = -lu.solve(A.rightCols(n - k));
+  Z.resize(n, n - k);
+  Z.topRows(k) = lu.solve(A.rightCols(n - k));
+  Z.topRows(k) *= -1.0;
   Z.bottomRows(n - k).setIdentity();
   x.setZero(n);
   x.head(k) = lu.solve(b);
   return Z.allFinite() && x.allFinite();
 }
 
-void RowSpaceQR::compute(const Eigen::MatrixXd& A) {
+void RowSpaceQR::compute(const Eigen::Ref<const Eigen::MatrixXd>& A) {
   rows_ = static_cast<int>(A.rows());
   rank_ = 0;
-  if (rows_ == 0) {
-    qr_ = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>();
-    return;
-  }
+  if (rows_ == 0) return;
   qr_.compute(A.transpose());
   // Column pivoting makes |R00| >= |R11| >= ...: the rank is the count above the threshold.
   const auto diagonal = qr_.matrixQR().diagonal().cwiseAbs();
@@ -32,22 +31,25 @@ void RowSpaceQR::compute(const Eigen::MatrixXd& A) {
   for (Eigen::Index i = 0; i < diagonal.size(); ++i) rank_ += diagonal(i) > threshold ? 1 : 0;
 }
 
-Eigen::VectorXd RowSpaceQR::solve(const Eigen::VectorXd& b) const {
-  if (rank_ == 0) return Eigen::VectorXd::Zero(0);
-  const Eigen::VectorXd rhs = qr_.colsPermutation().transpose() * b;  // P^T b
+void RowSpaceQR::solve(const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::VectorXd& y) {
+  if (rank_ == 0) {
+    y.resize(0);
+    return;
+  }
+  rhs_ = qr_.colsPermutation().transpose() * b;  // P^T b
   const auto& R = qr_.matrixQR();
   if (rank_ == rows_) {  // R1^T is square and lower triangular
-    return R.topLeftCorner(rank_, rank_).triangularView<Eigen::Upper>().transpose().solve(rhs);
+    y = rhs_;
+    R.topLeftCorner(rank_, rank_).triangularView<Eigen::Upper>().transpose().solveInPlace(y);
+    return;
   }
   // More rows than freedom: least squares of the full-column-rank R1^T (m x rank).
-  const Eigen::MatrixXd R1t =
-      R.topRows(rank_).triangularView<Eigen::Upper>().toDenseMatrix().transpose();
-  return R1t.householderQr().solve(rhs);
-}
-
-void RowSpaceQR::apply_q_on_the_right(Eigen::MatrixXd& M) const {
-  if (rows_ == 0) return;
-  qr_.householderQ().applyThisOnTheRight(M);
+  r1t_ = R.topRows(rank_).triangularView<Eigen::Upper>().transpose();
+  r1t_qr_.compute(r1t_);
+  workspace_.resize(1);
+  r1t_qr_.householderQ().setLength(rank_).transpose().applyThisOnTheLeft(rhs_, workspace_);
+  y = rhs_.head(rank_);
+  r1t_qr_.matrixQR().topLeftCorner(rank_, rank_).triangularView<Eigen::Upper>().solveInPlace(y);
 }
 
 void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
@@ -67,17 +69,29 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
   N = Q.rightCols(n - rank);
 }
 
-void least_squares_step(Eigen::MatrixXd& Z, Eigen::VectorXd& x, const Eigen::MatrixXd& A,
-                        const Eigen::VectorXd& b) {
-  const Eigen::MatrixXd AZ = A * Z;
-  RowSpaceQR qr;
-  qr.compute(AZ);
-  const int rank = qr.rank();
+void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::Index& cols,
+                        Eigen::VectorXd& x, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                        LeastSquaresStep& step, bool update_z) {
+  auto Z = Z_buffer.middleCols(first, cols);
+  step.AZ.resize(A.rows(), cols);
+  step.AZ.noalias() = A * Z;
+  step.qr.compute(step.AZ);
+  const int rank = step.qr.rank();
   if (rank == 0) return;
-  const Eigen::VectorXd y = qr.solve(b - A * x);
-  qr.apply_q_on_the_right(Z);  // Z Q: the first `rank` columns step, the rest stay free
-  x.noalias() += Z.leftCols(rank) * y;
-  Z = Z.rightCols(Z.cols() - rank).eval();
+  step.r = b;
+  step.r.noalias() -= A * x;
+  step.qr.solve(step.r, step.y);
+  if (!update_z) {  // the last level: only the step, Z Q [y; 0]
+    step.r.setZero(cols);
+    step.r.head(rank) = step.y;
+    step.qr.apply_q_on_the_left(step.r);
+    x.noalias() += Z * step.r;
+    return;
+  }
+  step.qr.apply_q_on_the_right(Z);  // Z Q: the first `rank` columns step, the rest stay free
+  x.noalias() += Z.leftCols(rank) * step.y;
+  first += rank;
+  cols -= rank;
 }
 
 }  // namespace lab

@@ -12,28 +12,50 @@ constexpr double kRankRtol = 1e-9;
 /// x solves A x = b and Z spans null(A), for A = [A1 A2] with A1 square and invertible:
 /// x = [A1^-1 b; 0], Z = [-A1^-1 A2; I]. The Newton-Euler rows have this form, A1 being the
 /// base block of M (Herzog §2.4, footnote 3). Z is not orthonormal; it spans the null space.
-/// Returns false when A1 is singular.
+/// Returns false when A1 is singular. `lu` is the factorization's storage, kept between calls.
 bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                              Eigen::MatrixXd& Z, Eigen::VectorXd& x);
+                                              Eigen::MatrixXd& Z, Eigen::VectorXd& x,
+                                              Eigen::PartialPivLU<Eigen::MatrixXd>& lu);
 
 /// A column-pivoted QR of the transpose of a level's rows A (m x n): A^T P = Q [R1; 0], with
 /// R1 the `rank` rows whose diagonal exceeds kRankRtol * max(1, |R00|). Then A ~ P R1^T Q1^T.
+/// One object per level keeps its storage from tick to tick: no allocation while the level's
+/// shape stays the same.
 class RowSpaceQR {
  public:
   /// Factorizes A^T (A may have no rows).
-  void compute(const Eigen::MatrixXd& A);
+  void compute(const Eigen::Ref<const Eigen::MatrixXd>& A);
 
   int rank() const { return rank_; }
 
   /// y with R1^T y = P^T b, in the least-squares sense when A has more rows than rank, so that
   /// u = Q1 y is the minimum-norm minimiser of ||A u - b||.
-  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+  void solve(const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::VectorXd& y);
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) {
+    Eigen::VectorXd y;
+    solve(b, y);
+    return y;
+  }
 
   /// M Q (Q of the factorization, n x n), applied as reflectors without forming Q.
-  void apply_q_on_the_right(Eigen::MatrixXd& M) const;
+  template <typename Matrix>
+  void apply_q_on_the_right(Matrix&& M) {
+    if (rows_ == 0) return;
+    workspace_.resize(M.rows());
+    qr_.householderQ().applyThisOnTheRight(M, workspace_);
+  }
+
+  /// Q v, applied as reflectors.
+  void apply_q_on_the_left(Eigen::VectorXd& v) {
+    if (rows_ == 0) return;
+    qr_.householderQ().applyThisOnTheLeft(v, workspace_);
+  }
 
  private:
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_;
+  Eigen::HouseholderQR<Eigen::MatrixXd> r1t_qr_;  // R1^T when A has more rows than rank
+  Eigen::MatrixXd r1t_;
+  Eigen::VectorXd rhs_, workspace_;
   int rows_ = 0;
   int rank_ = 0;
 };
@@ -43,9 +65,20 @@ class RowSpaceQR {
 void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                   Eigen::VectorXd& u, Eigen::MatrixXd& N);
 
+/// Buffers of one equality level of the cascade, kept from tick to tick.
+struct LeastSquaresStep {
+  RowSpaceQR qr;
+  Eigen::MatrixXd AZ;
+  Eigen::VectorXd r, y;
+};
+
 /// One equality level of the cascade: x <- x + Z u and Z <- Z N with u and N those of
-/// least_squares_and_null_space(A Z, b - A x) (Herzog eq. 8), without forming Q or N.
-void least_squares_step(Eigen::MatrixXd& Z, Eigen::VectorXd& x, const Eigen::MatrixXd& A,
-                        const Eigen::VectorXd& b);
+/// least_squares_and_null_space(A Z, b - A x) (Herzog eq. 8), without forming Q or N. Z is the
+/// `cols` columns of `Z_buffer` from `first` on; the level's step uses the leading columns of
+/// Z Q, so the null space left is the window's tail: `first` moves right by the rank, `cols`
+/// shrinks by it. `update_z` false (the last level) leaves Z as it is.
+void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::Index& cols,
+                        Eigen::VectorXd& x, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                        LeastSquaresStep& step, bool update_z = true);
 
 }  // namespace lab

@@ -87,8 +87,12 @@ class LevelClock {
 
 /// Strict priorities: a cascade of QPs with null-space reduction (Herzog 2016 §2.2).
 HierarchySolution solve_cascade(const HierarchyProblem& problem);
+/// The same into `out`, whose storage is reused (the kernel's tick allocates nothing).
+void solve_cascade(const HierarchyProblem& problem, HierarchySolution& out);
 
 /// All levels in one weighted QP (Raiola 2020, stack S1).
 HierarchySolution solve_weighted(const HierarchyProblem& problem);
+/// The same into `out`, whose storage is reused.
+void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out);
 
 }  // namespace lab

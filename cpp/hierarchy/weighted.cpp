@@ -33,8 +33,13 @@ bool contradictory_bounds(const Eigen::MatrixXd& C, const Eigen::VectorXd& d) {
 }
 }  // namespace
 
-HierarchySolution solve_weighted(const HierarchyProblem& problem) {
-  HierarchySolution out;
+void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
+  // The QP's matrices, kept from tick to tick (one set per thread, as the solver's).
+  thread_local Eigen::MatrixXd H, C;
+  thread_local Eigen::VectorXd g, d, rows;
+  out.ok = false;
+  out.message.clear();
+  out.residuals.clear();
   LevelClock clock(out.level_seconds, problem.levels.size());
   const Eigen::Index nx = problem.dynamics_A.cols();
   double lightest = 1.0;
@@ -47,18 +52,21 @@ HierarchySolution solve_weighted(const HierarchyProblem& problem) {
     }
   }
   // min sum_r w_r ||A_r x - b_r||^2 + eps ||x||^2, dynamics exact, every C_r x <= d_r.
-  Eigen::MatrixXd H = kRegularization * lightest * Eigen::MatrixXd::Identity(nx, nx);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(nx);
-  Eigen::MatrixXd C(inequalities, nx);
-  Eigen::VectorXd d(inequalities);
+  H.setZero(nx, nx);
+  H.diagonal().setConstant(kRegularization * lightest);
+  g.setZero(nx);
+  C.resize(inequalities, nx);
+  d.resize(inequalities);
   Eigen::Index row = 0;
   for (const Level& level : problem.levels) {
-    H.noalias() += level.weight * level.A.transpose() * level.A;
+    // H is symmetric: the lower triangle's rank update only, mirrored below.
+    H.selfadjointView<Eigen::Lower>().rankUpdate(level.A.transpose(), level.weight);
     g.noalias() -= level.weight * level.A.transpose() * level.b;
     C.middleRows(row, level.d.size()) = level.C;
     d.segment(row, level.d.size()) = level.d;
     row += level.d.size();
   }
+  H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
   const bool bounds_conflict = contradictory_bounds(C, d);
@@ -67,11 +75,23 @@ HierarchySolution solve_weighted(const HierarchyProblem& problem) {
     out.message = bounds_conflict
                       ? "the weighted QP is infeasible: a lower bound on x exceeds its upper bound"
                       : "eiquadprog found no solution of the weighted QP";
-    out.x = Eigen::VectorXd::Zero(nx);
+    out.x.setZero(nx);
   }
   if (!problem.levels.empty()) clock.lap(0);  // one QP for all levels: charged to the first
-  for (const Level& level : problem.levels)
-    out.residuals.push_back(level.b.size() ? (level.A * out.x - level.b).norm() : 0.0);
+  for (const Level& level : problem.levels) {
+    if (!level.b.size()) {
+      out.residuals.push_back(0.0);
+      continue;
+    }
+    rows = level.b;
+    rows.noalias() -= level.A * out.x;
+    out.residuals.push_back(rows.norm());
+  }
+}
+
+HierarchySolution solve_weighted(const HierarchyProblem& problem) {
+  HierarchySolution out;
+  solve_weighted(problem, out);
   return out;
 }
 

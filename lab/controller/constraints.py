@@ -95,6 +95,19 @@ class FrictionConstraint(Constraint):
         return C, d
 
 
+def _soles_in_support(robot: RobotModel, contact_active: np.ndarray) -> list[tuple]:
+    """(contact, column of its wrench's first entry in x) of each flat foot in support."""
+    pairs = zip(robot.contacts, robot.force_slices, contact_active, strict=True)
+    return [
+        (contact, robot.nv + rows.start)
+        for contact, rows, active in pairs
+        if contact.kind == "flat" and active
+    ]
+
+
+INNER_COP_MARGIN = 0.15  # fraction of each half size of a sole
+
+
 class CopConstraint(Constraint):
     """Centre of pressure inside the sole rectangle, for flat feet (Herzog §4.1).
 
@@ -104,28 +117,78 @@ class CopConstraint(Constraint):
 
     name = "cop"
 
-    def __init__(self) -> None:
+    def __init__(self, margin: float = 0.0) -> None:
+        """`margin`: the fraction of each half size kept free at the sole's edges."""
+        self.scale = 1.0 - margin
         # The rows depend only on which feet are active: built once per contact set.
         self._rows = PerContactSet(self._build)
 
     def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
         return self._rows.get(robot, refs.contact_active)
 
-    @staticmethod
-    def _build(robot: RobotModel, contact_active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _build(
+        self, robot: RobotModel, contact_active: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         blocks = []
-        for contact, rows, active in zip(
-            robot.contacts, robot.force_slices, contact_active, strict=True
-        ):
-            if contact.kind != "flat" or not active:
-                continue
-            col = robot.nv + rows.start
+        for contact, col in _soles_in_support(robot, contact_active):
             C, _ = _rows(4, robot)
             for k, (torque_axis, half) in enumerate(
-                ((3, contact.half_width), (4, contact.half_length))
+                ((3, self.scale * contact.half_width), (4, self.scale * contact.half_length))
             ):
                 C[2 * k, col + torque_axis], C[2 * k, col + 2] = 1.0, -half
                 C[2 * k + 1, col + torque_axis], C[2 * k + 1, col + 2] = -1.0, -half
+            blocks.append(C)
+        C = np.concatenate(blocks) if blocks else np.zeros((0, robot.nx))
+        d = np.zeros(len(C))
+        C.flags.writeable = d.flags.writeable = False
+        return C, d
+
+
+class InnerCopConstraint(CopConstraint):
+    """The CoP constraint with a safety margin: the CoP stays in the sole shrunk by
+    INNER_COP_MARGIN. A sole asked for its CoP right on an edge starts to tip about that edge
+    at the smallest model error (MuJoCo's soft contact gives a little there); the margin keeps
+    the foot flat, which is what Herzog's CoP constraint is for (§5.3, Fig. 10–11)."""
+
+    name = "cop_inner"
+
+    def __init__(self) -> None:
+        super().__init__(INNER_COP_MARGIN)
+
+
+class SoleTorsionConstraint(Constraint):
+    """Torsional friction of a flat sole: |τ_z| ≤ μ r f_z, r = (√2/2) min(L, W) (sole frame).
+
+    The friction pyramid bounds a sole's tangential force but not its torque about the normal,
+    so a sole with little load could be asked for tens of newton metres of yaw torque it cannot
+    hold: it spins, and the ankle and hip yaw joints saturate fighting it. Caron et al. 2015
+    give the exact bound, μ (L + W) f_z less terms for the tangential force and the CoP offset;
+    this is its conservative inner part for a sole that also uses its friction and CoP.
+    """
+
+    name = "sole_torsion"
+
+    def __init__(self, limits: ContactLimits) -> None:
+        self.limits = limits
+        self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+    def rows(self, robot: RobotModel, refs: References) -> tuple[np.ndarray, np.ndarray]:
+        key = (refs.contact_active.tobytes(), self.limits.friction)
+        if key not in self._cache:
+            self._cache.clear()
+            self._cache[key] = self._build(robot, refs.contact_active, self.limits.friction)
+        return self._cache[key]
+
+    @staticmethod
+    def _build(
+        robot: RobotModel, contact_active: np.ndarray, friction: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        blocks = []
+        for contact, col in _soles_in_support(robot, contact_active):
+            radius = np.sqrt(0.5) * min(contact.half_length, contact.half_width)
+            C, _ = _rows(2, robot)
+            C[0, col + 5], C[0, col + 2] = 1.0, -friction * radius
+            C[1, col + 5], C[1, col + 2] = -1.0, -friction * radius
             blocks.append(C)
         C = np.concatenate(blocks) if blocks else np.zeros((0, robot.nx))
         d = np.zeros(len(C))

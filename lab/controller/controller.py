@@ -15,10 +15,18 @@ from lab.controller.constraints import (
     ContactLimits,
     CopConstraint,
     FrictionConstraint,
+    InnerCopConstraint,
     JointLimitConstraint,
+    SoleTorsionConstraint,
     TorqueLimitConstraint,
 )
-from lab.controller.hierarchy import METHODS, HierarchyProblem, HierarchySolution, Level
+from lab.controller.hierarchy import (
+    METHODS,
+    STACK_CHECKS,
+    HierarchyProblem,
+    HierarchySolution,
+    Level,
+)
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.model import BASE_DOF, RobotModel
@@ -27,6 +35,8 @@ from lab.controller.references import References
 from lab.controller.rows import PerContactSet, no_rows, read_only
 from lab.controller.stack import Stack
 from lab.controller.tasks import TASK_TYPES, Task, TaskGains
+from lab.controller.tasks.internal_force import InternalForceTask
+from lab.controller.walk_references import WalkReferences
 
 
 @dataclass
@@ -89,6 +99,8 @@ class WholeBodyController:
         }
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
+            self.constraints["cop_inner"] = InnerCopConstraint()
+            self.constraints["sole_torsion"] = SoleTorsionConstraint(config.limits)
         self._support = PerContactSet(_support_mask)
         self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
         self.set_stack(config.stack)
@@ -100,8 +112,11 @@ class WholeBodyController:
         return (*self.tasks, *self.constraints)
 
     def set_stack(self, stack: Stack) -> None:
-        """Use a new stack from the next tick on; raises StackError and keeps the old one."""
+        """Use a new stack from the next tick on; raises StackError (or the hierarchy method's
+        ValueError for a task it cannot realize) and keeps the old one."""
         stack.validate(self.known_names)
+        if self.config.method in STACK_CHECKS:
+            STACK_CHECKS[self.config.method](stack.names())
         self.config.stack = stack
         # Each level's tasks and constraints, looked up here once instead of by name every tick.
         self._levels = [
@@ -134,8 +149,9 @@ class WholeBodyController:
         self, method: str, solver: str | None = None, formulation: str | None = None
     ) -> None:
         """Use hierarchy `method` (with `solver` and, for nullspace, `formulation`; None keeps
-        the current one) from the next tick on; raises KeyError naming the choices and changes
-        nothing for an unknown name."""
+        the current one) from the next tick on; raises KeyError naming the choices for an
+        unknown name, ValueError when the method cannot realize a task of the current stack
+        (wbosc), and changes nothing then."""
         solver = solver or self.config.solver
         formulation = formulation or self.config.formulation
         if method not in METHODS:
@@ -146,6 +162,8 @@ class WholeBodyController:
             raise KeyError(
                 f"unknown formulation {formulation!r} (formulations: {', '.join(FORMULATIONS)})"
             )
+        if method in STACK_CHECKS:
+            STACK_CHECKS[method](self.config.stack.names())
         self.config.method, self.config.solver = method, solver
         self.config.formulation = formulation
 
@@ -163,7 +181,7 @@ class WholeBodyController:
         errors: dict[str, np.ndarray] = {}
         weight = 1.0  # of the next level with tasks; inequality-only levels take no weight
         for tasks, constraints in self._levels:
-            A_rows, b_rows, C_rows, d_rows = [], [], [], []
+            A_rows, b_rows, C_rows, d_rows, labels = [], [], [], [], []
             for task in tasks:
                 A, b, error = task.rows(robot, refs)
                 if error.size:
@@ -177,18 +195,22 @@ class WholeBodyController:
                 C, d = constraint.rows(robot, refs)
                 C_rows.append(C)
                 d_rows.append(d)
+                labels.append((constraint.name, len(d)))
             levels.append(
                 Level(
                     *_stacked(A_rows, b_rows, robot.nx),
                     *_stacked(C_rows, d_rows, robot.nx),
                     weight=weight,
+                    constraint_rows=tuple(labels),
                 )
             )
             if A_rows:
                 weight /= self.config.level_weight_ratio
         self._errors = errors
         support = self._support.get(robot, refs.contact_active)
-        terms = DynamicsTerms(robot.M, robot.h, robot.Jc, support)
+        terms = DynamicsTerms(
+            robot.M, robot.h, robot.Jc, support, robot.Jc_dot_v, _transition_weights(robot, refs)
+        )
         return HierarchyProblem(dynamics_A, -robot.h[base], levels, terms, self.config.formulation)
 
     def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:
@@ -242,6 +264,20 @@ class WholeBodyController:
         constraint = self.constraints["joint_limits"]
         constraint.lower, constraint.upper = lower, upper
 
+    @property
+    def internal_force(self) -> InternalForceTask:
+        """The internal-force task (Kim 2016 eq. 12): its reference, sensed source and the
+        values of the last tick."""
+        return self.tasks["internal_force"]
+
+    def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
+        """What the sensors measured over the last step: the force of the terrain on each foot
+        (n_contacts × 3, N, world) and the joint torques applied (N m), for the feedback of the
+        internal force (Kim eqs. 12–13)."""
+        task = self.internal_force
+        task.measured_forces = np.array(foot_forces, dtype=float)
+        task.applied_torques = np.array(applied_torques, dtype=float)
+
     def posture_gains(self) -> TaskGains:
         """The posture task's gains (the session's fallback PD uses them)."""
         return self.tasks["posture"].gains
@@ -271,6 +307,14 @@ def _stacked(
     if len(rows) == 1:
         return rows[0], rhs[0]
     return np.concatenate(rows), np.concatenate(rhs)
+
+
+def _transition_weights(robot: RobotModel, refs: References) -> np.ndarray | None:
+    """The load weight w of each row of F whose contact is being loaded or unloaded (NaN
+    elsewhere), from a walking behaviour's references; None when they carry none."""
+    if not isinstance(refs, WalkReferences) or len(refs.force_weight) != len(robot.contacts):
+        return None
+    return np.repeat(refs.force_weight, robot.force_dims)
 
 
 def _support_mask(robot: RobotModel, active: np.ndarray) -> np.ndarray:

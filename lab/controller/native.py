@@ -103,6 +103,7 @@ class NativeController(WholeBodyController):
             for name, task in self.tasks.items():
                 self._mirror_gains(name, task.gains)
         self._synced: tuple = ()
+        self._tau, self._x = np.zeros(robot.na), np.zeros(robot.nx)  # the kernel writes these
 
     # ----------------------------------------------------------------------------- settings
     @property
@@ -177,34 +178,35 @@ class NativeController(WholeBodyController):
         self._sync_limits()
         if native.method != self.config.method:
             native.set_method(self.config.method)
-        send_references(native, self.references)
         # The kernel's own state is current when the last update went through it.
-        result = (
-            native.solve()
-            if self.robot.updated_by == "native"
-            else native.tick(self.robot.q, self.robot.v)
+        if self.robot.updated_by != "native":
+            native.update(self.robot.q, self.robot.v)
+        # One crossing: references in, τ and x into the preallocated arrays, the rest out.
+        ok, message, levels, residuals, solves, errors, seconds = native.solve_into(
+            self.references, self._tau, self._x
         )
-        tau, qdd, forces, ok, message, levels, residuals, solves, errors, seconds = result
         self.kernel_ran = "native"
         self._native_errors = errors
         if not ok:
             raise QPFailure(f"native {self.config.method}: {message}")
-        solution = HierarchySolution(
-            np.r_[qdd, forces], tuple(levels), tuple(residuals), solves, tuple(seconds)
-        )
-        return ControlOutput(tau, qdd, forces, solution, dict(errors))
+        x, nv = self._x.copy(), self.robot.nv
+        solution = HierarchySolution(x, levels, residuals, solves, seconds)
+        return ControlOutput(self._tau.copy(), x[:nv], x[nv:], solution, dict(errors))
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
-        limits = self.config.limits
-        arrays = (self.torque_limits(), *self.joint_limits())
+        limits, joint_limits = self.config.limits, self.constraints["joint_limits"]
+        arrays = (self.torque_limits(), joint_limits.lower, joint_limits.upper)
         numbers = (limits.friction, limits.normal_min, limits.normal_max)
         numbers += (self.config.level_weight_ratio,)
+        synced = self._synced
         if (
-            self._synced
-            and self._synced[1] == numbers
-            and all(a is b for a, b in zip(self._synced[0], arrays, strict=True))
+            synced
+            and synced[1] == numbers
+            and synced[0][0] is arrays[0]
+            and synced[0][1] is arrays[1]
+            and synced[0][2] is arrays[2]
         ):
             return
         self._native.set_torque_limits(arrays[0])
@@ -212,6 +214,12 @@ class NativeController(WholeBodyController):
         self._native.set_contact_limits(*numbers[:3])
         self._native.set_level_weight_ratio(numbers[3])
         self._synced = (arrays, numbers)
+
+    @property
+    def kernel_seconds(self) -> tuple[float, float] | None:
+        """Seconds the native kernel's last model update and last solve took, measured inside
+        it (no Python around them); None when the last tick ran on the Python kernel."""
+        return self._native.seconds if self.kernel_ran == "native" else None
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""

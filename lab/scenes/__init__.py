@@ -13,6 +13,7 @@ from lab.scenes.geometry import TerrainGeom
 from lab.scenes.half_cylinder import half_cylinder
 from lab.scenes.rough import rough
 from lab.scenes.slope import slope
+from lab.scenes.split_wedges import split_wedges
 
 Scene = Callable[[], tuple[TerrainGeom, ...]]
 
@@ -21,7 +22,13 @@ SCENES: dict[str, Scene] = {
     "half_cylinder": half_cylinder,
     "rough": rough,
     "slope": slope,
+    "split_wedges": split_wedges,
 }
+
+# Scenes where feet stand on slopes held by friction alone: MuJoCo's friction is made this much
+# stiffer than the normal direction (`impratio`; 1 elsewhere). Under the default soft friction a
+# foot on split_wedges' 45° faces creeps down at 1 cm/s inside the friction cone (0.7 mm/s here).
+FRICTION_IMPRATIO: dict[str, float] = {"split_wedges": 10.0}
 
 
 def scene_geoms(name: str) -> tuple[TerrainGeom, ...]:

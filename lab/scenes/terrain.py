@@ -9,7 +9,7 @@ robot-terrain contact.
 
 import mujoco
 
-from lab.scenes import scene_geoms
+from lab.scenes import FRICTION_IMPRATIO, scene_geoms
 from lab.scenes.geometry import TerrainGeom
 
 ROBOT_CONTYPE = 1
@@ -27,6 +27,8 @@ def add_scene(spec: mujoco.MjSpec, name: str, friction: float) -> None:
     KeyError naming the known scenes."""
     for geom in scene_geoms(name):
         add_terrain_geom(spec, geom, friction)
+    if name in FRICTION_IMPRATIO:
+        spec.option.impratio = FRICTION_IMPRATIO[name]
 
 
 def add_terrain_geom(spec: mujoco.MjSpec, geom: TerrainGeom, friction: float) -> mujoco.MjsGeom:

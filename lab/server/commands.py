@@ -20,6 +20,7 @@ from lab.protocol import (
     POINT_COORD_MAX,
     PUSH_DURATION_MAX,
     PUSH_FORCE_MAX,
+    RECORD_ACTIONS,
     STACK_MAX_LEVELS,
     STACK_MAX_TASKS,
     STEP_HEIGHT_MAX,
@@ -32,14 +33,17 @@ from lab.protocol import (
     GaitCommand,
     HierarchyCommand,
     InfoCommand,
+    InternalForceCommand,
     MomentumCommand,
     PauseCommand,
     PushCommand,
+    RecordCommand,
     ResetCommand,
     ResumeCommand,
     RobotCommand,
     SceneCommand,
     StackCommand,
+    StanceCommand,
     VelocityCommand,
 )
 
@@ -238,6 +242,31 @@ def _momentum(f: _Fields) -> MomentumCommand:
     return MomentumCommand(mode=f.name("mode"))
 
 
+def _record(f: _Fields) -> RecordCommand:
+    f.only("action")
+    action = f.name("action")
+    if action not in RECORD_ACTIONS:
+        known = ", ".join(RECORD_ACTIONS)
+        raise CommandError(f"record: action must be one of {known}, got {action!r}")
+    return RecordCommand(action=action)
+
+
+def _internal_force(f: _Fields) -> InternalForceCommand:
+    f.only("reference", "source")
+    reference = (
+        f.number("reference", -PUSH_FORCE_MAX, PUSH_FORCE_MAX) if f.has("reference") else None
+    )
+    source = f.name("source") if f.has("source") else None
+    if reference is None and source is None:
+        raise CommandError("internal_force: give at least one of 'reference', 'source'")
+    return InternalForceCommand(reference=reference, source=source)
+
+
+def _stance(f: _Fields) -> StanceCommand:
+    f.only("side")
+    return StanceCommand(side=f.name("side"))
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -252,6 +281,9 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "resume": _no_fields(ResumeCommand),
     "gait": _gait,
     "momentum": _momentum,
+    "record": _record,
+    "internal_force": _internal_force,
+    "stance": _stance,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

@@ -9,9 +9,11 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from lab.server.com_metrics import ComMetrics
+from lab.server.kim_metrics import KIM_METRICS
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
+from lab.server.push_metrics import PushMetrics
+from lab.server.tracking_metrics import CogTrackingMetrics
 
 if TYPE_CHECKING:
     from lab.server.session import Session
@@ -46,6 +48,8 @@ class StandingMetrics:
 METRICS: dict[str, type] = {
     "standing": StandingMetrics,
     "locomotion": LocomotionMetrics,
+    "pushes": PushMetrics,
+    "cog_tracking": CogTrackingMetrics,
     **LOAD_METRICS,
-    "com": ComMetrics,
+    **KIM_METRICS,
 }

@@ -423,7 +423,7 @@ class MujocoPlant:
     def set_torques(self, tau: np.ndarray) -> None:
         """Joint torques (N m) in pinocchio joint order; MuJoCo clips them to the torque limits."""
         tau = np.asarray(tau, dtype=float)
-        if tau.shape != self.mj_data.ctrl.shape or not np.all(np.isfinite(tau)):
+        if tau.shape != self.mj_data.ctrl.shape or not np.isfinite(tau).all():
             raise ValueError(f"set_torques needs {self.mj_data.ctrl.size} finite torques (N m)")
         self.mj_data.ctrl[:] = tau  # actuators were added in pinocchio joint order
 

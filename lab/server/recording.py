@@ -11,6 +11,7 @@ torques (the tick is deterministic there).
 """
 
 import json
+import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -20,6 +21,7 @@ import numpy as np
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
+from lab.server.commands import CommandError, parse_command
 from lab.server.limits import apply_limits
 from lab.server.session import Session, SessionConfig
 from lab.server.transport import Request, ServerTransport, encode
@@ -96,8 +98,10 @@ class Recorder:
             self._channels[kind] = self._writer.register_channel(topic, "json", schema)
         self._writer.add_metadata("session", session_metadata(session, limits or {}))
         self._sequence = 0
-        self._last_t = 0.0  # the last session time written
-        self._offset = 0.0  # timeline minus session time: the session time before each reset
+        # The timeline starts at 0 when the recording does (mid-session too) and goes on
+        # across resets: timeline = session time + offset.
+        self._last_t = session.time  # the last session time written
+        self._offset = -session.time
         self._last_stamp = 0
 
     def after_tick(self, session: Session) -> None:
@@ -139,6 +143,11 @@ class Recorder:
         self._sequence += 1
         self._writer.add_message(self._channels[kind], stamp, data, stamp, self._sequence)
 
+    @property
+    def seconds(self) -> float:
+        """Length of the timeline written so far (s)."""
+        return self._last_stamp / 1e9
+
     def close(self) -> None:
         self._writer.finish()
         if self._file is not None:
@@ -152,37 +161,110 @@ class Recorder:
 
 
 class RecordingTransport:
-    """The sim loop's transport with a recorder beside it (`lab serve --record`): what the loop
-    publishes and every reply it sends are written too, on the loop's thread."""
+    """The sim loop's transport with a recorder beside it (`lab serve`): what the loop publishes
+    and every reply it sends are written too, on the loop's thread, while a recording runs.
 
-    def __init__(self, transport: ServerTransport, recorder: Recorder, session: Session) -> None:
+    `lab serve --record FILE` starts one at once; the `record` command (`{"action": "start"}` /
+    `{"action": "stop"}`, the page's Record button) starts and stops one at any time, in
+    `record_dir`, named after the robot and the wall-clock time. A recording started mid-session
+    is for watching (`lab replay --serve`, Foxglove, PlotJuggler), not for re-running: its
+    metadata is the session's configuration, not the state the recording began in. Telemetry
+    carries `recording: {file, seconds}` while one runs (null otherwise), so every browser
+    shows it."""
+
+    def __init__(
+        self,
+        transport: ServerTransport,
+        session: Session,
+        record_dir: Path,
+        recorder: Recorder | None = None,
+        path: Path | None = None,
+    ) -> None:
         self._transport = transport
-        self._recorder = recorder
         self._session = session
+        self._record_dir = record_dir
+        self._recorder, self._path = recorder, path
+        self._started = 0.0  # session time the recording started at (its timeline goes on)
+        self._seconds = 0.0
+
+    @property
+    def recorder(self) -> Recorder | None:
+        """The running recorder, if any."""
+        return self._recorder
 
     def receive(self) -> Request | None:
-        return self._transport.receive()
+        while (request := self._transport.receive()) is not None:
+            if request.verb != "record" or request.error is not None:
+                return request
+            try:
+                reply = self._record(request.payload)
+            except Exception as error:  # a recorder fault is a refused command, never a stop
+                reply = {"ok": False, "error": f"record: {type(error).__name__}: {error}"}
+            self._transport.reply(request, reply)
+        return None
+
+    def _record(self, payload: object) -> dict[str, object]:
+        try:
+            command = parse_command("record", payload)
+        except CommandError as error:
+            return {"ok": False, "error": str(error)}
+        if command.action == "start":
+            if self._recorder is not None:
+                return {"ok": False, "error": f"record: already recording to {self._path}"}
+            robot = self._session.config.robot
+            path = self._record_dir / f"lab-{robot}-{time.strftime('%Y%m%d-%H%M%S')}.mcap"
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                self._recorder = Recorder(path, self._session)
+            except OSError as error:
+                return {"ok": False, "error": f"record: cannot write {path}: {error}"}
+            self._path, self._seconds = path, 0.0
+            return {"ok": True, "recording": {"file": str(path), "seconds": 0.0}}
+        if self._recorder is None:
+            return {"ok": False, "error": "record: nothing is being recorded"}
+        self.close()
+        size = self._path.stat().st_size
+        reply = {"file": str(self._path), "seconds": round(self._seconds, 3), "bytes": size}
+        return {"ok": True, "recorded": reply}
+
+    def close(self) -> None:
+        """Finish the running recording, if any."""
+        if self._recorder is not None:
+            self._recorder.close()
+            self._recorder = None
 
     def reply(self, request: Request, body: dict[str, object]) -> None:
-        self._recorder.command(self._session, request.verb, request.payload, body)
+        if self._recorder is not None:
+            self._recorder.command(self._session, request.verb, request.payload, body)
         self._transport.reply(request, body)
 
     def publish_telemetry(self, message: dict[str, object]) -> None:
-        self._recorder.telemetry(self._session, message)
-        self._transport.publish_telemetry(message)
+        status = None
+        if self._recorder is not None:
+            self._recorder.telemetry(self._session, message)
+            self._seconds = self._recorder.seconds
+            status = {"file": str(self._path), "seconds": round(self._seconds, 2)}
+        self._transport.publish_telemetry({**message, "recording": status})
 
     def publish_state(self, message: dict[str, object]) -> None:
-        self._recorder.state(self._session, message)
+        if self._recorder is not None:
+            self._recorder.state(self._session, message)
         self._transport.publish_state(message)
 
     def publish_event(self, message: dict[str, object]) -> None:
-        self._recorder.events([message])
+        if self._recorder is not None:
+            self._recorder.events([message])
         self._transport.publish_event(message)
 
 
 def session_metadata(session: Session, limits: dict) -> dict[str, str]:
-    """What a replay needs to build the same session: its configuration and its limits."""
-    return {"config": json.dumps(asdict(session.config)), "limits": json.dumps(limits)}
+    """What a replay needs to build the same session (its configuration and its limits), and
+    the session's `info` when the recording began (what a served replay answers `info` with)."""
+    return {
+        "config": json.dumps(asdict(session.config)),
+        "limits": json.dumps(limits),
+        "info": encode(session.info()).decode(),
+    }
 
 
 @dataclass(frozen=True)

@@ -101,6 +101,7 @@ class ReplayServer:
         metadata, messages = read_recording(path)
         self.path = path
         self.config = json.loads(metadata.get("config", "{}"))
+        self.recorded_info = json.loads(metadata.get("info", "{}"))  # older recordings: none
         self.player = Player([m for m in messages if m.kind in PLAYED_KINDS], speed=speed)
         self.transport = transport
 
@@ -127,8 +128,9 @@ class ReplayServer:
         except ReplayError as error:
             return {"ok": False, "error": str(error)}
         reply: dict[str, object] = {"ok": True, "replay": {"file": self.path, **player.status()}}
-        if verb == "info":  # what the recorded session ran: robot, scene, controller
-            reply |= {"recorded": self.config, "paused": player.paused, "t": player.position}
+        if verb == "info":  # the recorded session's info, and what it ran (its configuration)
+            reply = {**self.recorded_info, **reply, "recorded": self.config}
+            reply |= {"paused": player.paused, "t": player.position}
         return reply
 
     def run(self, stop: threading.Event) -> None:
@@ -163,8 +165,12 @@ class ReplayServer:
             "state": self.transport.publish_state,
             "events": self.transport.publish_event,
         }
-        for message in messages:
-            publish[message.kind](message.data)
+        status = {"file": self.path, **self.player.status()}
+        for message in messages:  # telemetry says where the playback is: the page's timeline
+            data = message.data
+            if message.kind == "telemetry":
+                data = {**data, "replay": status}
+            publish[message.kind](data)
 
 
 def replay_serve_main(path: str, port: int, speed: float) -> int:

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import zenoh
 
@@ -60,6 +61,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE.mcap",
         help="record telemetry, state, events and commands with their replies to an MCAP file",
     )
+    p.add_argument(
+        "--record-dir",
+        default="recordings",
+        metavar="DIR",
+        help="where the `record` command (the page's Record button) writes (default: recordings)",
+    )
     p.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default: 1000)")
     p.add_argument("--fast", action="store_true", help="no sleeping: run as fast as possible")
     p.add_argument(
@@ -111,19 +118,22 @@ def serve_main(argv: list[str]) -> int:
     except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
+    from lab.server.recording import Recorder, RecordingTransport
+
     recorder = None
     if args.record:
-        from lab.server.recording import Recorder, RecordingTransport
-
         try:
             recorder = Recorder(args.record, session)
         except OSError as error:
             transport.close()
             print(f"lab serve: --record: {error}", file=sys.stderr)
             return 2
+    recording = RecordingTransport(
+        transport, session, Path(args.record_dir), recorder, args.record and Path(args.record)
+    )
     loop = SimLoop(
         session,
-        transport if recorder is None else RecordingTransport(transport, recorder, session),
+        recording,
         LoopConfig(
             rate_hz=args.rate,
             fast=args.fast,
@@ -167,8 +177,7 @@ def serve_main(argv: list[str]) -> int:
         stop.set()
         thread.join()
         transport.close()
-        if recorder is not None:
-            recorder.close()
+        recording.close()
         if ui is not None:
             _stop_process(ui)
     if loop.error is not None:

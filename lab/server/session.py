@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
+from lab.controller.behaviours.stance import Stance
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig
 from lab.controller.hierarchy import METHODS, HierarchySolution
@@ -32,6 +33,7 @@ from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
+    internal_force_report,
     momentum_report,
     state_message,
     task_gains_report,
@@ -62,6 +64,9 @@ DIVERGENCE_REPEAT_S = 1.0
 # The stack a gait that lifts feet brings along when the current one has no swing_feet task
 # (a robot's default stack is for standing): Raiola's S3, the stack of the trot scenarios.
 WALKING_PRESET = "raiola_s3"
+STANCE_PRESET = (
+    "herzog_table4"  # the `stance` command's stack when the current one cannot lift a sole
+)
 
 
 @dataclass
@@ -244,9 +249,10 @@ class Session:
             warnings.simplefilter("always")  # every tick's warnings, for telemetry
             try:
                 self.controller.update(q, v)
+                self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
                 self.behaviour.update(self.time, self.model, self.velocity, touching)
                 out = self.controller.solve()
-                if not np.all(np.isfinite(out.tau)):
+                if not np.isfinite(out.tau).all():
                     raise FloatingPointError("non-finite torques")
                 self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
                 self.solution = out.solution
@@ -387,6 +393,11 @@ class Session:
             case cmd.GainsCommand(task=task, kp=kp, kd=kd, weight=weight):
                 gains = self.controller.set_gains(task, kp, kd, weight)
                 return {"task": task, "kp": gains.kp, "kd": gains.kd, "weight": gains.weight}
+            case cmd.RecordCommand():
+                raise cmd.CommandError(
+                    "record: this session has no recorder (`lab serve` records; `lab run` takes "
+                    "--record FILE)"
+                )
             case cmd.ResetCommand():
                 self._reset_state()
                 self._event("reset", "reset to the standing posture")
@@ -401,10 +412,39 @@ class Session:
                     if getattr(gait, key) is not None
                 }
                 return self._set_behaviour(name, options)
+            case cmd.InternalForceCommand(reference=reference, source=source):
+                task = self.controller.internal_force
+                if source is not None:
+                    task.set_source(source)  # ValueError names the sources, changes nothing
+                if reference is not None:
+                    task.reference = reference
+                return {"internal_force": internal_force_report(self.controller)}
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": momentum_report(self.controller)}
+            case cmd.StanceCommand(side=side):
+                return self._stance(side)
         return {}
+
+    def _stance(self, side: str) -> dict:
+        """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py); starts the
+        stance behaviour, with STANCE_PRESET if the stack has no `swing_sole`. Raises ValueError
+        for a robot without two flat soles or an unknown side, changing nothing."""
+        contacts = self.model.contacts
+        if len(contacts) != 2 or any(contact.kind != "flat" for contact in contacts):
+            raise ValueError(f"stance: robot {self.config.robot!r} is not a biped with flat soles")
+        reply: dict = {}
+        if not isinstance(self.behaviour, Stance):
+            self.model.update(*self.plant.state())
+            behaviour = Stance(self.model, self.robot.q_standing)
+            behaviour.request(side)  # raises before anything changes
+            self.behaviour = behaviour
+            self.controller.references = behaviour.references
+            if "swing_sole" not in self.controller.config.stack.names():
+                reply = self._use_preset(STANCE_PRESET)
+        else:
+            self.behaviour.request(side)
+        return {"stance": side, **reply}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None

@@ -5,9 +5,12 @@ random user instead of Zenoh: every ~COMMAND_INTERVAL_S of sim time it sends a v
 (velocity, gait, push, stack preset, hierarchy method, momentum mode, gains, scene, pause and
 resume), encodes everything the loop publishes as the server would, and watches telemetry. Times are
 sim time run so far (a reset restarts the session's clock, not the soak's). A fall
-is answered by a reset after FALLEN_S; RESET_CHECK_S later the robot must stand again (else it is
-a fall it cannot reset from). The resident memory is sampled every MEMORY_SAMPLE_S of sim time;
-growth is measured from the end of the warm-up to the end. docs/reliability.md has the numbers.
+is answered as a user would: `reset` after FALLEN_S (the robot stands up under the controller the
+random user left); if RESET_CHECK_S later it is still down, the default hierarchy method and the
+page's "Default stack" (the `robot` command: the robot's default stack and gains); RESET_CHECK_S
+after that it must stand (else it is a fall it cannot reset from). The resident memory is
+sampled every MEMORY_SAMPLE_S of sim time; growth is measured from the end of the warm-up to the
+end. docs/reliability.md has the numbers.
 """
 
 import argparse
@@ -52,6 +55,12 @@ def _count(counts: dict[str, int], key: str) -> None:
     counts[key] = counts.get(key, 0) + 1
 
 
+def _controller_of(telemetry: dict) -> str:
+    """What ran when a plain reset did not stand the robot up: method, gait and scene."""
+    method = (telemetry.get("hierarchy") or {}).get("method", "?")
+    return f"{method} / {telemetry.get('gait', '?')} / {telemetry.get('scene', '?')}"
+
+
 def resident_bytes() -> int:
     """This process's resident memory (Linux /proc)."""
     with open("/proc/self/statm") as f:
@@ -72,7 +81,9 @@ class SoakReport:
     events: dict[str, int] = field(default_factory=dict)  # by type
     falls: int = 0
     resets_after_fall: int = 0
-    unrecovered_falls: int = 0  # still down RESET_CHECK_S after a reset
+    down_after_plain_reset: int = 0  # still down after `reset`, under the user's controller
+    plain_reset_failed_under: dict[str, int] = field(default_factory=dict)  # by method, gait
+    unrecovered_falls: int = 0  # still down RESET_CHECK_S after a reset to the defaults
     divergences: int = 0
     qp_failures: int = 0
     rss_mb: dict[str, float] = field(default_factory=dict)  # warm (after warm-up), end, max
@@ -101,12 +112,14 @@ class RandomUser:
         self.report = SoakReport(info["robot"], seed, sim_seconds)
         self.stop = threading.Event()
         self.progress = False
+        self.methods: list[str] = []  # the hierarchy methods the user picks from (all if empty)
         self.sim_time = 0.0  # sim time run so far (the session's clock restarts at 0 on a reset)
         self._session_t = 0.0
         self._next_command = 0.0
         self._queue: list[tuple[str, dict]] = []
         self._fell_at: float | None = None
         self._check_at: float | None = None  # sim time of the standing check after a reset
+        self._checking_defaults = False  # the reset being checked restored the defaults
         self._unpausing = False  # a reset is on its way to a paused session
         self._next_sample = 0.0
         self._next_progress = PROGRESS_S
@@ -169,7 +182,15 @@ class RandomUser:
             if t >= self._check_at:
                 self._check_at = None
                 down = telemetry["base"]["position"][2] < self.standing_height * STANDING_FRACTION
-                self.report.unrecovered_falls += telemetry["fell"] or down
+                if (telemetry["fell"] or down) and self._checking_defaults:
+                    self.report.unrecovered_falls += 1
+                elif telemetry["fell"] or down:  # the user's controller cannot stand it up
+                    self.report.down_after_plain_reset += 1
+                    _count(self.report.plain_reset_failed_under, _controller_of(telemetry))
+                    self._queue.append(("hierarchy", {"method": self.info["hierarchy"]["method"]}))
+                    self._queue.append(("robot", {"name": self.info["robot"]}))
+                    self._check_at = t + RESET_CHECK_S
+                self._checking_defaults = self._check_at is not None
             return
         if telemetry["fell"]:
             if self._fell_at is None:
@@ -204,7 +225,7 @@ class RandomUser:
         choices = {
             "gait": ("name", info["gaits"]),
             "stack": ("preset", info["stack_presets"]),
-            "hierarchy": ("method", info["methods"]),
+            "hierarchy": ("method", self.methods or info["methods"]),
             "momentum": ("mode", info["momentum_modes"]),
             "scene": ("name", info["scenes"]),
         }
@@ -241,15 +262,26 @@ class RandomUser:
         return report
 
 
-def soak(robot: str, sim_seconds: float, seed: int = 0, progress: bool = False) -> SoakReport:
+def soak(
+    robot: str,
+    sim_seconds: float,
+    seed: int = 0,
+    progress: bool = False,
+    methods: list[str] | None = None,
+) -> SoakReport:
     """Run the loop in fast mode for `sim_seconds` of sim time under a random user (SIGINT or
-    SIGTERM end it early, with a report). Call it from the main thread."""
+    SIGTERM end it early, with a report) who picks hierarchy methods from `methods` (default:
+    all). Call it from the main thread."""
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
     session = Session(SessionConfig(robot=robot))
     weight, height = session.model.mass * 9.81, float(session.robot.q_standing[2])
     user = RandomUser(session.info(), weight, height, sim_seconds, seed)
     user.progress = progress
+    unknown = set(methods or ()) - set(user.info["methods"])
+    if unknown:
+        raise KeyError(f"unknown method(s) {', '.join(sorted(unknown))}: {user.info['methods']}")
+    user.methods = list(methods or ())
 
     def interrupt(*_: object) -> None:
         user.report.interrupted = True
@@ -272,12 +304,18 @@ def soak_main(argv: list[str]) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the random user")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
     parser.add_argument("--progress", action="store_true", help="a line per sim minute on stderr")
+    parser.add_argument(
+        "--methods",
+        help="comma-separated hierarchy methods the random user picks from (default: all; "
+        "nullspace, in Python with an active set, runs ticks 10-100x slower than cascade)",
+    )
     args = parser.parse_args(argv)
     if not args.sim_seconds > 0:
         print("lab soak: --sim-seconds must be positive", file=sys.stderr)
         return 2
     try:
-        report = soak(args.robot, args.sim_seconds, args.seed, args.progress)
+        methods = args.methods.split(",") if args.methods else None
+        report = soak(args.robot, args.sim_seconds, args.seed, args.progress, methods)
     except KeyError as error:
         print(f"lab soak: {error.args[0]}", file=sys.stderr)
         return 2

@@ -71,6 +71,22 @@ def hierarchy_report(controller: NativeController) -> dict:
     return {"method": config.method, "solver": config.solver, "formulation": config.formulation}
 
 
+def internal_force_report(controller: NativeController) -> dict:
+    """The internal force between the point feet in support (Kim 2016 §IV, N, > 0 pushing
+    apart): reference, K_F, sensed source and, at the last tick (empty lists with fewer than
+    two point feet in support or the task out of the stack), the sensed value and the command
+    of eq. 12."""
+    task = controller.internal_force
+    running = task.name in controller.config.stack.names()
+    return {
+        "reference": task.reference,
+        "gain": task.gains.kp,
+        "source": task.source,
+        "sensed": task.sensed.tolist() if running else [],
+        "command": task.command.tolist() if running else [],
+    }
+
+
 def momentum_report(controller: NativeController) -> dict:
     """The momentum task's feedback law (Herzog 2016 §3)."""
     return {"mode": controller.momentum_mode()}
@@ -189,6 +205,7 @@ def telemetry_message(session: SessionView) -> dict:
         "tasks": _tasks(controller),
         "stack": controller.config.stack.as_lists(),
         "momentum_control": momentum_report(controller),
+        "internal_force": internal_force_report(controller),
         "hierarchy": hierarchy_report(controller),
         "kernel": controller.kernel_ran,
         "kernel_note": controller.kernel_note,

@@ -1,7 +1,7 @@
 """The push-recovery map of a sweep table: one polar panel per hierarchy method, a point per
 push (angle = push direction, radius = push force), a filled disc when the robot survived it
-(coloured by the largest CoG error, the `com` metric), a cross when it fell, a grey square when
-the point failed to run. Drawn with matplotlib into a PNG.
+(coloured by the largest CoG error, the `cog_tracking` metric), a cross when it fell, a grey
+square when the point failed to run. Drawn with matplotlib into a PNG.
 """
 
 from pathlib import Path
@@ -12,7 +12,7 @@ from matplotlib.colors import LogNorm
 from lab.sweep.table import ERROR
 
 FORCE, DIRECTION = "push.force_n", "push.direction_deg"
-COM_ERROR = "metrics.max_com_error_m"
+COM_ERROR = "metrics.cog_error_max_m"
 METHOD_COLUMNS = ("controller.method", "method")  # the swept field, else the report's
 COLOUR_FLOOR = 1e-4  # m, the smallest CoG error the log colour scale shows
 

@@ -8,7 +8,7 @@ A sweep file names a `base` scenario (a path relative to the sweep file) and how
     timeout = 300            # optional: s of wall time a point may take before it is an error row
 
     [set]                    # optional: fields every point gets
-    metrics = ["com"]
+    metrics = ["cog_tracking"]
 
     [grid]                   # every combination of these values
     "controller.method" = ["cascade", "weighted", "nullspace"]

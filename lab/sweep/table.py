@@ -3,7 +3,7 @@
 A row holds `point` (the point's key, see spec.py), every varied field under its own name,
 `error` (empty when the run finished, else what went wrong: an exception, a timeout, a lost
 worker) and every entry of the point's `lab run --json` report, nested keys joined with dots
-(`metrics.max_com_error_m`, `tick_us.p99`). Cells are JSON (`true`, `[0.0, 150.0, 0.0]`,
+(`metrics.cog_error_max_m`, `tick_us.p99`). Cells are JSON (`true`, `[0.0, 150.0, 0.0]`,
 `123.4`) except strings, which are written plainly. The file is rewritten whole (to a temporary
 file, then renamed) after every finished point, so an interrupted sweep keeps what finished.
 """

@@ -29,6 +29,7 @@ from lab.ui.overlays import OVERLAYS, Overlays
 from lab.ui.ownership import ControlOwnership
 from lab.ui.panel import ControlPanel
 from lab.ui.plots import Plots
+from lab.ui.recording import RecordingControls
 from lab.ui.robot_view import RobotView
 from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
 from lab.ui.terrain_view import TerrainView
@@ -49,6 +50,10 @@ CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow ti
 ERROR_RETRY_S = 1.0  # after an exception in the render loop, wait this long before the next frame
 # s (wall): a fall this soon after a hierarchy switch is explained in the log by what it changed
 SWITCH_BLAME_S = 10.0
+DISCONNECTED = (
+    "the lab server (sim process) is not reachable: stopped, crashed, or the network link to it "
+    "broke. The page shows the last state it had and reconnects by itself when the server is back."
+)
 P = ParamSpec("P")
 
 
@@ -101,6 +106,8 @@ class LabApp:
         self.ownership = ControlOwnership()
         self.info: dict | None = None
         self.telemetry: dict | None = None
+        self._lost_at: float | None = None  # wall time the sim process was last seen to vanish
+        self._seen_alive = False
         self.panels: dict[int, ControlPanel] = {}
         self._lock = threading.RLock()
         self._sender = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lab-ui-send")
@@ -138,6 +145,7 @@ class LabApp:
         # right below the push buttons: the charts are read while pushing
         self._plot_folder = gui.add_folder("Plots", order=5.5)
         self.plots = Plots(gui, self._plot_folder, self.guard)
+        self.recording = RecordingControls(gui, self.send, self.guard)
         self.server.on_client_connect(self.guard(self._connect))
         self.server.on_client_disconnect(self.guard(self._disconnect))
 
@@ -379,7 +387,25 @@ class LabApp:
         self._rtf.add(time.monotonic(), tel["t"], (tel["robot"], tel["scene"]))
         return tel
 
+    def _watch_link(self) -> None:
+        """Log the sim process vanishing and coming back; on its return, read its `info` anew
+        (it may be a new process with another robot)."""
+        connected, was_lost = self.link.poll_connected(), self._lost_at is not None
+        self._seen_alive |= connected
+        if connected != was_lost or not self._seen_alive:  # no change, or not yet found once
+            return
+        if was_lost:
+            self._lost_at = None
+            self.log.add("info", "the lab server is back: reconnected")
+            self.refresh_info()
+        else:
+            self._lost_at = time.time()
+            self.log.add("error", DISCONNECTED)
+
     def _status_text(self) -> str:
+        if self._lost_at is not None:
+            since = time.strftime("%H:%M:%S", time.localtime(self._lost_at))
+            return f"**Disconnected** since {since}: {DISCONNECTED}"
         if self._loading is not None:
             return (
                 f"**Loading {self._loading.robot}** ({self._loading.elapsed():.0f} s): its meshes "
@@ -421,8 +447,8 @@ class LabApp:
         """A warning of the status line (slow ticks, fallbacks, a fall) into the log when it
         starts."""
         now = warnings_of(tel, self._typical_control_us(), self._rtf.value())
-        for text in started_warnings(now, self._warnings):
-            self.log.add("warning", f"t {tel['t']:.2f} s · {text}")
+        for kind, text in started_warnings(now, self._warnings):
+            self.log.add("warning", f"t {tel['t']:.2f} s · {text}", kind=kind)
         self._warnings = set(now)
 
     def run(self, stop: threading.Event) -> None:
@@ -451,6 +477,7 @@ class LabApp:
     def _frame(self, now: float, clock: "_FrameClock") -> bool:
         """One pass of the render loop; whether a browser is watching."""
         self._finish_loading()
+        self._watch_link()
         tel = self._take_telemetry()  # plots keep recording while nobody watches
         state = self.link.latest_state()
         # With no browser connected only a robot switch is drawn: the UI then costs the
@@ -493,6 +520,8 @@ class LabApp:
             self._draw_fps = (self.frames_drawn - clock.frames_at_status) / (now - clock.status)
             clock.frames_at_status, clock.status = self.frames_drawn, now
             self.status.content = self._status_text()
+            if self.telemetry is not None:
+                self.recording.show(self.telemetry)
             self._show_log()
         return True
 

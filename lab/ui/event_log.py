@@ -18,35 +18,45 @@ class LogEntry:
 
 
 class EventLog:
-    """The last `size` entries; an entry equal to the newest one bumps its count instead."""
+    """The last `size` entries. An entry equal to the newest one bumps its count instead; an
+    entry of a `kind` already in the log (a status warning that comes and goes, such as "the sim
+    runs behind real time") replaces that entry and bumps its count, so a flapping warning
+    takes one line however often it starts, and never pushes the other events out."""
 
     def __init__(self, size: int = 40) -> None:
-        self._entries: deque[tuple[LogEntry, int]] = deque(maxlen=size)
+        self._entries: deque[tuple[LogEntry, int, str | None]] = deque(maxlen=size)
         self.version = 0  # changes whenever the log does: the app redraws then
 
-    def add(self, level: str, text: str, wall: float | None = None) -> LogEntry:
+    def add(
+        self, level: str, text: str, wall: float | None = None, kind: str | None = None
+    ) -> LogEntry:
+        """Log `text` at `level` (now, or at `wall`); `kind` names a recurring warning."""
         if level not in LEVEL_MARKS:
             raise ValueError(f"log level {level!r} is not one of {', '.join(LEVEL_MARKS)}")
         entry = LogEntry(time.time() if wall is None else wall, level, text)
-        if self._entries and (self._entries[0][0].level, self._entries[0][0].text) == (
-            level,
-            text,
-        ):
-            self._entries[0] = (entry, self._entries[0][1] + 1)
-        else:
-            self._entries.appendleft((entry, 1))
+        same = [
+            i
+            for i, (old, _, old_kind) in enumerate(self._entries)
+            if (kind is not None and old_kind == kind)
+            or (i == 0 and (old.level, old.text) == (level, text))
+        ]
+        count = 1
+        if same:
+            count += self._entries[same[0]][1]
+            del self._entries[same[0]]
+        self._entries.appendleft((entry, count, kind))
         self.version += 1
         return entry
 
     def entries(self) -> list[LogEntry]:
         """Newest first."""
-        return [entry for entry, _ in self._entries]
+        return [entry for entry, _, _ in self._entries]
 
     def markdown(self) -> str:
         if not self._entries:
             return "Events, newest first: none yet."
         lines = ["Events, newest first:", ""]
-        for entry, count in self._entries:
+        for entry, count, _ in self._entries:
             stamp = time.strftime("%H:%M:%S", time.localtime(entry.wall))
             repeat = f" (×{count})" if count > 1 else ""
             text = entry.text.replace("\n", " ")

@@ -5,14 +5,23 @@ import json
 
 import zenoh
 
-from lab.client import query
-from lab.protocol import DEFAULT_ENDPOINT, KEY_EVENTS, KEY_STATE, KEY_TELEMETRY
-from lab.server.transport import client_config
+from lab.client import open_session, query
+from lab.protocol import DEFAULT_ENDPOINT, KEY_ALIVE, KEY_EVENTS, KEY_STATE, KEY_TELEMETRY
+
+OPEN_TIMEOUT_S = 60.0  # how long a starting UI waits for the sim process's endpoint
 
 
 class Link:
+    """The UI process's session with the sim process (see the module docstring)."""
+
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT) -> None:
-        self._session = zenoh.open(client_config(endpoint))
+        # a UI started beside its sim waits for it; once open, the session reconnects by itself
+        self._session = open_session(endpoint, OPEN_TIMEOUT_S)
+        # The sim's liveliness token: PUT while it runs, DELETE when it dies or the link breaks.
+        self._alive = self._session.liveliness().declare_subscriber(
+            KEY_ALIVE, zenoh.handlers.FifoChannel(16), history=True
+        )
+        self.connected = False
         self._state = self._session.declare_subscriber(KEY_STATE, zenoh.handlers.RingChannel(1))
         self._telemetry = self._session.declare_subscriber(
             KEY_TELEMETRY, zenoh.handlers.RingChannel(64)
@@ -40,7 +49,14 @@ class Link:
     def events(self) -> list[dict]:
         return self._drain(self._events)
 
+    def poll_connected(self) -> bool:
+        """Whether the sim process is reachable, after the liveliness changes seen since the
+        last call."""
+        while (sample := self._alive.try_recv()) is not None:
+            self.connected = sample.kind == zenoh.SampleKind.PUT
+        return self.connected
+
     def close(self) -> None:
-        for sub in (self._state, self._telemetry, self._events):
+        for sub in (self._alive, self._state, self._telemetry, self._events):
             sub.undeclare()
         self._session.close()

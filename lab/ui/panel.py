@@ -19,6 +19,7 @@ import viser
 
 from lab.protocol import VelocityCommand
 from lab.ui import stack_edit
+from lab.ui.balance_controls import add_balance_controls
 from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import stack_risks
@@ -68,8 +69,8 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
 }
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
 ROBOT_NOTES = {  # shown under the Robot dropdown while that robot runs
-    "bolt": "⚠ **Bolt cannot stand**: a point-footed biped needs the stepping controller of the "
-    "biped issue, which has not landed. It falls about a second after every switch and reset.",
+    "bolt": "Bolt stands on its two point feet by leaning its CoM to balance about the line "
+    "between them (docs/controller.md); it cannot step yet, so a push across that line fells it.",
 }
 PUSH_FORCE_RANGE = NumberRange("Magnitude", 10.0, 600.0, "N")  # the slider's range
 PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")
@@ -182,6 +183,7 @@ class ControlPanel:
             handle.on_update(app.guard(lambda e, r=limits: self._slider_changed(e, r)))
         pushes.on_click(app.guard(lambda e: self.push(e.target.value)))
 
+        self._controls += add_balance_controls(app, client, order=5.5)
         with gui.add_folder("Task stack", order=6):
             self.stack_view = gui.add_markdown("")
             self.task = gui.add_dropdown("Task", ("…",))

@@ -1,5 +1,5 @@
 """Live uPlot charts of telemetry: a rolling window (10, 30 or 60 s), redrawn at the caller's
-rate (20-30 Hz) unless paused, the shown window exportable as CSV.
+rate (20-30 Hz) unless paused, the shown window exportable as CSV and PNG (`plot_export`).
 
 Each chart is a `Chart`: a title, a function giving its series labels for the current telemetry
 layout (contacts, stack) and one giving the values of one message. When the labels change (robot
@@ -8,9 +8,8 @@ the window shown, so a longer window shows the past at once. While paused, the c
 they show (uPlot's drag-to-zoom then holds: a redraw resets it) and recording goes on.
 """
 
-import io
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +17,7 @@ import viser
 import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
+from lab.ui.plot_export import Shown, shown_csv, shown_png
 from lab.ui.support import polygon_bounds
 
 WINDOWS_S = (10, 30, 60)  # the windows the panel offers; the first is the default
@@ -81,6 +81,15 @@ def _tasks(tel: dict) -> list[float]:
     ]
 
 
+def _labels_levels(tel: dict) -> tuple[str, ...]:
+    solution = tel.get("solution") or {}
+    return tuple(f"level {k}" for k in range(len(solution.get("level_us", ()))))
+
+
+def _levels(tel: dict) -> list[float]:
+    return list(tel["solution"]["level_us"])
+
+
 def _labels_qp(tel: dict) -> tuple[str, ...]:
     return ("solve µs",)
 
@@ -107,6 +116,7 @@ CHARTS = (
     ChartSpec("Angular momentum [kg m²/s]", _labels_angular, _angular, min_span=0.5),
     ChartSpec("Task errors, top levels [log₁₀ SI]", _labels_tasks, _tasks),
     ChartSpec("QP solve time [µs]", _labels_qp, _qp),
+    ChartSpec("Solve time per level [µs]", _labels_levels, _levels),
 )
 
 
@@ -180,26 +190,6 @@ class Chart:
         )
 
 
-def shown_csv(charts: Sequence[tuple[str, Sequence[str], Sequence[np.ndarray]]]) -> str:
-    """CSV of what charts show: one row per sample time of any chart, a column "t [s]" and one
-    per series named "<chart title>: <series>" (empty where that chart has no sample)."""
-    columns = [f"{title}: {label}" for title, labels, _ in charts for label in labels]
-    rows: dict[float, dict[str, float]] = {}
-    for title, labels, data in charts:
-        if len(data) == 0:
-            continue
-        for i, t in enumerate(data[0]):
-            row = rows.setdefault(float(t), {})
-            for label, series in zip(labels, data[1:], strict=True):
-                row[f"{title}: {label}"] = float(series[i])
-    out = io.StringIO()
-    out.write(",".join(f'"{c}"' for c in ["t [s]", *columns]) + "\n")
-    for t in sorted(rows):
-        values = [repr(rows[t][c]) if c in rows[t] else "" for c in columns]
-        out.write(",".join([repr(t), *values]) + "\n")
-    return out.getvalue()
-
-
 class Plots:
     """The charts with their controls: pause, window length, CSV export of what is shown."""
 
@@ -213,8 +203,10 @@ class Plots:
             self.window = gui.add_dropdown(
                 "Window [s]", tuple(str(w) for w in WINDOWS_S), str(WINDOWS_S[0])
             )
-            export = gui.add_button("Export CSV", hint="the shown window of every chart")
-        export.on_click(guard(self._export))
+            csv = gui.add_button("Export CSV", hint="the shown window of every chart, as numbers")
+            png = gui.add_button("Export PNG", hint="the shown window of every chart, as a figure")
+        csv.on_click(guard(self._export_csv))
+        png.on_click(guard(self._export_png))
         self.charts = [Chart(gui, folder, spec) for spec in CHARTS]
 
     def record(self, tel: dict) -> None:
@@ -227,10 +219,18 @@ class Plots:
         for chart in self.charts:
             chart.draw(float(self.window.value))
 
+    def shown(self) -> list[Shown]:
+        """What each chart shows now, at full resolution."""
+        return [Shown(c.title, c.labels or (), c.shown) for c in self.charts]
+
     def csv(self) -> str:
         """What the charts show, as CSV (`shown_csv`)."""
-        return shown_csv([(c.title, c.labels or (), c.shown) for c in self.charts])
+        return shown_csv(self.shown())
 
-    def _export(self, event: viser.GuiEvent) -> None:
+    def _export_csv(self, event: viser.GuiEvent) -> None:
         if event.client is not None:
             event.client.send_file_download("lab-plots.csv", self.csv().encode())
+
+    def _export_png(self, event: viser.GuiEvent) -> None:
+        if event.client is not None:
+            event.client.send_file_download("lab-plots.png", shown_png(self.shown()))

@@ -39,10 +39,10 @@ def warnings_of(tel: dict, control_us: float | None = None, rtf: float = math.na
     return found
 
 
-def started_warnings(now: dict[str, str], before: set[str]) -> list[str]:
-    """The texts of the warnings in effect `now` (by kind) that were not in effect `before`: what
+def started_warnings(now: dict[str, str], before: set[str]) -> list[tuple[str, str]]:
+    """The (kind, text) of the warnings in effect `now` that were not in effect `before`: what
     the event log gets, once per start."""
-    return [text for kind, text in now.items() if kind not in before]
+    return [(kind, text) for kind, text in now.items() if kind not in before]
 
 
 def qp_state(tel: dict, warnings: dict) -> str:

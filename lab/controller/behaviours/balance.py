@@ -10,6 +10,11 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.base import NoOptions
+from lab.controller.behaviours.line_balance import (
+    LineBalanceGains,
+    composite_inertia,
+    line_balance_offset,
+)
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 
@@ -28,12 +33,26 @@ def references_at_rest(standing: RobotModel) -> References:
     in contact."""
     yaw = pin.rpy.matrixToRpy(standing.base_rotation)[2]
     return References(
-        com=standing.com.copy(),
+        com=com_over_support(standing),
         posture=standing.joint_positions.copy(),
         base_height=float(standing.base_position[2]),
         base_rotation=pin.rpy.rpyToMatrix(0.0, 0.0, yaw),
         contact_active=np.ones(len(standing.contacts), dtype=bool),
     )
+
+
+def com_over_support(standing: RobotModel) -> np.ndarray:
+    """The standing CoM (world, m), moved horizontally onto the line between the feet when the
+    robot stands on two point feet (Bolt): their support is that line, and a CoM beside it
+    cannot be held still (no moment about a point foot)."""
+    com = standing.com.copy()
+    if len(standing.contacts) != 2 or any(c.kind != "point" for c in standing.contacts):
+        return com
+    a, b = standing.contact_positions[:, :2]
+    line = b - a
+    s = np.clip((com[:2] - a) @ line / (line @ line), 0.0, 1.0)
+    com[:2] = a + s * line
+    return com
 
 
 def standing_references(robot: RobotModel, q_standing: np.ndarray) -> References:
@@ -53,9 +72,21 @@ class Balance(NoOptions):
         here[:2] = robot.base_position[:2]
         yaw = pin.rpy.matrixToRpy(robot.base_rotation)[2]
         here[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
-        self.references = standing_references(robot, here)
+        standing = standing_model(robot, here)
+        self.references = references_at_rest(standing)
+        # On two point feet the CoM reference leans off the foot line to balance about it.
+        self._on_line = len(robot.contacts) == 2 and all(c.kind == "point" for c in robot.contacts)
+        self._com_on_line = self.references.com.copy()
+        self._inertia = composite_inertia(standing) if self._on_line else np.zeros((3, 3))
+        self.line_gains = LineBalanceGains()
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
-        """Nothing changes while standing."""
+        """Standing on a foot line (two point feet), the CoM reference leans to balance about
+        it (`line_balance.py`); otherwise nothing changes while standing."""
+        if self._on_line:
+            offset = line_balance_offset(
+                robot, (0, 1), self.references.base_rotation, self._inertia, self.line_gains
+            )
+            self.references.com[:] = self._com_on_line + offset

@@ -18,6 +18,9 @@ class Level:
     C: np.ndarray
     d: np.ndarray
     weight: float = 1.0
+    # (name, number of rows) of each constraint in C, in order: for methods that report
+    # rather than enforce inequalities (wbosc).
+    constraint_rows: tuple[tuple[str, int], ...] = ()
 
 
 @dataclass
@@ -25,21 +28,26 @@ class DynamicsTerms:
     """The model terms behind the Newton–Euler rows, for methods that change variables.
 
     M q̈ + h − J_cᵀ F = Sᵀ τ with S = [0 I] selecting the actuated joints; `support` marks the rows
-    of F that belong to contacts in support (the others carry no force).
+    of F that belong to contacts in support (the others carry no force); `drift` is J̇_c v
+    and `transition` the weight w ∈ [0, 1] of each row of F whose contact is being loaded or
+    unloaded (NaN: not changing), both for wbosc.
     """
 
     M: np.ndarray
     h: np.ndarray
     Jc: np.ndarray
     support: np.ndarray
+    drift: np.ndarray | None = None
+    transition: np.ndarray | None = None
 
 
 @dataclass
 class HierarchyProblem:
     """Find x = [q̈, F] with `dynamics_A x = dynamics_b` exactly, then each level in turn.
 
-    `terms` and `formulation` are optional: only `nullspace` reads them, to solve the same
-    hierarchy over the variables of Hutter 2014 Tables 1–4 (see hierarchy/formulations.py).
+    `terms` and `formulation` are optional: `nullspace` reads them, to solve the same
+    hierarchy over the variables of Hutter 2014 Tables 1–4 (see hierarchy/formulations.py), and
+    `wbosc` needs `terms` for its contact-consistent dynamics.
     """
 
     dynamics_A: np.ndarray

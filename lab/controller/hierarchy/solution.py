@@ -28,8 +28,9 @@ class HierarchySolution:
     `levels` has one status per level of the problem (LEVEL_STATUSES), `residuals` the norm
     ‖A x − b‖ of each level's equality rows at x (in the rows' units, √weight included),
     `level_seconds` the time spent on each level (both kernels measure it),
-    `qp_solves` how many QPs ran, and `capped` whether the nullspace method's active-set search
-    stopped at its cap before its optimum.
+    `qp_solves` how many QPs ran, `capped` whether the nullspace method's active-set search
+    stopped at its cap before its optimum, and `violations` the inequalities a method that does
+    not enforce them (wbosc, closed form) found violated at x, one line each.
     """
 
     x: np.ndarray
@@ -38,6 +39,7 @@ class HierarchySolution:
     qp_solves: int = 0
     level_seconds: tuple[float, ...] = ()
     capped: bool = False
+    violations: tuple[str, ...] = ()
 
     @property
     def fallback_levels(self) -> tuple[int, ...]:
@@ -47,19 +49,25 @@ class HierarchySolution:
 
     @property
     def status(self) -> str:
-        """`ok`, `fallback` (some level kept the solution above) or `capped` (nullspace)."""
+        """`ok`, `fallback` (some level kept the solution above), `capped` (nullspace) or
+        `violated` (wbosc: an inequality of the stack does not hold, e.g. a foot would pull)."""
         if self.fallback_levels:
             return "fallback"
-        return "capped" if self.capped else "ok"
+        if self.capped:
+            return "capped"
+        return "violated" if self.violations else "ok"
 
     def summary(self) -> dict:
-        """JSON-ready status, fallback levels, level statuses, residuals and QP count."""
+        """JSON-ready status, fallback levels, level statuses, residuals, QP count and the time
+        spent on each level (µs)."""
         return {
             "status": self.status,
             "fallback_levels": list(self.fallback_levels),
             "levels": list(self.levels),
             "residuals": list(self.residuals),
             "qp_solves": self.qp_solves,
+            "level_us": [1e6 * s for s in self.level_seconds],
+            "violations": list(self.violations),
         }
 
 

@@ -8,6 +8,7 @@ from lab.controller.tasks.base import ALL_GAINS, Task, TaskGains, TaskRows
 from lab.controller.tasks.com import ComTask, ComXYTask
 from lab.controller.tasks.contact import ContactTask
 from lab.controller.tasks.feet import SwingFeetTask
+from lab.controller.tasks.internal_force import InternalForceTask
 from lab.controller.tasks.momentum import MomentumTask
 from lab.controller.tasks.objectives import (
     ForceInterpolationTask,
@@ -16,6 +17,7 @@ from lab.controller.tasks.objectives import (
     TorqueTask,
 )
 from lab.controller.tasks.posture import MovingPostureTask, PostureTask
+from lab.controller.tasks.sole import SwingSoleTask
 from lab.controller.tasks.trunk import (
     BaseHeightTask,
     BaseOrientationTask,
@@ -43,6 +45,8 @@ TASK_TYPES: dict[str, type[Task]] = {
         SwingFeetTask,
         ComXYTask,
         MovingPostureTask,
+        InternalForceTask,
+        SwingSoleTask,
     )
 }
 

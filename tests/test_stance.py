@@ -1,0 +1,59 @@
+"""Single support on Talos (Herzog 2016 §5.4): the `stance` command, its phases and a push."""
+
+import numpy as np
+import pytest
+
+from lab.controller.behaviours.stance import LIFT_HEIGHT, LIFT_S, SHIFT_S, UNLOAD_S, Stance
+from lab.server.commands import CommandError, parse_command
+from lab.server.session import Session, SessionConfig
+
+
+def test_a_bad_stance_is_refused_naming_what_is_wrong_and_changes_nothing() -> None:
+    with pytest.raises(CommandError, match="side"):
+        parse_command("stance", {"side": 3})
+    session = Session(SessionConfig(robot="talos"))
+    stack = session.controller.config.stack.as_lists()
+    reply = session.handle("stance", {"side": "middle"})
+    assert not reply["ok"] and "middle" in reply["error"] and "double" in reply["error"]
+    assert not isinstance(session.behaviour, Stance)
+    assert session.controller.config.stack.as_lists() == stack
+    anymal = Session(SessionConfig(robot="anymal"))
+    reply = anymal.handle("stance", {"side": "left"})
+    assert not reply["ok"] and "flat soles" in reply["error"]
+
+
+def ground_clearance(session: Session, foot: int) -> float:
+    return float(session.model.contact_positions[foot, 2])
+
+
+@pytest.mark.parametrize("mode", ["pd", "lqr"])
+def test_talos_lifts_a_sole_and_stands_a_push_on_one_leg(mode: str) -> None:
+    """stance left: the CoG goes over the left sole, the right one unloads, lifts 10 cm and holds
+    (within 2.5 cm, tilted at most 0.1 rad), the left stays flat on the ground with the whole
+    weight; then a 5 N s push at the pelvis (100 N for 50 ms, Herzog's single-support pushes were
+    4.5–5.8 N s) from the side is stood on one leg."""
+    session = Session(SessionConfig(robot="talos"))
+    reply = session.handle("stance", {"side": "left"})
+    assert reply["ok"] and reply["preset"] == "herzog_table4"
+    assert session.handle("momentum", {"mode": mode})["ok"]
+    weight = session.model.mass * 9.81
+    for _ in range(round(1000 * (SHIFT_S + UNLOAD_S + LIFT_S + 0.5))):
+        session.tick()
+    refs = session.controller.references
+    assert list(refs.contact_active) == [True, False]
+    assert abs(ground_clearance(session, 1) - LIFT_HEIGHT) < 0.025
+    assert abs(ground_clearance(session, 0)) < 0.005
+    tilt = np.arccos(np.clip(session.model.contact_rotations[1][2, 2], -1.0, 1.0))
+    assert tilt < 0.1
+    measured = session.plant.foot_forces()[:, 2]
+    assert measured[1] == pytest.approx(0.0, abs=1.0)
+    assert measured[0] == pytest.approx(weight, rel=0.05)
+    sole = session.model.contact_positions[0, :2]
+    assert np.linalg.norm(session.model.com[:2] - sole) < 0.03
+    push = {"body": session.robot.base_link, "force": [0.0, 100.0, 0.0], "duration": 0.05}
+    assert session.handle("push", push)["ok"]
+    for _ in range(1000):
+        session.tick()
+    assert not session.fell and session.qp_failures == 0
+    assert list(refs.contact_active) == [True, False]
+    assert np.linalg.norm(session.model.com[:2] - sole) < 0.03
