@@ -106,12 +106,11 @@ def load_sweep(path: str | Path) -> Sweep:
     combos = _expand(path, data)
     sweep = Sweep(data.get("name", path.stem), base, timeout=_timeout(path, data))
     sweep.fields = list(dict.fromkeys(name for combo in combos for name in combo))
-    name = base_data.get("name", base.stem)
     for combo in combos:
         scenario = copy.deepcopy(base_data)
         for key, value in combo.items():
             _apply(scenario, key, value, f"{path}: point {point_key(combo)}")
-        scenario["name"] = name
+        scenario["name"] = sweep.name  # not the base's name: a point may change what it says
         check_scenario(scenario, base)
         sweep.points.append(Point(combo, scenario))
     keys = [p.key for p in sweep.points]
