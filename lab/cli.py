@@ -1,5 +1,5 @@
 """`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
-`lab teleop`."""
+`lab teleop`, `lab sweep`, `lab router`."""
 
 import argparse
 import json
@@ -85,6 +85,18 @@ def _soak(argv: list[str]) -> int:
     return soak_main(argv)
 
 
+def _router(argv: list[str]) -> int:
+    from lab.server.router import router_main
+
+    return router_main(argv)
+
+
+def _sweep(argv: list[str]) -> int:
+    from lab.sweep.cli import sweep_main
+
+    return sweep_main(argv)
+
+
 def _teleop(argv: list[str]) -> int:
     from lab.teleop import teleop_main
 
@@ -98,6 +110,8 @@ COMMANDS = {
     "serve": _serve,
     "soak": _soak,
     "teleop": _teleop,
+    "sweep": _sweep,
+    "router": _router,
 }
 
 

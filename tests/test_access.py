@@ -52,9 +52,10 @@ def test_loopback_endpoints_are_told_apart(endpoint: str, loopback: bool) -> Non
     assert is_loopback(endpoint) is loopback
 
 
-def test_a_non_loopback_listen_without_credentials_is_refused() -> None:
+@pytest.mark.parametrize("program", [("lab.server.serve", "--headless"), ("lab", "router")])
+def test_a_non_loopback_listen_without_credentials_is_refused(program: tuple[str, str]) -> None:
     run = subprocess.run(
-        [sys.executable, "-m", "lab.server.serve", "--headless", "--listen", "tcp/0.0.0.0:7447"],
+        [sys.executable, "-m", *program, "--listen", "tcp/0.0.0.0:7447"],
         capture_output=True,
         text=True,
         timeout=60,

@@ -10,7 +10,6 @@ Loops run at 250 Hz with a 1 ms step (`--rate 250`, SCHED_OTHER) so that they ho
 2-core machine; waits are generous (tens of seconds) and end as soon as the condition holds.
 """
 
-import json
 import math
 import os
 import signal
@@ -34,7 +33,6 @@ from lab.server.transport import ServerTransport, server_config
 RATE_HZ = 250.0
 STARTUP_S = 90.0  # a server or UI process importing MuJoCo, pinocchio, viser on a busy machine
 WAIT_S = 30.0  # for something that takes a fraction of a second on an idle machine
-NO_SCOUTING = {"multicast": {"enabled": False}, "gossip": {"enabled": False}}
 
 
 def wait_for(condition: Callable[[], object], timeout: float, what: str) -> None:
@@ -251,17 +249,8 @@ def serve(log: Path, port: int, *args: str) -> Process:
 
 
 def router(log: Path, port: int) -> Process:
-    """A Zenoh router on loopback `port` (a zenoh session in router mode: zenohd's core)."""
-    config = {"mode": "router", "listen": {"endpoints": [f"tcp/127.0.0.1:{port}"]}}
-    config["scouting"] = NO_SCOUTING
-    script = (
-        "import signal, zenoh\n"
-        "signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM, signal.SIGINT})\n"
-        f"s = zenoh.open(zenoh.Config.from_json5({json.dumps(config)!r}))\n"
-        "signal.sigwait({signal.SIGTERM, signal.SIGINT})\n"
-        "s.close()\n"
-    )
-    return Process(log, "-c", script)
+    """A Zenoh router on loopback `port`: `lab router`, a zenoh session in router mode."""
+    return Process(log, "-m", "lab", "router", "--port", str(port))
 
 
 @contextmanager

@@ -70,3 +70,18 @@ def usrpwd_settings(
     if credentials is not None:
         settings |= {"user": credentials.user, "password": credentials.password}
     return settings
+
+
+def remote_listen_refusal(
+    program: str, listen: list[str], secured: bool, opened: bool
+) -> str | None:
+    """Why `program` refuses to listen where other machines reach it: no `--users` or
+    `--zenoh-config` (`secured`) nor `--open`; None when it may."""
+    remote = [endpoint for endpoint in listen if not is_loopback(endpoint)]
+    if not remote or secured or opened:
+        return None
+    return (
+        f"{program}: --listen {remote[0]} is reachable from other machines: admit users with "
+        "--users FILE (and/or TLS with --zenoh-config FILE), or pass --open "
+        "(docs/protocol.md, 'Remote mode')"
+    )

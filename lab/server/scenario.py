@@ -69,6 +69,12 @@ def load_scenario(path: str | Path) -> Scenario:
         data = tomllib.loads(path.read_text())
     except (OSError, tomllib.TOMLDecodeError) as error:
         raise ScenarioError(f"{path}: {error}") from error
+    return parse_scenario(data, path)
+
+
+def parse_scenario(data: dict, path: Path) -> Scenario:
+    """Check the parsed TOML of a scenario (`path` names it in errors and gives its default
+    name); `lab sweep` builds its points' scenarios this way."""
     unknown = set(data) - SCENARIO_KEYS
     if unknown:
         raise ScenarioError(f"{path}: unknown keys {sorted(unknown)}")

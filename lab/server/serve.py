@@ -13,7 +13,7 @@ from pathlib import Path
 import zenoh
 
 from lab.protocol import DEFAULT_PORT
-from lab.server.access import is_loopback, read_users
+from lab.server.access import read_users, remote_listen_refusal
 from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
 from lab.server.transport import ServerTransport, server_config
 
@@ -89,14 +89,9 @@ def serve_main(argv: list[str]) -> int:
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
         return 2
-    remote = [endpoint for endpoint in args.listen if not is_loopback(endpoint)]
-    if remote and not (args.users or args.zenoh_config or args.open):
-        print(
-            f"lab serve: --listen {remote[0]} is reachable from other machines: admit users with "
-            "--users FILE (and/or TLS with --zenoh-config FILE), or pass --open "
-            "(docs/protocol.md, 'Remote mode')",
-            file=sys.stderr,
-        )
+    secured = bool(args.users or args.zenoh_config)
+    if refusal := remote_listen_refusal("lab serve", args.listen, secured, args.open):
+        print(refusal, file=sys.stderr)
         return 2
     ui_credentials = None
     if args.users:

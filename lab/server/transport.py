@@ -51,13 +51,15 @@ def server_config(
     users_file: str | Path | None = None,
     credentials: Credentials | None = None,
     base_file: str | Path | None = None,
+    mode: str = "peer",
 ) -> zenoh.Config:
     """Peer listening on 127.0.0.1:`port` only, no scouting; `listen`/`connect` are opt-ins
     (a non-empty `listen` replaces the loopback endpoint). `users_file` admits only the users in
     it, `credentials` are presented to whom it connects to (access.py); `base_file` is a Zenoh
-    configuration (TLS, access control) these settings are written over."""
+    configuration (TLS, access control) these settings are written over. `mode="router"`: the
+    same for `lab router`."""
     settings: dict[str, object] = {
-        "mode": "peer",
+        "mode": mode,
         "listen/endpoints": list(listen) or [f"tcp/127.0.0.1:{port}"],
         "connect/endpoints": list(connect),
     }

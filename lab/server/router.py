@@ -1,0 +1,54 @@
+"""`lab router`: a Zenoh session in router mode (zenohd's core, shipped in eclipse-zenoh), where
+sim processes (`lab serve --connect ENDPOINT`) and clients (the UI, `lab teleop`, `LabClient`)
+meet when they run on different hosts. A user's own `zenohd` does the same job. SIGINT/SIGTERM
+stop it; the links through it break, and come back when a router listens again."""
+
+import argparse
+import signal
+import sys
+
+import zenoh
+
+from lab.protocol import DEFAULT_PORT
+from lab.server.access import remote_listen_refusal
+from lab.server.transport import server_config
+
+
+def router_main(argv: list[str]) -> int:
+    """`lab router [--port P | --listen ENDPOINT ...] [--users FILE] [--zenoh-config FILE]`."""
+    parser = argparse.ArgumentParser(prog="lab router", description=__doc__)
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="TCP port on 127.0.0.1")
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="listen on this Zenoh endpoint instead of 127.0.0.1 (e.g. tcp/0.0.0.0:7447)",
+    )
+    parser.add_argument("--users", metavar="FILE", help="admit only these user:password lines")
+    parser.add_argument("--zenoh-config", metavar="FILE", help="a Zenoh configuration to extend")
+    parser.add_argument(
+        "--open", action="store_true", help="allow a non-loopback --listen without --users"
+    )
+    args = parser.parse_args(argv)
+    secured = bool(args.users or args.zenoh_config)
+    if refusal := remote_listen_refusal("lab router", args.listen, secured, args.open):
+        print(refusal, file=sys.stderr)
+        return 2
+    stop = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, stop)  # taken by sigwait below, on this thread
+    config = server_config(
+        args.port, args.listen, users_file=args.users, base_file=args.zenoh_config, mode="router"
+    )
+    try:
+        session = zenoh.open(config)
+    except zenoh.ZError as error:  # a port in use, a configuration it cannot use
+        print(f"lab router: Zenoh: {error}", file=sys.stderr)
+        return 2
+    endpoints = args.listen or [f"tcp/127.0.0.1:{args.port}"]
+    print(f"lab router: listening on {', '.join(endpoints)}", flush=True)
+    try:
+        signal.sigwait(stop)
+    finally:
+        session.close()
+    return 0
