@@ -9,7 +9,7 @@ from lab.controller.behaviours.biped_step import BipedStepping, Phase
 from lab.controller.model import RobotModel
 from lab.description import load_description
 from lab.robot import build_robot
-from lab.server.scenario import load_scenario, run_scenario
+from lab.server.scenario import Event, load_scenario, run_scenario
 
 SCENARIOS = Path(__file__).parent.parent / "scenarios"
 
@@ -24,6 +24,18 @@ def test_bolt_steps_in_place_twenty_times_without_falling() -> None:
     assert m["max_com_height_error_m"] < 0.02
     assert m["max_roll_pitch_error_rad"] < 0.15
     assert m["max_com_wander_m"] < 0.15
+
+
+def test_a_forward_velocity_command_walks_bolt_forward() -> None:
+    """The command biases the reversal target: at 0.1 m/s for 3 s the CoM moves forward by
+    more than half the commanded 0.3 m and sideways by less than 10 cm, and Bolt does not
+    fall."""
+    scenario = load_scenario(SCENARIOS / "bolt_step_in_place.toml")
+    scenario.events.append(Event(0.5, "velocity", {"vx": 0.1}))
+    report = run_scenario(scenario, duration=3.5)
+    assert not report["fell"]
+    assert report["metrics"]["com_travel_x_m"] > 0.15
+    assert abs(report["metrics"]["com_travel_y_m"]) < 0.1
 
 
 def test_the_lifting_foot_is_unloaded_by_a_ramp_and_then_tracks_its_swing() -> None:

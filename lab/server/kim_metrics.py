@@ -8,7 +8,7 @@ reference, and the largest foot slide.
 - `stepping`: the steps of a stepping behaviour (touchdowns) and how long it stepped; the
   largest errors of the CoM height, of the base height and of the body's roll-pitch against
   their references while stepping (Kim Fig. 8d: 2 cm, 0.15 rad); how far the CoM wandered
-  horizontally from where stepping began.
+  horizontally from where stepping began, and where it ended (world x, y from there).
 """
 
 from typing import TYPE_CHECKING
@@ -60,6 +60,7 @@ class SteppingMetrics:
         self.steps = 0
         self.duration = 0.0
         self.com_height = self.base_height = self.orientation = self.wander = 0.0
+        self.travel = np.zeros(2)
 
     def update(self, session: "Session") -> None:
         behaviour = session.behaviour
@@ -76,8 +77,8 @@ class SteppingMetrics:
         yaw_axis = refs.base_rotation[:, 2]
         roll_pitch = tilt - (tilt @ yaw_axis) * yaw_axis  # yaw is not a task while stepping
         self.orientation = max(self.orientation, float(np.linalg.norm(roll_pitch)))
-        wander = float(np.linalg.norm(model.com[:2] - self.origin))
-        self.wander = max(self.wander, wander)
+        self.travel = model.com[:2] - self.origin
+        self.wander = max(self.wander, float(np.linalg.norm(self.travel)))
 
     def result(self) -> dict[str, float]:
         return {
@@ -87,6 +88,8 @@ class SteppingMetrics:
             "max_base_height_error_m": self.base_height,
             "max_roll_pitch_error_rad": self.orientation,
             "max_com_wander_m": self.wander,
+            "com_travel_x_m": float(self.travel[0]),
+            "com_travel_y_m": float(self.travel[1]),
         }
 
 

@@ -17,9 +17,10 @@ the planner aims at the commanded velocity t′ after the switch instead of zero
 frame), so the robot walks where it is steered. The step stays within `reach` of the stance
 foot and the swing foot on its own side, at least `min_width` from the stance foot across.
 
-The trunk: base height above the stance foot (Kim controls the CoM height), roll and pitch
-level at the heading the robot had when stepping started; the CoM's horizontal motion is left
-to the pendulum and the footsteps, as in Kim's single-support task set [COM_z, q_Ry, q_Rx, foot].
+The trunk: base height above the stance foot (Kim controls the CoM height), level, at a heading
+turned by the command's yaw rate (never more than YAW_LEAD_MAX ahead of the measured one); the
+CoM's horizontal motion is left to the pendulum and the footsteps, as in Kim's single-support
+task set [COM_z, q_Ry, q_Rx, foot].
 """
 
 import math
@@ -37,7 +38,13 @@ from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.walk_references import WalkReferences
 
+YAW_LEAD_MAX = 0.2  # rad, the heading reference never leads the measured yaw by more
 PLAN_TOLERANCE = 1e-4  # m, the bisection's: a tenth of a millimetre on the footstep
+
+
+def _wrap(angle: float) -> float:
+    """The angle in [-π, π]."""
+    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 class Phase(Enum):
@@ -71,7 +78,7 @@ class SteppingTimes:
     reach: float = 0.12
     lateral_offset: float = 0.02  # outwards, added to the planned y: the sway's amplitude
     min_width: float = 0.04
-    max_width: float = 0.16
+    max_width: float = 0.24
 
 
 class BipedStepping(NoOptions):
@@ -93,7 +100,8 @@ class BipedStepping(NoOptions):
         feet = robot.contact_positions.copy()
         self.height = float(at_rest.base_position[2] - at_rest.contact_positions[:, 2].mean())
         self.com_height = float(at_rest.com[2] - at_rest.contact_positions[:, 2].mean())
-        self.yaw = float(yaw)
+        self.yaw = float(yaw)  # the heading reference, turned by the command's yaw rate
+        self.t: float | None = None
         refs.foot_position = feet.copy()
         refs.foot_velocity = np.zeros((2, 3))
         refs.foot_acceleration = np.zeros((2, 3))
@@ -118,7 +126,10 @@ class BipedStepping(NoOptions):
     ) -> None:
         """Advance the state machine to time `t` (s) and set the references (module docstring)."""
         if self.since is None:
-            self.since = t
+            self.since = self.t = t
+        yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
+        lead = _wrap(self.yaw + float(command[2]) * (t - self.t) - yaw)
+        self.yaw, self.t = yaw + min(max(lead, -YAW_LEAD_MAX), YAW_LEAD_MAX), t
         times, refs, s = self.times, self.references, self.swing
         elapsed = t - self.since
         if self.phase is Phase.DUAL and elapsed >= times.dual:
@@ -168,6 +179,7 @@ class BipedStepping(NoOptions):
         on_ground = robot.contact_positions[stance, 2] if in_air else robot.contact_positions[:, 2]
         refs.base_height = float(np.mean(on_ground)) + self.height
         refs.base_rotation = pin.rpy.rpyToMatrix(0.0, 0.0, self.yaw)
+        refs.base_angular_velocity[:] = 0.0, 0.0, float(command[2])
         refs.com[:] = robot.com  # the CoM moves as the pendulum: only reported, not tracked
         refs.com[2] = float(np.mean(on_ground)) + self.com_height
 
@@ -179,8 +191,9 @@ class BipedStepping(NoOptions):
         and the time left until the feet switch (s)."""
         times, s = self.times, self.swing
         stance = robot.contact_positions[1 - s]
-        c, sn = math.cos(self.yaw), math.sin(self.yaw)
-        heading = np.array([[c, -sn], [sn, c]])  # heading frame → world
+        yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
+        c, sn = math.cos(yaw), math.sin(yaw)
+        heading = np.array([[c, -sn], [sn, c]])  # heading frame (the body's yaw) → world
         com = heading.T @ (robot.com[:2] - stance[:2])
         velocity = heading.T @ robot.com_velocity[:2]
         target_velocity = np.asarray(command[:2], dtype=float)
