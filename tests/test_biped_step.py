@@ -10,6 +10,7 @@ from lab.controller.model import RobotModel
 from lab.description import load_description
 from lab.robot import build_robot
 from lab.server.scenario import Event, load_scenario, run_scenario
+from lab.server.session import Session, SessionConfig
 
 SCENARIOS = Path(__file__).parent.parent / "scenarios"
 
@@ -36,6 +37,18 @@ def test_a_forward_velocity_command_walks_bolt_forward() -> None:
     assert not report["fell"]
     assert report["metrics"]["com_travel_x_m"] > 0.15
     assert abs(report["metrics"]["com_travel_y_m"]) < 0.1
+
+
+def test_biped_step_on_bolts_standing_stack_brings_kims_stepping_stack() -> None:
+    """From the gait control: Bolt stands on its default stack (no swing_feet); choosing
+    biped_step installs `kim_stepping` under wbosc, and Bolt steps for 1.5 s without falling."""
+    session = Session(SessionConfig(robot="bolt"))
+    reply = session.handle("gait", {"name": "biped_step"})
+    assert reply["ok"] and reply["preset"] == "kim_stepping"
+    assert reply["hierarchy"]["method"] == "wbosc"
+    while session.time < 1.5 and not session.fell:
+        session.tick()
+    assert not session.fell and session.behaviour.steps >= 4
 
 
 def test_the_lifting_foot_is_unloaded_by_a_ramp_and_then_tracks_its_swing() -> None:

@@ -86,6 +86,7 @@ class BipedStepping(NoOptions):
 
     name = "biped_step"
     lifts_feet = True
+    stack_preset = "kim_stepping"  # the stack it brings onto one that cannot swing feet
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         if len(robot.contacts) != 2 or any(c.kind != "point" for c in robot.contacts):
