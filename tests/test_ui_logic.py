@@ -136,6 +136,7 @@ def test_gait_options_keep_the_experiments_out_unless_one_runs():
     assert gait_options(gaits, "crawl") == ("stand", "trot", "crawl")
     # a scenario started an experiment: the dropdown still shows what runs
     assert gait_options(gaits, "height_step") == ("stand", "trot", "crawl", "height_step")
+    assert gait_options([*gaits, "biped_step"], "stand")[-1] == "biped_step"
     assert gait_options(["stand"], "stand") == ("stand",)
 
 

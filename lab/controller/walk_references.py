@@ -30,6 +30,9 @@ class WalkReferences(References):
     force_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
     # Joint velocity reference q̇_d of the postural task (Raiola eq. 9); empty: zero.
     posture_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # Feet the swing_feet task moves; empty: those out of contact. A foot in a contact transition
+    # (Kim 2016 §III-F) keeps tracking its reference while its reaction force ramps.
+    swing_tracked: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     # w ∈ [0, 1] weighting the postural rows of each contact's leg (the leg's load ramp); empty: 1.
     posture_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
 

@@ -5,11 +5,16 @@ reference, and the largest foot slide.
 - `internal_force`: mean, RMS and largest |error| of the measured F_int = W_int λ (eqs. 14–17)
   against the task's reference, over the ticks from SETTLE on with both feet in support; the
   largest horizontal slide of a foot from where it stood at SETTLE.
+- `stepping`: the steps of a stepping behaviour (touchdowns) and how long it stepped; the
+  largest errors of the CoM height, of the base height and of the body's roll-pitch against
+  their references while stepping (Kim Fig. 8d: 2 cm, 0.15 rad); how far the CoM wandered
+  horizontally from where stepping began, and where it ended (world x, y from there).
 """
 
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pinocchio as pin
 
 from lab.controller.internal_force import internal_forces
 
@@ -48,4 +53,47 @@ class InternalForceMetrics:
         }
 
 
-KIM_METRICS: dict[str, type] = {"internal_force": InternalForceMetrics}
+class SteppingMetrics:
+    def __init__(self, session: "Session") -> None:
+        self.start: float | None = None
+        self.origin = np.zeros(2)
+        self.steps = 0
+        self.duration = 0.0
+        self.com_height = self.base_height = self.orientation = self.wander = 0.0
+        self.travel = np.zeros(2)
+
+    def update(self, session: "Session") -> None:
+        behaviour = session.behaviour
+        steps = getattr(behaviour, "steps", None)
+        if steps is None or session.fell:
+            return
+        model, refs = session.model, session.controller.references
+        if self.start is None:
+            self.start, self.origin = session.time, model.com[:2].copy()
+        self.steps, self.duration = steps, session.time - self.start
+        self.com_height = max(self.com_height, abs(refs.com[2] - model.com[2]))
+        self.base_height = max(self.base_height, abs(refs.base_height - model.base_position[2]))
+        tilt = pin.log3(refs.base_rotation.T @ model.base_rotation)
+        yaw_axis = refs.base_rotation[:, 2]
+        roll_pitch = tilt - (tilt @ yaw_axis) * yaw_axis  # yaw is not a task while stepping
+        self.orientation = max(self.orientation, float(np.linalg.norm(roll_pitch)))
+        self.travel = model.com[:2] - self.origin
+        self.wander = max(self.wander, float(np.linalg.norm(self.travel)))
+
+    def result(self) -> dict[str, float]:
+        return {
+            "steps": float(self.steps),
+            "stepping_s": self.duration,
+            "max_com_height_error_m": self.com_height,
+            "max_base_height_error_m": self.base_height,
+            "max_roll_pitch_error_rad": self.orientation,
+            "max_com_wander_m": self.wander,
+            "com_travel_x_m": float(self.travel[0]),
+            "com_travel_y_m": float(self.travel[1]),
+        }
+
+
+KIM_METRICS: dict[str, type] = {
+    "internal_force": InternalForceMetrics,
+    "stepping": SteppingMetrics,
+}

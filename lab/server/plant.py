@@ -304,6 +304,29 @@ def _shorten_shanks(m: mujoco.MjModel, foot_geoms: np.ndarray) -> None:
                 m.geom_pos[g] -= np.sign(end) * axis * cut / 2
 
 
+def _mute_shank_meshes(m: mujoco.MjModel, foot_geoms: np.ndarray) -> None:
+    """Take out of collision each mesh of a point foot's body that reaches into the foot sphere.
+
+    Bolt's shank mesh ends in the foot: its hull's rim touched the floor whenever a stance leg
+    leaned (stepping sideways), and counted as a fall. The foot sphere stays the contact; the
+    robot's mass and inertia do not come from geoms.
+    """
+    for foot in foot_geoms:
+        if m.geom_type[foot] != mujoco.mjtGeom.mjGEOM_SPHERE:
+            continue
+        body, centre, radius = m.geom_bodyid[foot], m.geom_pos[foot], m.geom_size[foot][0]
+        for g in np.flatnonzero(m.geom_bodyid == body):
+            mesh = m.geom_dataid[g]
+            if g == foot or m.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH or mesh < 0:
+                continue
+            rotation = np.zeros(9)
+            mujoco.mju_quat2Mat(rotation, m.geom_quat[g])
+            start, count = m.mesh_vertadr[mesh], m.mesh_vertnum[mesh]
+            vertices = m.mesh_vert[start : start + count] @ rotation.reshape(3, 3).T
+            if np.min(np.linalg.norm(vertices + m.geom_pos[g] - centre, axis=1)) < radius:
+                m.geom_contype[g] = m.geom_conaffinity[g] = 0
+
+
 class MujocoPlant:
     """One robot in one MuJoCo scene; every argument and result in pinocchio conventions."""
 
@@ -326,6 +349,7 @@ class MujocoPlant:
         foot_of_geom = np.full(m.ngeom, -1)
         foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
         _shorten_shanks(m, self.foot_geom_ids)
+        _mute_shank_meshes(m, self.foot_geom_ids)
         # Per geom, as lists for the per-contact loops: is it terrain, which foot is it (or −1).
         self._terrain_list = (m.geom_bodyid == 0).tolist()
         self._foot_of_geom_list = foot_of_geom.tolist()

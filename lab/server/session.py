@@ -174,9 +174,9 @@ class Session:
     def _set_behaviour(self, name: str, options: dict | None = None) -> dict:
         """Start behaviour `name` from the current state, with walking `options` (step_height,
         cycle_time, footholds) if any; a walking behaviour continues the previous one in stride.
-        A behaviour that lifts feet on a stack without `swing_feet` brings WALKING_PRESET along
-        (returned as the reply's `preset` and `stack`). Raises KeyError or ValueError for an
-        unknown name or a bad option, changing nothing."""
+        A behaviour that lifts feet on a stack without `swing_feet` brings its `stack_preset`
+        along, or WALKING_PRESET (returned as the reply's `preset` and `stack`). Raises KeyError
+        or ValueError for an unknown name or a bad option, changing nothing."""
         if name not in BEHAVIOURS:
             raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(BEHAVIOURS)})")
         self.model.update(*self.plant.state())
@@ -190,7 +190,9 @@ class Session:
         )
         self.behaviour = behaviour
         self.controller.references = behaviour.references
-        return self._use_preset(WALKING_PRESET) if walking_stack else {}
+        if not walking_stack:
+            return {}
+        return self._use_preset(getattr(behaviour, "stack_preset", WALKING_PRESET))
 
     def _use_preset(self, name: str) -> dict:
         """Install stack preset `name`: its levels, its tasks' gains, its hierarchy method.

@@ -1,10 +1,11 @@
-"""The gaits the panel offers for driving: `stand`, `trot` and `crawl` from `info["gaits"]`.
+"""The gaits the panel offers for driving: `stand`, `trot`, `crawl` (quadrupeds) and
+`biped_step` (two point feet, Kim 2016) from `info["gaits"]`.
 
 The other behaviours in `info["gaits"]` are Hutter 2014's scripted experiments (see
 docs/replications.md); they run from scenarios and stay out of the driving dropdown.
 """
 
-DRIVING_GAITS = ("stand", "trot", "crawl")
+DRIVING_GAITS = ("stand", "trot", "crawl", "biped_step")
 
 
 def gait_options(gaits: list[str], current: str) -> tuple[str, ...]:

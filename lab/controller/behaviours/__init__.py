@@ -12,6 +12,7 @@ import numpy as np
 
 from lab.controller.behaviours.balance import Balance
 from lab.controller.behaviours.base import Behaviour
+from lab.controller.behaviours.biped_step import BIPED_BEHAVIOURS
 from lab.controller.behaviours.hutter import HUTTER_BEHAVIOURS
 from lab.controller.behaviours.squat import Squat
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
@@ -24,6 +25,7 @@ BEHAVIOURS: dict[str, BehaviourFactory] = {
     **HUTTER_BEHAVIOURS,
     **WALKING_BEHAVIOURS,
     Squat.name: Squat,
+    **BIPED_BEHAVIOURS,
 }
 
 __all__ = ["BEHAVIOURS", "Balance", "Behaviour", "BehaviourFactory"]

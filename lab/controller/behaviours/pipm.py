@@ -86,13 +86,15 @@ def reversal_foot(
     surface: LinearSurface,
     reach: float = 0.5,
     tolerance: float = 1e-6,
+    velocity: float = 0.0,
 ) -> float:
-    """The foot position within `reach` (m) of the CoM whose PIPM velocity is zero
-    `reversal_time` after `post_impact`, by bisection (the velocity falls as the foot moves
-    ahead); saturates at the reach when no foot inside it reverses the motion."""
+    """The foot position within `reach` (m) of the CoM whose PIPM velocity is zero (or
+    `velocity`, m/s: a steering bias) `reversal_time` after `post_impact`, by bisection (the
+    velocity falls as the foot moves ahead); saturates at the reach when no foot inside it
+    reaches it."""
 
     def velocity_at_reversal(foot: float) -> float:
-        return integrate(post_impact, foot, reversal_time, surface)[-1].xd
+        return integrate(post_impact, foot, reversal_time, surface)[-1].xd - velocity
 
     lo, hi = post_impact.x - reach, post_impact.x + reach
     if velocity_at_reversal(lo) <= 0.0:
@@ -116,13 +118,16 @@ def plan_step(
     surface: LinearSurface,
     impact_velocity_change: float = 0.0,
     reach: float = 0.5,
+    velocity: float = 0.0,
+    tolerance: float = 1e-6,
 ) -> PlannedStep:
     """Predict the switching state `switch_in` s from `now` over the stance foot, add the
     impact's velocity change (Kim's bias, −0.01 m/s in x in simulation), and find the next foot
-    that reverses the velocity `reversal_time` (t′) after the switch."""
+    that reverses the velocity `reversal_time` (t′) after the switch (or brings it to
+    `velocity`, the steering bias), within `tolerance` (m)."""
     switching = integrate(now, stance_foot, switch_in, surface)[-1]
     post = PipmState(switching.t, switching.x, switching.xd + impact_velocity_change)
-    foot = reversal_foot(post, reversal_time, surface, reach)
+    foot = reversal_foot(post, reversal_time, surface, reach, tolerance, velocity)
     reversal = integrate(post, foot, reversal_time, surface)[-1]
     return PlannedStep(foot, switching, post, reversal)
 

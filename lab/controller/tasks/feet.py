@@ -28,6 +28,13 @@ def swinging(robot: RobotModel, active: np.ndarray) -> np.ndarray:
     return point & ~np.asarray(active, dtype=bool)
 
 
+def _not_tracked(refs: WalkReferences) -> np.ndarray:
+    """The flags `SwingRows.of` takes: the feet out of contact, or those the references name."""
+    if len(refs.swing_tracked) == len(refs.contact_active):
+        return ~refs.swing_tracked
+    return refs.contact_active
+
+
 @dataclass(frozen=True)
 class SwingRows:
     """The swinging point feet of one contact set and the task's rows for them."""
@@ -53,7 +60,7 @@ class SwingFeetTask(Task):
         self._swing = PerContactSet(SwingRows.of)
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        swing = self._swing.get(robot, refs.contact_active) if has_swing(refs) else None
+        swing = self._swing.get(robot, _not_tracked(refs)) if has_swing(refs) else None
         if swing is None or not len(swing.coords):
             return no_task_rows(robot.nx)
         feet, jacobian = swing.coords, swing.jacobian

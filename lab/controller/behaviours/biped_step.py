@@ -1,0 +1,225 @@
+"""Stepping on two point feet: the state machine of Kim 2016 Fig. 8a with the footstep planner
+of §V (`pipm.py`).
+
+One step, the swing foot s and the stance foot the other:
+
+    dual support → lift transition (s unloaded, w 1 → 0, eqs. 9–10) → lift → land →
+    land transition (s loaded, w 0 → 1) → dual support, the feet swapping roles.
+
+In lift and land the swing foot tracks the swing ellipse of `swing.py` (`swing_feet` task)
+from where it left the ground to the planned footstep; landing ends when the foot is felt on
+the ground, or keeps descending until it is. The footstep comes from the velocity-reversal
+planner, x and y separately: a first plan at lift-off, replanned every tick from 80 % of the
+lift until landing begins (Kim §V: "the planner runs when the lifting phase reaches 80 %").
+The CoM height above the stance foot is the PIPM's (level) height surface; the switching state
+is predicted at the end of the landing. The velocity command [vx, vy] biases the reversal:
+the planner aims at the commanded velocity t′ after the switch instead of zero (heading
+frame), so the robot walks where it is steered. The step stays within `reach` of the stance
+foot and the swing foot on its own side, at least `min_width` from the stance foot across.
+
+The trunk: base height above the stance foot (Kim controls the CoM height), level, at a heading
+turned by the command's yaw rate (never more than YAW_LEAD_MAX ahead of the measured one); the
+CoM's horizontal motion is left to the pendulum and the footsteps, as in Kim's single-support
+task set [COM_z, q_Ry, q_Rx, foot].
+"""
+
+import math
+from dataclasses import dataclass, fields
+from enum import Enum
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.behaviours.balance import references_at_rest, standing_model
+from lab.controller.behaviours.base import NoOptions
+from lab.controller.behaviours.pipm import LinearSurface, PipmState, plan_step
+from lab.controller.behaviours.swing import swing_reference
+from lab.controller.model import RobotModel
+from lab.controller.references import References
+from lab.controller.walk_references import WalkReferences
+
+YAW_LEAD_MAX = 0.2  # rad, the heading reference never leads the measured yaw by more
+PLAN_TOLERANCE = 1e-4  # m, the bisection's: a tenth of a millimetre on the footstep
+
+
+def _wrap(angle: float) -> float:
+    """The angle in [-π, π]."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+class Phase(Enum):
+    """The states of Fig. 8a."""
+
+    DUAL = "dual"
+    LIFT_TRANSITION = "lift_transition"
+    LIFT = "lift"
+    LAND = "land"
+    LAND_TRANSITION = "land_transition"
+
+
+@dataclass(frozen=True)
+class SteppingTimes:
+    """Durations (s) of the phases, Hume's (Kim: dual support 0.02 s in stepping, 0.079 s in
+    walking) scaled to Bolt by its pendulum time constant; the step height (m), the planner's
+    t′ (s), its impact velocity change (m/s), and where a footstep may go (m)."""
+
+    dual: float = 0.02
+    transition: float = 0.02
+    lift: float = 0.12
+    land: float = 0.08
+    step_height: float = 0.04
+    # t′ longer than the time from the reversal to the next switch makes the step-to-step map
+    # contract: on a level PIPM the velocity at the next switch is −sinh(ω(T − t′))/sinh(ω t′)
+    # times this one's (T the switch-to-switch time, 0.22–0.26 s here); Hume's 0.24 s scaled
+    # by √(z/g) (0.13 s) would be T/2, neutral, and the lateral sway would wander.
+    reversal_time: float = 0.16
+    impact_velocity_change: float = 0.0
+    replan_from: float = 0.8  # of the lift phase
+    reach: float = 0.12
+    lateral_offset: float = 0.02  # outwards, added to the planned y: the sway's amplitude
+    min_width: float = 0.04
+    max_width: float = 0.24
+
+
+class BipedStepping(NoOptions):
+    """Step on two point feet, feet placed by the velocity-reversal planner."""
+
+    name = "biped_step"
+    lifts_feet = True
+    stack_preset = "kim_stepping"  # the stack it brings onto one that cannot swing feet
+
+    def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
+        if len(robot.contacts) != 2 or any(c.kind != "point" for c in robot.contacts):
+            raise ValueError("biped_step needs a robot with exactly two point feet")
+        here = q_standing.copy()
+        here[:2] = robot.base_position[:2]
+        yaw = pin.rpy.matrixToRpy(robot.base_rotation)[2]
+        here[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
+        at_rest = standing_model(robot, here)
+        standing = references_at_rest(at_rest)
+        refs = WalkReferences(**{f.name: getattr(standing, f.name) for f in fields(References)})
+        feet = robot.contact_positions.copy()
+        self.height = float(at_rest.base_position[2] - at_rest.contact_positions[:, 2].mean())
+        self.com_height = float(at_rest.com[2] - at_rest.contact_positions[:, 2].mean())
+        self.yaw = float(yaw)  # the heading reference, turned by the command's yaw rate
+        self.t: float | None = None
+        refs.foot_position = feet.copy()
+        refs.foot_velocity = np.zeros((2, 3))
+        refs.foot_acceleration = np.zeros((2, 3))
+        refs.force_weight = np.full(2, np.nan)
+        refs.swing_tracked = np.zeros(2, dtype=bool)
+        self.references = refs
+        self.times = SteppingTimes()
+        # The left foot (+y in the base frame) swings first.
+        left = int(np.argmax((at_rest.contact_positions - at_rest.base_position)[:, 1]))
+        self.sides = np.array([1.0, -1.0]) if left == 0 else np.array([-1.0, 1.0])
+        self.swing = left
+        self.phase = Phase.DUAL
+        self.since: float | None = None
+        self.liftoff = feet[left].copy()
+        self.target = feet[left, :2].copy()
+        self.steps = 0  # touchdowns
+        self.plans = 0
+
+    # ------------------------------------------------------------------------ the tick
+    def update(
+        self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
+    ) -> None:
+        """Advance the state machine to time `t` (s) and set the references (module docstring)."""
+        if self.since is None:
+            self.since = self.t = t
+        yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
+        lead = _wrap(self.yaw + float(command[2]) * (t - self.t) - yaw)
+        self.yaw, self.t = yaw + min(max(lead, -YAW_LEAD_MAX), YAW_LEAD_MAX), t
+        times, refs, s = self.times, self.references, self.swing
+        elapsed = t - self.since
+        if self.phase is Phase.DUAL and elapsed >= times.dual:
+            self._enter(Phase.LIFT_TRANSITION, t)
+        elif self.phase is Phase.LIFT_TRANSITION and elapsed >= times.transition:
+            self.liftoff = robot.contact_positions[s].copy()
+            self.target = self._plan(robot, command, times.lift + times.land)
+            self._enter(Phase.LIFT, t)
+        elif self.phase is Phase.LIFT and elapsed >= times.lift:
+            self._enter(Phase.LAND, t)
+        elif self.phase is Phase.LAND and touching[s] and elapsed >= 0.5 * times.land:
+            self.steps += 1
+            self._enter(Phase.LAND_TRANSITION, t)
+        elif self.phase is Phase.LAND_TRANSITION and elapsed >= times.transition:
+            self.swing = 1 - s
+            self._enter(Phase.DUAL, t)
+        elapsed = t - self.since
+        s = self.swing
+        stance = 1 - s
+
+        in_air = self.phase in (Phase.LIFT, Phase.LAND)
+        refs.contact_active[:] = True
+        refs.contact_active[s] = not in_air
+        refs.force_weight[:] = np.nan
+        if self.phase is Phase.LIFT_TRANSITION:
+            refs.force_weight[s] = max(0.0, 1.0 - elapsed / times.transition)  # eq. 9–10
+        elif self.phase is Phase.LAND_TRANSITION:
+            refs.force_weight[s] = min(1.0, elapsed / times.transition)
+        refs.swing_tracked[:] = False
+        refs.swing_tracked[s] = self.phase is not Phase.DUAL
+        if self.phase in (Phase.LIFT_TRANSITION, Phase.LAND_TRANSITION):
+            refs.foot_velocity[s] = refs.foot_acceleration[s] = 0.0  # held where it stands
+        if self.phase in (Phase.LIFT_TRANSITION, Phase.LAND_TRANSITION) and elapsed == 0.0:
+            refs.foot_position[s] = robot.contact_positions[s]
+        if elapsed == 0.0:  # the posture (lowest priority) holds the joints where they are
+            refs.posture[:] = robot.joint_positions
+        if in_air:
+            into_swing = elapsed + (times.lift if self.phase is Phase.LAND else 0.0)
+            if self.phase is Phase.LIFT and elapsed >= times.replan_from * times.lift:
+                self.target = self._plan(robot, command, times.lift + times.land - into_swing)
+            refs.foot_position[:], refs.foot_velocity[:] = robot.contact_positions, 0.0
+            refs.foot_acceleration[:] = 0.0
+            swing = swing_reference(
+                self.liftoff, self.target, times.step_height, into_swing, times.lift + times.land
+            )
+            refs.foot_position[s], refs.foot_velocity[s], refs.foot_acceleration[s] = swing
+        on_ground = robot.contact_positions[stance, 2] if in_air else robot.contact_positions[:, 2]
+        refs.base_height = float(np.mean(on_ground)) + self.height
+        refs.base_rotation = pin.rpy.rpyToMatrix(0.0, 0.0, self.yaw)
+        refs.base_angular_velocity[:] = 0.0, 0.0, float(command[2])
+        refs.com[:] = robot.com  # the CoM moves as the pendulum: only reported, not tracked
+        refs.com[2] = float(np.mean(on_ground)) + self.com_height
+
+    def _enter(self, phase: Phase, t: float) -> None:
+        self.phase, self.since = phase, t
+
+    def _plan(self, robot: RobotModel, command: np.ndarray, switch_in: float) -> np.ndarray:
+        """The footstep (world x, y) for the swing foot from the CoM state now, the stance foot
+        and the time left until the feet switch (s)."""
+        times, s = self.times, self.swing
+        stance = robot.contact_positions[1 - s]
+        yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
+        c, sn = math.cos(yaw), math.sin(yaw)
+        heading = np.array([[c, -sn], [sn, c]])  # heading frame (the body's yaw) → world
+        com = heading.T @ (robot.com[:2] - stance[:2])
+        velocity = heading.T @ robot.com_velocity[:2]
+        target_velocity = np.asarray(command[:2], dtype=float)
+        surface = LinearSurface(height=max(float(robot.com[2] - stance[2]), 0.05))
+        step = np.zeros(2)
+        for axis in range(2):
+            now = PipmState(0.0, float(com[axis]), float(velocity[axis]))
+            planned = plan_step(
+                now,
+                0.0,
+                switch_in,
+                times.reversal_time,
+                surface,
+                times.impact_velocity_change if axis == 0 else 0.0,
+                reach=times.reach + abs(float(com[axis])),
+                velocity=float(target_velocity[axis]),
+                tolerance=PLAN_TOLERANCE,
+            )
+            step[axis] = planned.foot
+        step[0] = float(np.clip(step[0], -times.reach, times.reach))
+        side = self.sides[s]
+        step[1] += side * times.lateral_offset
+        step[1] = side * float(np.clip(side * step[1], times.min_width, times.max_width))
+        self.plans += 1
+        return stance[:2] + heading @ step
+
+
+BIPED_BEHAVIOURS = {BipedStepping.name: BipedStepping}

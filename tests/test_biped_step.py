@@ -1,0 +1,74 @@
+"""Kim 2016 Fig. 8 and §V on Bolt: stepping under WBOSC with the velocity-reversal planner."""
+
+from pathlib import Path
+
+import numpy as np
+
+from lab.controller.behaviours import BEHAVIOURS
+from lab.controller.behaviours.biped_step import BipedStepping, Phase
+from lab.controller.model import RobotModel
+from lab.description import load_description
+from lab.robot import build_robot
+from lab.server.scenario import Event, load_scenario, run_scenario
+from lab.server.session import Session, SessionConfig
+
+SCENARIOS = Path(__file__).parent.parent / "scenarios"
+
+
+def test_bolt_steps_in_place_twenty_times_without_falling() -> None:
+    """≥ 20 steps in 6 s; CoM height within Kim's 2 cm and the body's roll-pitch within his
+    0.15 rad of their references (Fig. 8d); the CoM stays within 15 cm of where it began."""
+    report = run_scenario(load_scenario(SCENARIOS / "bolt_step_in_place.toml"), duration=6.0)
+    assert not report["fell"]
+    m = report["metrics"]
+    assert m["steps"] >= 20
+    assert m["max_com_height_error_m"] < 0.02
+    assert m["max_roll_pitch_error_rad"] < 0.15
+    assert m["max_com_wander_m"] < 0.15
+
+
+def test_a_forward_velocity_command_walks_bolt_forward() -> None:
+    """The command biases the reversal target: at 0.1 m/s for 3 s the CoM moves forward by
+    more than half the commanded 0.3 m and sideways by less than 10 cm, and Bolt does not
+    fall."""
+    scenario = load_scenario(SCENARIOS / "bolt_step_in_place.toml")
+    scenario.events.append(Event(0.5, "velocity", {"vx": 0.1}))
+    report = run_scenario(scenario, duration=3.5)
+    assert not report["fell"]
+    assert report["metrics"]["com_travel_x_m"] > 0.15
+    assert abs(report["metrics"]["com_travel_y_m"]) < 0.1
+
+
+def test_biped_step_on_bolts_standing_stack_brings_kims_stepping_stack() -> None:
+    """From the gait control: Bolt stands on its default stack (no swing_feet); choosing
+    biped_step installs `kim_stepping` under wbosc, and Bolt steps for 1.5 s without falling."""
+    session = Session(SessionConfig(robot="bolt"))
+    reply = session.handle("gait", {"name": "biped_step"})
+    assert reply["ok"] and reply["preset"] == "kim_stepping"
+    assert reply["hierarchy"]["method"] == "wbosc"
+    while session.time < 1.5 and not session.fell:
+        session.tick()
+    assert not session.fell and session.behaviour.steps >= 4
+
+
+def test_the_lifting_foot_is_unloaded_by_a_ramp_and_then_tracks_its_swing() -> None:
+    """Fig. 8a's sequence on a model that does not move: dual support, lift transition with
+    w falling 1 → 0 (eqs. 9–10), then the foot out of contact tracking a reference above it."""
+    robot = build_robot(load_description("bolt"))
+    assert BEHAVIOURS["biped_step"] is BipedStepping
+    model = RobotModel(robot.model, robot.contacts)
+    model.update(robot.q_standing, np.zeros(robot.model.nv))
+    stepping = BipedStepping(model, robot.q_standing)
+    touching = np.ones(2, dtype=bool)
+    weights, phases = [], []
+    for tick in range(120):
+        stepping.update(1e-3 * tick, model, np.zeros(3), touching)
+        phases.append(stepping.phase)
+        weights.append(stepping.references.force_weight[stepping.swing])
+    lifting = [w for w, p in zip(weights, phases, strict=True) if p is Phase.LIFT_TRANSITION]
+    assert phases[0] is Phase.DUAL and Phase.LIFT in phases
+    assert lifting[0] == 1.0 and lifting[-1] < 0.1 and np.all(np.diff(lifting) < 0)
+    refs = stepping.references
+    s = stepping.swing
+    assert not refs.contact_active[s] and refs.contact_active[1 - s]
+    assert refs.foot_position[s, 2] > model.contact_positions[s, 2] + 0.01
