@@ -163,14 +163,17 @@ def query(
     return no_reply
 
 
-def open_session(endpoint: str, timeout: float) -> zenoh.Session:
-    """Open a client session to `endpoint`, retrying for `timeout` s while the server is
-    still starting (a Zenoh client cannot open a session with nothing to connect to)."""
+def open_session(
+    endpoint: str, timeout: float, cancelled: Callable[[], bool] = lambda: False
+) -> zenoh.Session:
+    """Open a client session to `endpoint`, retrying for `timeout` s (or until `cancelled()`)
+    while the server is still starting (a Zenoh client cannot open a session with nothing to
+    connect to)."""
     end = time.monotonic() + timeout
     while True:
         try:
             return zenoh.open(client_config(endpoint))
         except zenoh.ZError:
-            if time.monotonic() > end:
+            if time.monotonic() > end or cancelled():
                 raise
             time.sleep(0.05)

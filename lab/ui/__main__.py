@@ -3,7 +3,10 @@
 import argparse
 import os
 import signal
+import sys
 import threading
+
+import zenoh
 
 from lab.protocol import DEFAULT_ENDPOINT
 from lab.ui.app import LabApp
@@ -27,7 +30,11 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     if args.exit_with_parent:
         threading.Thread(target=_watch_parent, args=(stop,), daemon=True).start()
-    app = LabApp(args.port, args.connect, host=args.host)
+    try:
+        app = LabApp(args.port, args.connect, host=args.host, stop=stop)
+    except zenoh.ZError as error:
+        print(f"lab ui: no lab server at {args.connect}: {error}", file=sys.stderr, flush=True)
+        return 1
     print(f"lab ui: http://{args.host}:{args.port} (Zenoh {args.connect})", flush=True)
     try:
         app.run(stop)

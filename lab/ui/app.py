@@ -18,6 +18,7 @@ from typing import ParamSpec
 
 import numpy as np
 import viser
+import zenoh
 
 from lab.description import load_description
 from lab.protocol import VelocityCommand
@@ -94,7 +95,13 @@ def _yaw(quat_xyzw: list[float]) -> float:
 
 
 class LabApp:
-    def __init__(self, http_port: int, endpoint: str, host: str = "127.0.0.1") -> None:
+    def __init__(
+        self,
+        http_port: int,
+        endpoint: str,
+        host: str = "127.0.0.1",
+        stop: threading.Event | None = None,
+    ) -> None:
         self.server = viser.ViserServer(host=host, port=http_port, label="WBC lab", verbose=False)
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         # No image-based lighting: viser draws the whole canvas at 5 % opacity until its HDR
@@ -102,7 +109,11 @@ class LabApp:
         # a busy machine (the robot "faded" after the page loaded). Plain lights draw at once.
         self.server.scene.configure_environment_map(None)
         self.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
-        self.link = Link(endpoint)
+        try:  # waits for a sim that is still starting, unless `stop` is set meanwhile
+            self.link = Link(endpoint, stop.is_set if stop is not None else lambda: False)
+        except zenoh.ZError:
+            self.server.stop()
+            raise
         self.ownership = ControlOwnership()
         self.info: dict | None = None
         self.telemetry: dict | None = None

@@ -2,6 +2,7 @@
 latest-value channels the render loop drains (no Python runs on Zenoh's threads)."""
 
 import json
+from collections.abc import Callable
 
 import zenoh
 
@@ -14,9 +15,12 @@ OPEN_TIMEOUT_S = 60.0  # how long a starting UI waits for the sim process's endp
 class Link:
     """The UI process's session with the sim process (see the module docstring)."""
 
-    def __init__(self, endpoint: str = DEFAULT_ENDPOINT) -> None:
-        # a UI started beside its sim waits for it; once open, the session reconnects by itself
-        self._session = open_session(endpoint, OPEN_TIMEOUT_S)
+    def __init__(
+        self, endpoint: str = DEFAULT_ENDPOINT, cancelled: Callable[[], bool] = lambda: False
+    ) -> None:
+        # a UI started beside its sim waits for it (until `cancelled()`); once open, the
+        # session reconnects by itself
+        self._session = open_session(endpoint, OPEN_TIMEOUT_S, cancelled)
         # The sim's liveliness token: PUT while it runs, DELETE when it dies or the link breaks.
         self._alive = self._session.liveliness().declare_subscriber(
             KEY_ALIVE, zenoh.handlers.FifoChannel(16), history=True
