@@ -160,7 +160,7 @@ def test_the_record_command_starts_and_stops_a_recording_of_the_live_session(
             assert running["recording"]["file"] == str(path)
             done = lab.command("record", action="stop")
             assert done["ok"] and done["recorded"]["bytes"] == path.stat().st_size > 0
-            assert lab.wait_telemetry(timeout=WAIT_S)["recording"] is None
+            lab.wait_telemetry(lambda m: m["recording"] is None, timeout=WAIT_S)
     finally:
         server.kill()
     _, messages = read_recording(path)

@@ -90,3 +90,23 @@ def test_a_fall_is_reset_and_checked_on_the_soaks_clock_not_the_sessions() -> No
         assert user.report.unrecovered_falls == unrecovered
         expected = 3.0 + len(heights) * (RESET_CHECK_S + 0.01)
         assert user.sim_time == pytest.approx(expected)
+
+
+def test_a_fall_on_a_scene_the_robot_cannot_stand_on_gets_the_default_scene_back() -> None:
+    """ANYmal on Bolt's split wedges falls whatever its controller: after a plain reset fails,
+    the default method, the default scene and the default stack come back, in that order."""
+    info = {"robot": "anymal", "scene": "flat", "hierarchy": {"method": "cascade"}}
+    user = RandomUser(info, weight_n=500.0, standing_height=0.5, sim_seconds=10.0, seed=0)
+    wedges = {"scene": "split_wedges"}
+    user.publish_telemetry(_telemetry(2.0, True, 0.1, 2000) | wedges)
+    user.publish_telemetry(_telemetry(2.0 + FALLEN_S, True, 0.1, 3000) | wedges)
+    assert user.receive().verb == "reset"
+    user.publish_telemetry(_telemetry(0.01, True, 0.1, 3010) | wedges)
+    user.publish_telemetry(_telemetry(RESET_CHECK_S + 0.01, True, 0.1, 4000) | wedges)
+    sent = [(r.verb, r.payload) for r in (user.receive(), user.receive(), user.receive())]
+    assert sent == [
+        ("hierarchy", {"method": "cascade"}),
+        ("scene", {"name": "flat"}),
+        ("robot", {"name": "anymal"}),
+    ]
+    assert user.report.plain_reset_failed_under == {"? / ? / split_wedges": 1}

@@ -4,9 +4,9 @@ The session runs in `SimLoop` exactly as in `lab serve --fast`, behind a transpo
 random user instead of Zenoh: every ~COMMAND_INTERVAL_S of sim time it sends a valid command
 (velocity, gait, push, stack preset, hierarchy method, momentum mode, gains, scene, pause and
 resume), encodes everything the loop publishes as the server would, and watches telemetry. Times are
-sim time run so far (a reset restarts the session's clock, not the soak's). A fall
-is answered as a user would: `reset` after FALLEN_S (the robot stands up under the controller the
-random user left); if RESET_CHECK_S later it is still down, the default hierarchy method and the
+sim time run so far (a reset restarts the session's clock, not the soak's). A fall is answered as
+a user would: `reset` after FALLEN_S (the robot stands up under the controller the random user
+left); if RESET_CHECK_S later it is still down, the default hierarchy method and scene and the
 page's "Default stack" (the `robot` command: the robot's default stack and gains); RESET_CHECK_S
 after that it must stand (else it is a fall it cannot reset from). The resident memory is
 sampled every MEMORY_SAMPLE_S of sim time; growth is measured from the end of the warm-up to the
@@ -188,6 +188,9 @@ class RandomUser:
                     self.report.down_after_plain_reset += 1
                     _count(self.report.plain_reset_failed_under, _controller_of(telemetry))
                     self._queue.append(("hierarchy", {"method": self.info["hierarchy"]["method"]}))
+                    scene = self.info.get("scene")
+                    if telemetry.get("scene", scene) != scene:  # e.g. Bolt's wedges under ANYmal
+                        self._queue.append(("scene", {"name": scene}))
                     self._queue.append(("robot", {"name": self.info["robot"]}))
                     self._check_at = t + RESET_CHECK_S
                 self._checking_defaults = self._check_at is not None
