@@ -184,13 +184,6 @@ class RecordingTransport:
         self._session = session
         self._record_dir = record_dir
         self._recorder, self._path = recorder, path
-        self._started = 0.0  # session time the recording started at (its timeline goes on)
-        self._seconds = 0.0
-
-    @property
-    def recorder(self) -> Recorder | None:
-        """The running recorder, if any."""
-        return self._recorder
 
     def receive(self) -> Request | None:
         while (request := self._transport.receive()) is not None:
@@ -218,13 +211,14 @@ class RecordingTransport:
                 self._recorder = Recorder(path, self._session)
             except OSError as error:
                 return {"ok": False, "error": f"record: cannot write {path}: {error}"}
-            self._path, self._seconds = path, 0.0
+            self._path = path
             return {"ok": True, "recording": {"file": str(path), "seconds": 0.0}}
         if self._recorder is None:
             return {"ok": False, "error": "record: nothing is being recorded"}
+        seconds = self._recorder.seconds
         self.close()
         size = self._path.stat().st_size
-        reply = {"file": str(self._path), "seconds": round(self._seconds, 3), "bytes": size}
+        reply = {"file": str(self._path), "seconds": round(seconds, 3), "bytes": size}
         return {"ok": True, "recorded": reply}
 
     def close(self) -> None:
@@ -242,8 +236,7 @@ class RecordingTransport:
         status = None
         if self._recorder is not None:
             self._recorder.telemetry(self._session, message)
-            self._seconds = self._recorder.seconds
-            status = {"file": str(self._path), "seconds": round(self._seconds, 2)}
+            status = {"file": str(self._path), "seconds": round(self._recorder.seconds, 2)}
         self._transport.publish_telemetry({**message, "recording": status})
 
     def publish_state(self, message: dict[str, object]) -> None:
