@@ -38,6 +38,7 @@ from lab.ui.terrain_view import TerrainView
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
 PLOT_S = 1.0 / 20.0  # plot redraw period
 OVERLAY_S = 1.0 / 30.0  # overlay redraw period
+PLOT_PANEL_PX = 400  # width of the plots panel docked left of the 3-D view
 STATUS_S = 0.2
 SLOW_COMMAND_S = 1.0  # a command answered later than this is logged (the lab answers in ms)
 REFRESH_S = 0.2  # resend a non-zero velocity (deadman 0.5 s) and an active drag push
@@ -153,9 +154,13 @@ class LabApp:
                 box = gui.add_checkbox(name, name != "friction cones")
                 self._overlay_visible[name] = box.value
                 box.on_update(lambda e, n=name: self._toggle_overlay(n, e.target.value))
-        # right below the push buttons: the charts are read while pushing
-        self._plot_folder = gui.add_folder("Plots", order=5.5)
-        self.plots = Plots(gui, self._plot_folder, self.guard)
+        # The charts are read while pushing: their own panel docked left of the 3-D view, the
+        # controls docked right of it, so that both stay in sight, the robot between them.
+        self.plot_panel = gui.add_panel()
+        self.plots = Plots(gui, self.plot_panel.add_tab("Plots", viser.Icon.CHART_LINE), self.guard)
+        self.plot_panel.dock_left()
+        self.plot_panel.set_width(PLOT_PANEL_PX)
+        gui.main_panel.dock_right()
         self.recording = RecordingControls(gui, self.send, self.guard)
         self.server.on_client_connect(self.guard(self._connect))
         self.server.on_client_disconnect(self.guard(self._disconnect))
