@@ -148,6 +148,8 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
     # the robot is drawn in the view (the page's first draw took up to 60 s at load 20)
     assert wait_dark_pixels(page, lambda n: n > 1500, timeout=LOAD_TIMEOUT_MS / 1000) > 1500
     page.get_by_text("RTF").wait_for()  # status line from live telemetry
+    # the Lab dropdown lists the one lab, which the page found without being told its id
+    page.get_by_text("1 of 1 labs online").wait_for()
 
 
 def test_push_button_moves_the_base_in_the_pushed_direction(
