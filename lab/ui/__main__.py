@@ -9,7 +9,7 @@ import threading
 
 import zenoh
 
-from lab.protocol import DEFAULT_ENDPOINT, LabIdError
+from lab.protocol import DEFAULT_ENDPOINT, LabIdError, LabKeys
 from lab.ui.app import LabApp
 
 PARENT_CHECK_S = 1.0
@@ -36,10 +36,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.exit_with_parent:
         threading.Thread(target=_watch_parent, args=(stop,), daemon=True).start()
     try:
-        app = LabApp(args.port, args.connect, host=args.host, stop=stop, lab_id=args.lab_id)
+        if args.lab_id is not None:
+            LabKeys(args.lab_id)  # checked before the HTTP server starts
     except LabIdError as error:
         print(f"lab ui: --lab-id: {error}", file=sys.stderr, flush=True)
         return 2
+    try:
+        app = LabApp(args.port, args.connect, host=args.host, stop=stop, lab_id=args.lab_id)
     except zenoh.ZError as error:
         print(f"lab ui: no lab server at {args.connect}: {error}", file=sys.stderr, flush=True)
         return 1
