@@ -156,6 +156,9 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
     assert box["x"] + box["width"] <= view["x"], (box, view)  # left of the view, not over it
     assert box["y"] + box["height"] <= VIEWPORT["height"], (box, VIEWPORT)
 
+    # the Lab dropdown lists the one lab, which the page found without being told its id
+    page.get_by_text("1 of 1 labs online").wait_for()
+
 
 def test_push_button_moves_the_base_in_the_pushed_direction(
     page, lab: LabClient, serve: LabServe

@@ -24,6 +24,7 @@ from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import stack_risks
 from lab.ui.joystick import JoystickLimits, from_offset, tap
+from lab.ui.lab_picker import add_lab_picker
 from lab.ui.numbers import NumberError, NumberRange, format_number
 
 
@@ -40,6 +41,8 @@ class PanelHost(Protocol):
         """Send a command for `client` (None when it does not hold control)."""
 
     def take_control(self, client_id: int) -> None: ...
+
+    def switch_lab(self, client: viser.ClientHandle, lab_id: str) -> None: ...
 
     def set_velocity(self, client: viser.ClientHandle, cmd: VelocityCommand) -> None: ...
 
@@ -106,6 +109,8 @@ class ControlPanel:
         self.banner = gui.add_markdown("", order=1)
         self.take = gui.add_button("Take control", icon=viser.Icon.HAND_GRAB, order=2)
         self.take.on_click(app.guard(lambda _: app.take_control(client.client_id)))
+        self.labs = add_lab_picker(app, client, order=2.5)
+        self._controls.append(self.labs.dropdown)
 
         with gui.add_folder("Robot & controller", order=3):
             self.robot = gui.add_dropdown("Robot", ("…",))
