@@ -263,6 +263,7 @@ class LabApp:
             self._watched_lab = self.link.lab_id
             self.telemetry, self._lost_at, self._seen_alive, self._switch = None, None, False, None
             self.log.add("info", f"showing lab {self._watched_lab}")
+            self.plots.clear()
             self.refresh_info()
         labs = self.link.directory.labs()
         with self._lock:

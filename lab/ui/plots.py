@@ -214,6 +214,11 @@ class Plots:
         for chart in self.charts:
             chart.record(tel)
 
+    def clear(self) -> None:
+        """Forget every chart's data (another lab is shown: its clock is not this one's)."""
+        for chart in self.charts:
+            chart.labels = None  # the next message rebuilds the chart with an empty buffer
+
     def draw(self) -> None:
         if self.paused.value:
             return
