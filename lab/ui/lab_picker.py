@@ -54,7 +54,6 @@ class LabPicker:
         )
         self.note = gui.add_markdown("", order=order + 0.01)
         self._shown: tuple | None = None
-        self._syncing = False
         self.dropdown.on_update(app.guard(self._chosen))
 
     def show(self, labs: dict[str, bool], watched: str | None) -> None:
@@ -65,17 +64,13 @@ class LabPicker:
             return
         self._shown = shown
         options = tuple(lab_label(lab_id, online) for lab_id, online in labs.items())
-        self._syncing = True
-        try:
-            self.dropdown.options = options or ("…",)
-            if watched is not None:
-                self.dropdown.value = lab_label(watched, labs[watched])
-        finally:
-            self._syncing = False
+        self.dropdown.options = options or ("…",)  # assignments call `_chosen` with no client
+        if watched is not None:
+            self.dropdown.value = lab_label(watched, labs[watched])
         self.note.content = labs_note(labs) if labs else "no lab seen yet"
 
-    def _chosen(self, _event: viser.GuiEvent) -> None:
-        if not self._syncing and self.dropdown.value != "…":
+    def _chosen(self, event: viser.GuiEvent) -> None:
+        if event.client_id is not None and self.dropdown.value != "…":
             self.app.switch_lab(self.client, lab_of(self.dropdown.value))
 
 
