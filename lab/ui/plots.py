@@ -202,7 +202,7 @@ class Plots:
                 "Pause plots", False, hint="freeze the charts (recording goes on); drag to zoom"
             )
             self.window = gui.add_dropdown(
-                "Window [s]", tuple(str(w) for w in WINDOWS_S), str(WINDOWS_S[0])
+                "Window [s]", tuple(str(w) for w in WINDOWS_S), initial_value=str(WINDOWS_S[0])
             )
             csv = gui.add_button("Export CSV", hint="the shown window of every chart, as numbers")
             png = gui.add_button("Export PNG", hint="the shown window of every chart, as a figure")
