@@ -22,6 +22,11 @@ from lab.server.transport import client_config
 COMMAND_TIMEOUT_S = 2.0
 SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session
 SLOW_VERBS = ("robot", "scene")
+# Messages a client keeps between two reads, per kind: `wait_telemetry` looks at every telemetry
+# message that arrives while it waits (up to 2.5 s of them at 100 Hz between two reads), so a
+# brief event, a push of 0.2 s, is seen however late it runs; of the state (60 Hz, every frame of
+# the robot) only the newest is wanted.
+BACKLOG = {"telemetry": 256, "state": 1}
 
 
 class LabNotFound(LookupError):
@@ -91,9 +96,9 @@ class LabClient:
             subscriber.undeclare()
         latest = {
             kind: self._session.declare_subscriber(
-                getattr(keys, kind), zenoh.handlers.RingChannel(1)
+                getattr(keys, kind), zenoh.handlers.RingChannel(capacity)
             )
-            for kind in ("telemetry", "state")
+            for kind, capacity in BACKLOG.items()
         }
         declared = [(kind, cb, self._declare_callback(kind, cb)) for kind, cb in callbacks]
         with self._lock:
@@ -145,16 +150,19 @@ class LabClient:
     def wait_telemetry(
         self, predicate: Callable[[dict], bool] = lambda _: True, timeout: float = 5.0
     ) -> dict:
-        """Poll telemetry until `predicate` holds; raise TimeoutError with the last message."""
+        """The first telemetry message for which `predicate` holds: the newest one received
+        before the call, then every one after it (a brief event is not missed however late this
+        thread runs); raise TimeoutError with the last message."""
         end = time.monotonic() + timeout
+        messages = self._fresh("telemetry")[-1:]
         last = None
         while time.monotonic() < end:
-            message = self._fresh("telemetry")
-            if message is not None:
+            for message in messages:
                 last = message
                 if predicate(message):
                     return message
             time.sleep(0.002)
+            messages = self._fresh("telemetry")
         raise TimeoutError(f"telemetry condition not met within {timeout:g} s; last: {last}")
 
     def subscribe_telemetry(self, callback: Callable[[dict], None]) -> None:
@@ -195,18 +203,18 @@ class LabClient:
         with self._lock:
             self._callbacks.append((kind, callback, subscriber))
 
-    def _fresh(self, kind: str) -> dict | None:
-        """A message received since the last read, or None."""
+    def _fresh(self, kind: str) -> list[dict]:
+        """The messages received since the last read (at most BACKLOG[kind]), oldest first."""
         with self._lock:
             subscriber = self._latest[kind]
-        sample = subscriber.try_recv()
-        if sample is None:
-            return None
-        message = json.loads(sample.payload.to_bytes())
-        with self._lock:
-            if self._latest.get(kind) is subscriber:  # not from a lab switched away from
-                self._last[kind] = message
-        return message
+        messages = []
+        while (sample := subscriber.try_recv()) is not None:
+            messages.append(json.loads(sample.payload.to_bytes()))
+        if messages:
+            with self._lock:
+                if self._latest.get(kind) is subscriber:  # not from a lab switched away from
+                    self._last[kind] = messages[-1]
+        return messages
 
     def _newest(self, kind: str) -> dict | None:
         self._fresh(kind)
