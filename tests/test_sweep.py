@@ -152,3 +152,18 @@ def test_push_map_png(tmp_path):
     assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
     with pytest.raises(PlotError, match=r"push\.direction_deg"):
         plot_push_map([{KEY: "1", ERROR: "", "push.force_n": 1.0}], tmp_path / "no.png", "t")
+
+
+def test_a_cluster_address_where_nothing_answers_is_refused_at_once(tmp_path):
+    """`--address HOST:PORT` with no Ray there: a clear error naming it, nothing written (Ray
+    itself would retry for minutes)."""
+    from ports import free_port
+
+    from lab.sweep.runner import RayUnavailable, run_sweep
+
+    address = f"127.0.0.1:{free_port()}"
+    table = tmp_path / "small.csv"
+    sweep = load_sweep(_write(tmp_path, SMALL_SWEEP))
+    with pytest.raises(RayUnavailable, match=f"the Ray cluster at {address}: nothing answers"):
+        run_sweep(sweep, table, address=address, progress=False)
+    assert not table.exists()

@@ -11,6 +11,7 @@ tasks in flight and keeps the rows already written.
 
 import logging
 import os
+import socket
 import sys
 import time
 from collections import deque
@@ -25,6 +26,7 @@ from lab.sweep.table import ERROR, KEY, read_rows, result_row, write_rows
 
 OBJECT_STORE_BYTES = 100 * 2**20  # results are small dicts; Ray's floor is 75 MiB
 WAIT_S = 1.0  # how often the loop looks at timeouts while nothing finishes
+CONNECT_TIMEOUT_S = 5.0  # to reach a cluster's HOST:PORT before Ray is asked to join it
 
 
 @dataclass
@@ -95,9 +97,23 @@ def _start_ray(workers: int | None, address: str | None) -> None:
         raise RayUnavailable(f"{where}: {str(error).splitlines()[0]}") from error
 
 
+def _check_reachable(address: str) -> None:
+    """Fail at once when nothing answers at a HOST:PORT `address` (`ray.init` would retry for
+    minutes); other forms (`auto`, `ray://…`) are left to Ray."""
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or "/" in address:
+        return
+    try:
+        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as error:
+        message = f"nothing answers there ({error}): is `ray start --head` running?"
+        raise ConnectionError(message) from error
+
+
 def _init_ray(workers: int | None, address: str | None) -> None:
     quiet = {"log_to_driver": False, "logging_level": logging.WARNING}
     if address:
+        _check_reachable(address)
         ray.init(address=address, **quiet)
     else:
         ray.init(
