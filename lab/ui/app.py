@@ -25,10 +25,12 @@ from lab.protocol import VelocityCommand
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import EventLog
 from lab.ui.guard_rails import error_growth
+from lab.ui.internal_force_plot import add_internal_force_plot
 from lab.ui.link import Link
 from lab.ui.overlays import OVERLAYS, Overlays
 from lab.ui.ownership import ControlOwnership
 from lab.ui.panel import ControlPanel
+from lab.ui.phase_portrait_plot import add_phase_portrait_plot
 from lab.ui.plots import Plots
 from lab.ui.recording import RecordingControls
 from lab.ui.robot_view import RobotView
@@ -156,6 +158,8 @@ class LabApp:
         # right below the push buttons: the charts are read while pushing
         self._plot_folder = gui.add_folder("Plots", order=5.5)
         self.plots = Plots(gui, self._plot_folder, self.guard)
+        self.plots.charts.append(add_internal_force_plot(gui, self._plot_folder))
+        self.plots.charts += add_phase_portrait_plot(gui, self._plot_folder)
         self.recording = RecordingControls(gui, self.send, self.guard)
         self.server.on_client_connect(self.guard(self._connect))
         self.server.on_client_disconnect(self.guard(self._disconnect))
