@@ -13,6 +13,7 @@ import numpy as np
 from lab.controller.behaviours.balance import Balance
 from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.biped_step import BIPED_BEHAVIOURS
+from lab.controller.behaviours.com_ellipse import ComEllipse
 from lab.controller.behaviours.hutter import HUTTER_BEHAVIOURS
 from lab.controller.behaviours.squat import Squat
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
@@ -26,6 +27,7 @@ BEHAVIOURS: dict[str, BehaviourFactory] = {
     **WALKING_BEHAVIOURS,
     Squat.name: Squat,
     **BIPED_BEHAVIOURS,
+    ComEllipse.name: ComEllipse,
 }
 
 __all__ = ["BEHAVIOURS", "Balance", "Behaviour", "BehaviourFactory"]
