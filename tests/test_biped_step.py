@@ -110,3 +110,25 @@ def test_a_sideways_push_in_stride_is_recovered_by_stepping() -> None:
     report = run_scenario(scenario, duration=2.4)
     assert not report["fell"]
     assert report["metrics"]["swings_cut"] >= 1
+
+
+def test_the_com_ellipse_reference_turns_in_the_plane_of_the_foot_line() -> None:
+    """Kim Fig. 6b: after the hold, the CoM reference (less the foot-line balance's lean,
+    which is across the line) lies on the ellipse 1.5 cm along the line by 1 cm up, at the
+    constant rate of one turn in 4 s, and its velocity reference is the path's derivative."""
+    from lab.controller.behaviours import com_ellipse
+
+    robot = build_robot(load_description("bolt"))
+    model = RobotModel(robot.model, robot.contacts)
+    model.update(robot.q_standing, np.zeros(robot.model.nv))
+    ellipse = com_ellipse.ComEllipse(model, robot.q_standing)
+    start = ellipse.references.com.copy()
+    line = model.contact_positions[1] - model.contact_positions[0]
+    along = line / np.linalg.norm(line)
+    for t in (0.0, 1.0, 1.5, 2.5, 4.5):
+        ellipse.update(t, model, np.zeros(3), np.ones(2, dtype=bool))
+        d = ellipse.references.com - start
+        phase = 2 * np.pi / com_ellipse.PERIOD * max(t - com_ellipse.HOLD, 0.0)
+        assert d @ along == pytest.approx(0.015 * np.sin(phase), abs=1e-9)
+        assert d[2] == pytest.approx(0.01 * (np.cos(phase) - 1.0), abs=1e-9)
+    assert np.linalg.norm(ellipse.references.com_velocity) == pytest.approx(0.015 * np.pi / 2)
