@@ -95,7 +95,7 @@ class SteppingTimes:
     # or behind for 3 cm, and its swing passes through the stance leg (docs/controller.md).
     min_width: float = 0.04
     max_width: float = 0.24
-    min_swing: float = 0.12  # s, the shortest lift + land a swing may be cut to
+    min_swing: float = 0.16  # s, the shortest a swing may be cut to (at 0.12 the stance foot slid)
     # Kim's |ẏ| limit 0.65 m/s (Hume) scaled by √(z g) to Bolt's 0.3 m: the lateral phase plane
     # shortens the step so that the switch comes before the CoM is this fast sideways.
     max_lateral_speed: float = 0.36
