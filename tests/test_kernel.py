@@ -347,10 +347,62 @@ def test_a_native_solver_failure_falls_back_and_is_reported() -> None:
     assert events and "native weighted" in events[0]["message"]
 
 
+def native_weighted(problem) -> dict:
+    """The native weighted method on a Python HierarchyProblem."""
+    levels = [(lv.A, lv.b, lv.C, lv.d, lv.weight) for lv in problem.levels]
+    support = np.ones(problem.dynamics_A.shape[1] - problem.dynamics_A.shape[0], dtype=bool)
+    return _kernel.solve_hierarchy(
+        "weighted", problem.dynamics_A, problem.dynamics_b, levels, support
+    )
+
+
+def test_the_weighted_qp_eiquadprog_cycled_on_ends_bounded_and_says_infeasible() -> None:
+    """ANYmal standing with a normal force of at least 200 N and at most 100 N: eiquadprog 1.3.2
+    cycled without end on this weighted QP (setMaxIter did not stop it). DAQP returns within its
+    iteration limit and names the cause; the same limits made sane again give a solution."""
+    controller, robot = controller_for("anymal", method="weighted")
+    controller.robot.update(robot.q_standing, np.zeros(robot.model.nv))
+    limits = controller.config.limits
+    sane = (limits.normal_min, limits.normal_max)
+    limits.normal_min, limits.normal_max = 200.0, 100.0
+    failed = native_weighted(controller.build_problem())
+    assert not failed["ok"] and "infeasible" in failed["message"], failed["message"]
+    iterations = int(failed["message"].split(", ")[-1].split()[0])
+    assert iterations <= _kernel.qp_iteration_limit, failed["message"]
+    limits.normal_min, limits.normal_max = sane
+    solved = native_weighted(controller.build_problem())
+    assert solved["ok"], solved["message"]
+    forces = solved["x"][robot.model.nv :].reshape(-1, 3)
+    assert forces[:, 2].sum() == pytest.approx(controller.robot.mass * 9.81, rel=0.05)
+
+
+def test_degenerate_qps_end_in_bounded_iterations_with_a_status() -> None:
+    """Two stated degenerate QPs through the kernel's backend: rows that contradict each other
+    with two nonzeros each (no single-entry bound a precheck could catch), and a feasible QP whose
+    optimum sits on 40 copies of the same row (a degenerate vertex, where active-set methods can
+    cycle). Each returns within the iteration limit with its status."""
+    n = 6
+    P, q = np.eye(n), -np.ones(n)
+    no_rows, no_rhs = np.zeros((0, n)), np.zeros(0)
+    row = np.zeros(n)
+    row[:2] = 1.0  # x0 + x1 <= -1 and x0 + x1 >= 1
+    G, h = np.vstack([row, -row]), np.array([-1.0, -1.0])
+    x, ok, flag, name, iterations = _kernel.solve_qp(P, q, G, h, no_rows, no_rhs)
+    assert not ok and flag < 0 and name == "infeasible"
+    assert iterations <= _kernel.qp_iteration_limit
+    # min ½|x - 1|² with sum(x) <= 1, forty times over, and x0 = x1 (as an equality row)
+    G, h = np.tile(np.ones(n), (40, 1)), np.ones(40)
+    A, b = np.array([[1.0, -1.0, 0.0, 0.0, 0.0, 0.0]]), np.zeros(1)
+    x, ok, flag, name, iterations = _kernel.solve_qp(P, q, G, h, A, b)
+    assert ok and name == "optimal" and iterations <= _kernel.qp_iteration_limit
+    # the projection of 1 onto sum(x) = 1 (it also has x0 = x1)
+    np.testing.assert_allclose(x, np.full(n, 1.0 / n), atol=1e-9)
+
+
 QUADRUPEDS = ("anymal", "hyq", "solo12")
-X_TOL = 1e-6  # relative to 1 + |x|: the QP solvers' (DAQP, eiquadprog) primal tolerances
+X_TOL = 1e-6  # relative to 1 + |x|: DAQP's primal tolerance, with room for the float order
 TAU_TOL = 1e-6  # N m, where every level of the cascade was solved without a QP
-LEVEL_TOL = 1e-7  # relative: two residuals of a level are equal (eiquadprog's feasibility, 2e-8)
+LEVEL_TOL = 1e-7  # relative: two residuals of a level are equal
 # Below this lightest level weight the weighted Hessian spans more than 1e9: DAQP then stops
 # short of the optimum (hutter_table7's 7 levels reach 1e-18), so x is compared through the cost.
 WELL_CONDITIONED_WEIGHT = 1e-9

@@ -1,7 +1,7 @@
 // All levels in one weighted QP (Raiola 2020, stack S1); mirrors
 // lab/controller/hierarchy/weighted.py.
 #include <algorithm>
-#include <limits>
+#include <string>
 
 #include "hierarchy/problem.hpp"
 #include "hierarchy/qp.hpp"
@@ -9,28 +9,6 @@
 namespace lab {
 namespace {
 constexpr double kRegularization = 1e-9;  // times the lightest level weight
-constexpr double kBoundTol = 1e-9;        // a lower bound above an upper one by more: no x
-
-/// Whether rows with a single nonzero (bounds on one entry of x: normal forces, joint
-/// accelerations) contradict each other. eiquadprog cycles without end between its steps 2 and
-/// 2a on such a pair instead of calling the problem infeasible (tests/test_faults.py).
-bool contradictory_bounds(const Eigen::MatrixXd& C, const Eigen::VectorXd& d) {
-  const double inf = std::numeric_limits<double>::infinity();
-  Eigen::VectorXd lower = Eigen::VectorXd::Constant(C.cols(), -inf);
-  Eigen::VectorXd upper = Eigen::VectorXd::Constant(C.cols(), inf);
-  for (Eigen::Index i = 0; i < C.rows(); ++i) {
-    Eigen::Index column = -1, nonzeros = 0;
-    for (Eigen::Index j = 0; j < C.cols() && nonzeros < 2; ++j)
-      if (C(i, j) != 0.0) column = j, ++nonzeros;
-    if (nonzeros != 1) continue;
-    const double a = C(i, column), bound = d(i) / a;  // a x_j <= d_i
-    if (a > 0.0)
-      upper(column) = std::min(upper(column), bound);
-    else
-      lower(column) = std::max(lower(column), bound);
-  }
-  return ((lower - upper).array() > kBoundTol).any();
-}
 }  // namespace
 
 void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
@@ -69,12 +47,13 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
   H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
-  const bool bounds_conflict = contradictory_bounds(C, d);
-  out.ok = !bounds_conflict && solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x);
+  QpReport report;
+  out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x, &report);
   if (!out.ok) {
-    out.message = bounds_conflict
-                      ? "the weighted QP is infeasible: a lower bound on x exceeds its upper bound"
-                      : "eiquadprog found no solution of the weighted QP";
+    // Bounded whatever the problem: DAQP stops at its iteration limit or on a cycle.
+    out.message = std::string("DAQP found no solution of the weighted QP: ") +
+                  qp_exit_name(report.exitflag) + " (exit flag " + std::to_string(report.exitflag) +
+                  ", " + std::to_string(report.iterations) + " iterations)";
     out.x.setZero(nx);
   }
   if (!problem.levels.empty()) clock.lap(0);  // one QP for all levels: charged to the first
