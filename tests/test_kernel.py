@@ -406,6 +406,7 @@ LEVEL_TOL = 1e-7  # relative: two residuals of a level are equal
 # Below this lightest level weight the weighted Hessian spans more than 1e9: DAQP then stops
 # short of the optimum (hutter_table7's 7 levels reach 1e-18), so x is compared through the cost.
 WELL_CONDITIONED_WEIGHT = 1e-9
+WEIGHTED_COST_TOL = 1e-9  # relative: above it, the weighted costs of two x are not the same
 
 
 @functools.cache
@@ -486,13 +487,17 @@ def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
             x, x_native = np.r_[python.qdd, python.forces], np.r_[qdd, forces]
             problem = controller.build_problem()
             lightest = min(level.weight for level in problem.levels)
-            if method == "weighted" and lightest < WELL_CONDITIONED_WEIGHT:
+            x_differs = np.abs(x_native - x).max() > X_TOL * (1.0 + np.abs(x).max())
+            if method == "weighted" and (lightest < WELL_CONDITIONED_WEIGHT or x_differs):
+                # Where the weighted optimum is flat (Solo12's default stack: cond(H) ~4e9, x
+                # fixed to ~3e-5 only, the two costs equal to 1e-13), x is compared by its cost.
                 for level in problem.levels:  # hard inequalities, and a cost no worse
                     assert np.all(level.C @ x_native <= level.d + X_TOL * (1 + abs(level.d))), what
                 cost, cost_native = weighted_cost(problem, x), weighted_cost(problem, x_native)
-                assert cost_native <= cost * (1 + X_TOL) + 1e-12, what
+                tolerance = X_TOL if lightest < WELL_CONDITIONED_WEIGHT else WEIGHTED_COST_TOL
+                assert cost_native <= cost * (1 + tolerance) + 1e-12, what
                 continue
-            if np.abs(x_native - x).max() > X_TOL * (1.0 + np.abs(x).max()):
+            if x_differs:
                 # Where a QP ran, DAQP may stop a level short of its optimum (1e-6-level
                 # residuals) and the levels below then move: the native x must win the first
                 # level where the two differ.

@@ -357,8 +357,10 @@ class MujocoPlant:
         self.body_names = tuple(sorted(self._body_of_link))
         self._rotation = np.zeros(9)
         self._forces = np.zeros((len(robot.contacts), 3))
-        self._steps = 0  # MuJoCo steps and resets so far: the key of the measured-force cache
+        self._steps = 0  # MuJoCo steps and resets so far: the key of the per-step caches
         self._forces_step = -1
+        self._contacts: list[tuple[int, int, int, float]] = []
+        self._contacts_step = -1
         self._point_pushes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         # Live views into mj_data (never reallocated): `check` runs twice a tick, ~1 µs this way.
         self._warning_counts = self.mj_data.warning.number
@@ -527,7 +529,10 @@ class MujocoPlant:
         """(contact, foot or −1, first constraint row or −1, sign) of each contact of the last step
         between the robot and the terrain. The sign is +1 where the robot's geom is geom2: the
         contact force acts from geom1 onto geom2. A plain loop: a step has a handful of
-        contacts, fewer than the numpy calls that would replace it cost."""
+        contacts, fewer than the numpy calls that would replace it cost. Computed once per step:
+        the touch sensing, the measured forces and the fall check all read it."""
+        if self._contacts_step == self._steps:
+            return self._contacts
         d = self.mj_data
         terrain, foot_of = self._terrain_list, self._foot_of_geom_list
         geoms, rows = d.contact.geom[: d.ncon].tolist(), d.contact.efc_address[: d.ncon].tolist()
@@ -536,6 +541,7 @@ class MujocoPlant:
             if terrain[g1] != terrain[g2]:  # one side is the robot
                 robot_geom, sign = (g2, 1.0) if terrain[g1] else (g1, -1.0)
                 found.append((i, foot_of[robot_geom], row, sign))
+        self._contacts, self._contacts_step = found, self._steps
         return found
 
     def non_foot_ground_contact(self) -> bool:
