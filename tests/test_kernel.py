@@ -13,7 +13,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from lab.controller.behaviours import leg_posture
 from lab.controller.behaviours.balance import standing_references
+from lab.controller.behaviours.leg_posture import LegPostureReference
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel
 from lab.controller.native import (
@@ -397,6 +399,37 @@ def test_degenerate_qps_end_in_bounded_iterations_with_a_status() -> None:
     assert ok and name == "optimal" and iterations <= _kernel.qp_iteration_limit
     # the projection of 1 onto sum(x) = 1 (it also has x0 = x1)
     np.testing.assert_allclose(x, np.full(n, 1.0 / n), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["anymal", "hyq", "solo12"])
+def test_the_native_leg_posture_update_agrees_with_python(name: str) -> None:
+    """LegPostureReference.update on a tick whose model update the native kernel ran
+    (cpp/behaviours/leg_posture.cpp) against its Python steps: random states, stance sets, swing
+    references and commanded twists, three ticks in a row (the stance feet roll from the last
+    tick's orientations); q̇_d, q_d and the kept orientations equal to 1e-9."""
+    assert leg_posture.native_velocity is not None, "the kernel lacks leg_posture_velocity"
+    rng = np.random.default_rng(12)
+    controller, robot = controller_for(name)
+    model = controller.robot
+    python = LegPostureReference(model, robot.q_standing[7:])
+    native = LegPostureReference(model, robot.q_standing[7:])
+    n = len(model.contacts)
+    for _ in range(3):
+        model.update(*random_state(robot, rng))
+        stance = rng.random(n) < 0.5
+        swing = (
+            model.contact_positions + rng.normal(0.0, 0.05, (n, 3)),
+            rng.normal(0.0, 0.3, (n, 3)),
+        )
+        twist = (rng.normal(0.0, 0.3, 3), rng.normal(0.0, 0.5, 3))
+        tick = (0.001, stance, *swing, *twist, float(rng.normal(0.0, 0.02)))
+        python.update(model, *tick)
+        model.filled_elsewhere()  # as after the kernel's update: the native steps run
+        native.update(model, *tick)
+        scale = 1.0 + np.abs(python.velocity).max()
+        np.testing.assert_allclose(native.velocity, python.velocity, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose(native.position, python.position, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(native._rotations, python._rotations)
 
 
 QUADRUPEDS = ("anymal", "hyq", "solo12")
