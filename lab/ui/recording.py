@@ -102,7 +102,7 @@ class RecordingControls:
                 "Timeline [s]", 0.0, max(duration, TIMELINE_STEP_S), TIMELINE_STEP_S, 0.0
             )
             self._play = self._gui.add_button_group("Playback", ("Play", "Pause"))
-            self._speed = self._gui.add_dropdown("Speed ×", SPEEDS, "1")
+            self._speed = self._gui.add_dropdown("Speed ×", SPEEDS, initial_value="1")
         self._folder.expand_by_default = True
         self._timeline.on_update(self._guard(self._seek))
         self._play.on_click(self._guard(self._play_pause))
