@@ -252,7 +252,8 @@ class Session:
             warnings.simplefilter("always")  # every tick's warnings, for telemetry
             try:
                 self.controller.update(q, v)
-                self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
+                if self.controller.reads_sensing:  # measured only for a task that reads it
+                    self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
                 self.behaviour.update(self.time, self.model, self.velocity, touching)
                 out = self.controller.solve()
                 if not np.isfinite(out.tau).all():
