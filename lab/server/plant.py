@@ -374,6 +374,8 @@ class MujocoPlant:
         # Live views into mj_data (never reallocated): `check` runs twice a tick, ~1 µs this way.
         self._warning_counts = self.mj_data.warning.number
         self._qpos, self._qvel = self.mj_data.qpos, self.mj_data.qvel
+        self._ctrl = self.mj_data.ctrl  # `state` and `set_torques` run every tick
+        self._base_in_world = self._rotation.reshape(3, 3)  # a view: mju_quat2Mat fills it
         self._coordinate_names = self._name_coordinates()
         self._valid_time = 0.0  # sim time of the last state `check` passed
         self.reset(robot.q_standing)
@@ -437,11 +439,11 @@ class MujocoPlant:
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in pinocchio conventions (new arrays)."""
-        qpos, qvel = self.mj_data.qpos, self.mj_data.qvel
+        qpos, qvel = self._qpos, self._qvel
         q = qpos[self._q_order]  # quaternion (w, x, y, z) → (x, y, z, w), joints by name
         v = qvel[self._v_order]
         mujoco.mju_quat2Mat(self._rotation, qpos[3:7])
-        v[:3] = self._rotation.reshape(3, 3).T @ v[:3]  # linear velocity: world → base frame
+        v[:3] = self._base_in_world.T @ v[:3]  # linear velocity: world → base frame
         return q, v
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
@@ -458,9 +460,10 @@ class MujocoPlant:
     def set_torques(self, tau: np.ndarray) -> None:
         """Joint torques (N m) in pinocchio joint order; MuJoCo clips them to the torque limits."""
         tau = np.asarray(tau, dtype=float)
-        if tau.shape != self.mj_data.ctrl.shape or not np.isfinite(tau).all():
-            raise ValueError(f"set_torques needs {self.mj_data.ctrl.size} finite torques (N m)")
-        self.mj_data.ctrl[:] = tau  # actuators were added in pinocchio joint order
+        ctrl = self._ctrl
+        if tau.shape != ctrl.shape or not np.isfinite(tau).all():
+            raise ValueError(f"set_torques needs {ctrl.size} finite torques (N m)")
+        ctrl[:] = tau  # actuators were added in pinocchio joint order
 
     def set_joint_damping(self, damping: float | np.ndarray) -> None:
         """Viscous damping (N m s/rad) of the actuated joints, one value or one per joint in
