@@ -50,6 +50,9 @@ from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, add_scene
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
 # 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
+# MuJoCo flags a coordinate beyond mjMAXVAL (1e10) as bad; the sum of squares of all of them
+# below its square holds each one below it.
+MAX_STATE_SQUARED = mujoco.mjMAXVAL**2
 BAD_STATE_WARNINGS = {
     int(mujoco.mjtWarning.mjWARN_BADQPOS): "position",
     int(mujoco.mjtWarning.mjWARN_BADQVEL): "velocity",
@@ -490,13 +493,15 @@ class MujocoPlant:
 
     def check(self) -> None:
         """Raise `SimulationDiverged` unless the state is valid: MuJoCo flagged no bad position,
-        velocity or acceleration since the last `reset`, and qpos and qvel are finite."""
+        velocity or acceleration since the last `reset`, and qpos and qvel are finite and within
+        MuJoCo's own bound (a state its next step would flag: the controller never sees it)."""
         d, counts, qpos, qvel = self.mj_data, self._warning_counts, self._qpos, self._qvel
         flagged = any(counts[kind] for kind in BAD_STATE_WARNINGS)
-        if not flagged and math.isfinite(qpos.dot(qpos) + qvel.dot(qvel)):  # NaN, inf propagate
+        # NaN and inf propagate into the sum and fail the comparison
+        if not flagged and qpos.dot(qpos) + qvel.dot(qvel) < MAX_STATE_SQUARED:
             self._valid_time = d.time
             return
-        cause = "non-finite position or velocity"
+        cause = f"non-finite position or velocity, or one beyond {mujoco.mjMAXVAL:g}"
         for kind, quantity in BAD_STATE_WARNINGS.items():
             if counts[kind]:
                 where = self._coordinate_names[kind][d.warning[kind].lastinfo]
