@@ -13,7 +13,7 @@ from lab.server.kim_metrics import KIM_METRICS
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
 from lab.server.push_metrics import PushMetrics
-from lab.server.tracking_metrics import CogTrackingMetrics
+from lab.server.tracking_metrics import CogTrackingMetrics, SwingTrackingMetrics
 
 if TYPE_CHECKING:
     from lab.server.session import Session
@@ -50,6 +50,7 @@ METRICS: dict[str, type] = {
     "locomotion": LocomotionMetrics,
     "pushes": PushMetrics,
     "cog_tracking": CogTrackingMetrics,
+    "swing_tracking": SwingTrackingMetrics,
     **LOAD_METRICS,
     **KIM_METRICS,
 }

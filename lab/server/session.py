@@ -424,14 +424,16 @@ class Session:
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": momentum_report(self.controller)}
-            case cmd.StanceCommand(side=side):
-                return self._stance(side)
+            case cmd.StanceCommand(side=side, swing=swing):
+                return self._stance(side, swing)
         return {}
 
-    def _stance(self, side: str) -> dict:
-        """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py); starts the
-        stance behaviour, with STANCE_PRESET if the stack has no `swing_sole`. Raises ValueError
-        for a robot without two flat soles or an unknown side, changing nothing."""
+    def _stance(self, side: str | None, swing: float | None = None) -> dict:
+        """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py; None: where it
+        stands), swinging the lifted leg at `swing` Hz if given; starts the stance behaviour,
+        with STANCE_PRESET if the stack has no `swing_sole` (or no `swing_leg` for a swing).
+        Raises ValueError for a robot without two flat soles or an unknown side, changing
+        nothing."""
         contacts = self.model.contacts
         if len(contacts) != 2 or any(contact.kind != "flat" for contact in contacts):
             raise ValueError(f"stance: robot {self.config.robot!r} is not a biped with flat soles")
@@ -439,14 +441,18 @@ class Session:
         if not isinstance(self.behaviour, Stance):
             self.model.update(*self.plant.state())
             behaviour = Stance(self.model, self.robot.q_standing)
-            behaviour.request(side)  # raises before anything changes
+            if side is not None:
+                behaviour.request(side)  # raises before anything changes
             self.behaviour = behaviour
             self.controller.references = behaviour.references
-            if "swing_sole" not in self.controller.config.stack.names():
-                reply = self._use_preset(STANCE_PRESET)
-        else:
+        elif side is not None:
             self.behaviour.request(side)
-        return {"stance": side, **reply}
+        if swing is not None:
+            self.behaviour.swing(swing)
+        names = self.controller.config.stack.names()
+        if "swing_sole" not in names or (self.behaviour.swing_hz and "swing_leg" not in names):
+            reply = self._use_preset(STANCE_PRESET)
+        return {"stance": side or self.behaviour.stance, "swing": self.behaviour.swing_hz, **reply}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None
