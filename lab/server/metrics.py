@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from lab.server.cop_metrics import CopBindingMetrics
 from lab.server.kim_metrics import KIM_METRICS
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
@@ -51,6 +52,7 @@ METRICS: dict[str, type] = {
     "pushes": PushMetrics,
     "cog_tracking": CogTrackingMetrics,
     "swing_tracking": SwingTrackingMetrics,
+    "cop_binding": CopBindingMetrics,
     **LOAD_METRICS,
     **KIM_METRICS,
 }
