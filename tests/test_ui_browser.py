@@ -300,9 +300,9 @@ def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
 def test_the_balance_buttons_send_the_momentum_law_and_a_refused_stance_says_why(
     page, lab: LabClient
 ) -> None:
-    """PD and LQR reach the server; `On left` on ANYmal (point feet) is refused, and the page
-    says why."""
-    for label, mode in (("PD", "pd"), ("LQR", "lqr")):
+    """PD, LQR and LQR Talos reach the server; `On left` on ANYmal (point feet) is refused, and
+    the page says why."""
+    for label, mode in (("PD", "pd"), ("LQR", "lqr"), ("LQR Talos", "lqr_talos")):
         press(page, label)
         end = time.monotonic() + UI_ACTION_TIMEOUT_S
         while lab.command("info")["momentum"]["mode"] != mode and time.monotonic() < end:
