@@ -53,11 +53,14 @@ def _replay(argv: list[str]) -> int:
         "--port", type=int, default=7447, help="with --serve: TCP port on 127.0.0.1"
     )
     parser.add_argument("--speed", type=float, default=1.0, help="with --serve: times real time")
+    parser.add_argument(
+        "--lab-id", help="with --serve: the lab id its keys are scoped by (default: <host>-replay)"
+    )
     args = parser.parse_args(argv)
     if args.serve:
         from lab.server.replay_serve import replay_serve_main
 
-        return replay_serve_main(args.recording, args.port, args.speed)
+        return replay_serve_main(args.recording, args.port, args.speed, args.lab_id)
     try:
         check = replay(args.recording)
     except (OSError, ValueError, KeyError) as error:

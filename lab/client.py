@@ -4,6 +4,8 @@ with LabClient() as lab:
     print(lab.command("info"))
     lab.command("push", body="base", force=[0, 80, 0], duration=0.2)
     print(lab.latest_telemetry()["base"]["linear_velocity"])
+
+Behind a router with several labs, name one: `LabClient("tcp/router:7447", lab_id="hostA-anymal")`.
 """
 
 import json
@@ -13,14 +15,8 @@ from collections.abc import Callable
 
 import zenoh
 
-from lab.protocol import (
-    CMD_PREFIX,
-    DEFAULT_ENDPOINT,
-    KEY_ALIVE,
-    KEY_EVENTS,
-    KEY_STATE,
-    KEY_TELEMETRY,
-)
+from lab.directory import LabDirectory
+from lab.protocol import ALL_LABS_ALIVE, DEFAULT_ENDPOINT, LabKeys, lab_id_of
 from lab.server.transport import client_config
 
 COMMAND_TIMEOUT_S = 2.0
@@ -28,28 +24,85 @@ SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session
 SLOW_VERBS = ("robot", "scene")
 
 
-class LabClient:
-    """One Zenoh client session to the lab server; close it (or use `with`)."""
+class LabNotFound(LookupError):
+    """No lab, or several and none chosen, behind a client's endpoint."""
 
-    def __init__(self, endpoint: str = DEFAULT_ENDPOINT, connect_timeout: float = 5.0) -> None:
+
+class LabClient:
+    """One Zenoh client session to one lab (sim process); close it (or use `with`).
+
+    `lab_id` names the lab to talk to; without it the client looks for the labs behind
+    `endpoint` for up to `connect_timeout` s and takes the only one; several raise `LabNotFound`
+    naming them, unless `first` (then the first by id). `labs()` lists every lab seen, `select`
+    switches to another."""
+
+    def __init__(
+        self,
+        endpoint: str = DEFAULT_ENDPOINT,
+        connect_timeout: float = 5.0,
+        lab_id: str | None = None,
+        first: bool = False,
+    ) -> None:
         self.endpoint = endpoint
         self._session = open_session(endpoint, connect_timeout)
-        self._latest: dict[str, zenoh.Subscriber] = {
-            key: self._session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
-            for key in (KEY_TELEMETRY, KEY_STATE)
-        }
-        self._last: dict[str, dict | None] = {KEY_TELEMETRY: None, KEY_STATE: None}
-        self._callbacks: list[zenoh.Subscriber] = []
         self._lock = threading.Lock()
         self._connected = threading.Event()
+        self._directory = LabDirectory()
+        self._keys: LabKeys | None = None
+        self._latest: dict[str, zenoh.Subscriber] = {}
+        self._last: dict[str, dict | None] = {}
+        self._callbacks: list[tuple[str, Callable[[dict], None], zenoh.Subscriber]] = []
         self._alive = self._session.liveliness().declare_subscriber(
-            KEY_ALIVE, self._on_alive, history=True
+            ALL_LABS_ALIVE, self._on_alive, history=True
         )
+        try:
+            if lab_id is None:
+                found = find_labs(self._session, connect_timeout)
+                lab_id = found[0] if first and found else only_lab(found, endpoint)
+            self.select(lab_id)
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def lab_id(self) -> str:
+        """The lab this client talks to."""
+        assert self._keys is not None
+        return self._keys.lab_id
+
+    def labs(self) -> dict[str, bool]:
+        """Every lab seen since the client started, sorted by id: whether it is online now."""
+        return self._directory.labs()
+
+    def select(self, lab_id: str) -> None:
+        """Talk to lab `lab_id` from now on: commands, telemetry, state, events, `connected`
+        (callbacks given to `subscribe_*` follow). Raises LabIdError for an id that cannot be
+        one."""
+        keys = LabKeys(lab_id)
+        with self._lock:
+            old = [*self._latest.values(), *(sub for _, _, sub in self._callbacks)]
+            callbacks = [(kind, callback) for kind, callback, _ in self._callbacks]
+            self._keys = keys
+            if self._directory.is_online(lab_id):
+                self._connected.set()
+            else:
+                self._connected.clear()
+        for subscriber in old:
+            subscriber.undeclare()
+        latest = {
+            kind: self._session.declare_subscriber(
+                getattr(keys, kind), zenoh.handlers.RingChannel(1)
+            )
+            for kind in ("telemetry", "state")
+        }
+        declared = [(kind, cb, self._declare_callback(kind, cb)) for kind, cb in callbacks]
+        with self._lock:
+            self._latest, self._last, self._callbacks = latest, dict.fromkeys(latest), declared
 
     @property
     def connected(self) -> bool:
-        """Whether the sim process is reachable now: its liveliness token is seen (it vanishes
-        within about a second of the process dying or the link to it breaking)."""
+        """Whether the lab is reachable now: its liveliness token is seen (it vanishes within
+        about a second of the process dying or the link to it breaking)."""
         return self._connected.is_set()
 
     def wait_connected(self, connected: bool = True, timeout: float = 5.0) -> bool:
@@ -62,26 +115,32 @@ class LabClient:
         return True
 
     def _on_alive(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:
-            self._connected.set()
-        else:
-            self._connected.clear()
+        alive = sample.kind == zenoh.SampleKind.PUT
+        self._directory.seen(str(sample.key_expr), alive)
+        with self._lock:
+            if self._keys is None or lab_id_of(str(sample.key_expr)) != self._keys.lab_id:
+                return
+            if alive:
+                self._connected.set()
+            else:
+                self._connected.clear()
 
     def command(self, verb: str, timeout: float | None = None, **fields: object) -> dict:
         """Send `verb` with `fields` as its JSON payload; return the server's reply."""
         return self.request(verb, json.dumps(fields), timeout)
 
     def request(self, verb: str, payload: str | bytes, timeout: float | None = None) -> dict:
-        """Send a raw payload to `lab/cmd/<verb>`; see `query`."""
-        return query(self._session, verb, payload, timeout)
+        """Send a raw payload to `lab/<id>/cmd/<verb>`; see `query`."""
+        assert self._keys is not None
+        return query(self._session, self._keys, verb, payload, timeout)
 
     def latest_telemetry(self) -> dict | None:
         """The newest telemetry message received so far (None before the first)."""
-        return self._newest(KEY_TELEMETRY)
+        return self._newest("telemetry")
 
     def latest_state(self) -> dict | None:
-        """The newest `lab/state` message received so far (None before the first)."""
-        return self._newest(KEY_STATE)
+        """The newest `lab/<id>/state` message received so far (None before the first)."""
+        return self._newest("state")
 
     def wait_telemetry(
         self, predicate: Callable[[dict], bool] = lambda _: True, timeout: float = 5.0
@@ -90,7 +149,7 @@ class LabClient:
         end = time.monotonic() + timeout
         last = None
         while time.monotonic() < end:
-            message = self._fresh(KEY_TELEMETRY)
+            message = self._fresh("telemetry")
             if message is not None:
                 last = message
                 if predicate(message):
@@ -100,20 +159,22 @@ class LabClient:
 
     def subscribe_telemetry(self, callback: Callable[[dict], None]) -> None:
         """Call `callback(message)` for every telemetry message (on a Zenoh thread)."""
-        self._subscribe(KEY_TELEMETRY, callback)
+        self._subscribe("telemetry", callback)
 
     def subscribe_state(self, callback: Callable[[dict], None]) -> None:
-        """Call `callback(message)` for every `lab/state` message (on a Zenoh thread)."""
-        self._subscribe(KEY_STATE, callback)
+        """Call `callback(message)` for every `lab/<id>/state` message (on a Zenoh thread)."""
+        self._subscribe("state", callback)
 
     def subscribe_events(self, callback: Callable[[dict], None]) -> None:
-        """Call `callback(event)` for every `lab/events` message (on a Zenoh thread)."""
-        self._subscribe(KEY_EVENTS, callback)
+        """Call `callback(event)` for every `lab/<id>/events` message (on a Zenoh thread)."""
+        self._subscribe("events", callback)
 
     def close(self) -> None:
-        for subscriber in [self._alive, *self._callbacks, *self._latest.values()]:
+        subscribers = [*self._callbacks, *self._latest.items()]
+        for subscriber in [self._alive, *(entry[-1] for entry in subscribers)]:
             subscriber.undeclare()
         self._callbacks.clear()
+        self._latest.clear()
         self._session.close()
 
     def __enter__(self) -> "LabClient":
@@ -122,37 +183,50 @@ class LabClient:
     def __exit__(self, *_exc: object) -> None:
         self.close()
 
-    def _subscribe(self, key: str, callback: Callable[[dict], None]) -> None:
+    def _declare_callback(self, kind: str, callback: Callable[[dict], None]) -> zenoh.Subscriber:
         def on_sample(sample: zenoh.Sample) -> None:
             callback(json.loads(sample.payload.to_bytes()))
 
-        self._callbacks.append(self._session.declare_subscriber(key, on_sample))
+        assert self._keys is not None
+        return self._session.declare_subscriber(getattr(self._keys, kind), on_sample)
 
-    def _fresh(self, key: str) -> dict | None:
+    def _subscribe(self, kind: str, callback: Callable[[dict], None]) -> None:
+        subscriber = self._declare_callback(kind, callback)
+        with self._lock:
+            self._callbacks.append((kind, callback, subscriber))
+
+    def _fresh(self, kind: str) -> dict | None:
         """A message received since the last read, or None."""
-        sample = self._latest[key].try_recv()
+        with self._lock:
+            subscriber = self._latest[kind]
+        sample = subscriber.try_recv()
         if sample is None:
             return None
         message = json.loads(sample.payload.to_bytes())
         with self._lock:
-            self._last[key] = message
+            if self._latest.get(kind) is subscriber:  # not from a lab switched away from
+                self._last[kind] = message
         return message
 
-    def _newest(self, key: str) -> dict | None:
-        self._fresh(key)
+    def _newest(self, kind: str) -> dict | None:
+        self._fresh(kind)
         with self._lock:
-            return self._last[key]
+            return self._last[kind]
 
 
 def query(
-    session: zenoh.Session, verb: str, payload: str | bytes, timeout: float | None = None
+    session: zenoh.Session,
+    keys: LabKeys,
+    verb: str,
+    payload: str | bytes,
+    timeout: float | None = None,
 ) -> dict:
-    """Send a raw payload to `lab/cmd/<verb>` and return the server's reply. A missing reply
-    becomes {"ok": false, "error": "no reply ..."} so callers handle one shape."""
+    """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. A missing
+    reply becomes {"ok": false, "error": "no reply ..."} so callers handle one shape."""
     if timeout is None:
         timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
     no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
-    for reply in session.get(CMD_PREFIX + verb, payload=payload, timeout=timeout):
+    for reply in session.get(keys.cmd(verb), payload=payload, timeout=timeout):
         if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
             error = reply.err.payload.to_string()
             return no_reply if error == "Timeout" else {"ok": False, "error": f"{verb}: {error}"}
@@ -161,6 +235,29 @@ def query(
         except ValueError:
             return {"ok": False, "error": f"{verb}: the reply is not JSON"}
     return no_reply
+
+
+def find_labs(session: zenoh.Session, timeout: float) -> list[str]:
+    """The ids of the labs reachable through `session` now (their liveliness tokens), sorted;
+    waits up to `timeout` s for at least one (a sim process may still be starting)."""
+    end = time.monotonic() + timeout
+    while True:
+        found = set()
+        for reply in session.liveliness().get(ALL_LABS_ALIVE, timeout=1.0):
+            if reply.ok is not None and (lab_id := lab_id_of(str(reply.ok.key_expr))):
+                found.add(lab_id)
+        if found or time.monotonic() > end:
+            return sorted(found)
+        time.sleep(0.05)
+
+
+def only_lab(labs: list[str], endpoint: str) -> str:
+    """The one lab of `labs`; LabNotFound when there is none or more than one."""
+    if len(labs) == 1:
+        return labs[0]
+    if not labs:
+        raise LabNotFound(f"no lab (sim process) seen at {endpoint}")
+    raise LabNotFound(f"{len(labs)} labs at {endpoint}: {', '.join(labs)}; name one (lab_id)")
 
 
 def open_session(

@@ -5,9 +5,10 @@ Keys (velocity in the robot's heading frame, pushes along world axes on the base
   space  stop                  i / k  push +x / -x             j / l  push +y / -y
   g      gait: stand -> trot -> crawl -> stand (the velocity keys steer the walking gaits)
   r      reset                 p      pause / resume           x      quit (also Ctrl-C, EOF)
+  n      next lab (behind a router: the labs seen are listed, offline ones marked)
 Velocity is resent every 0.1 s while non-zero (the server's deadman stops the robot 0.5 s after
 the last one). Each reply is printed (a walking gait may install the walking stack preset); a
-status line shows the latest telemetry, the running gait among it.
+status line shows the lab, the latest telemetry, the running gait among it.
 """
 
 import argparse
@@ -20,8 +21,9 @@ import time
 import tty
 from dataclasses import dataclass, replace
 
-from lab.client import LabClient
-from lab.protocol import DEFAULT_ENDPOINT, VX_MAX, VY_MAX, YAW_RATE_MAX
+from lab.client import LabClient, LabNotFound
+from lab.directory import next_online
+from lab.protocol import DEFAULT_ENDPOINT, VX_MAX, VY_MAX, YAW_RATE_MAX, LabIdError
 
 VX_STEP = 0.1  # m/s per key press
 VY_STEP = 0.1  # m/s
@@ -31,6 +33,7 @@ REFRESH_S = 0.1  # resend a non-zero velocity this often
 PUSH_DIRECTIONS = {"i": (1.0, 0.0), "k": (-1.0, 0.0), "j": (0.0, 1.0), "l": (0.0, -1.0)}
 GAIT_CYCLE = ("stand", "trot", "crawl")  # the order the `g` key steps through
 QUIT_KEYS = ("x", "\x03", "\x04")
+NEXT_LAB_KEY = "n"
 BASE_LINK_NAMES = ("base", "base_link", "trunk", "pelvis")  # the usual names of a floating base
 
 
@@ -105,18 +108,31 @@ def default_push_body(bodies: list[str]) -> str:
     return next((name for name in BASE_LINK_NAMES if name in bodies), bodies[0])
 
 
-def status_line(telemetry: dict | None, state: TeleopState) -> str:
-    """One line: sim time, gait, base height and world velocity, command, QP and loop health."""
+def labs_line(labs: dict[str, bool], current: str) -> str:
+    """The labs seen (id -> online), the one driven starred, offline ones marked."""
+    names = [
+        ("*" if lab_id == current else "") + lab_id + ("" if online else " (offline)")
+        for lab_id, online in labs.items()
+    ]
+    return f"labs: {', '.join(names)}"
+
+
+def status_line(
+    telemetry: dict | None, state: TeleopState, lab: str = "", online: bool = True
+) -> str:
+    """One line: the lab (OFFLINE when gone), sim time, gait, base height and world velocity,
+    command, QP and loop health."""
     cmd = f"cmd vx {state.vx:+.1f} vy {state.vy:+.1f} wz {state.yaw_rate:+.1f}"
+    prefix = f"[{lab}{'' if online else ' OFFLINE'}] " if lab else ""
     if telemetry is None:
-        return f"(no telemetry yet) {state.gait} {cmd}"
+        return f"{prefix}(no telemetry yet) {state.gait} {cmd}"
     base = telemetry["base"]
     v = base["linear_velocity"]
     on_time = telemetry.get("loop", {}).get("on_time_fraction", math.nan)
     flags = " PAUSED" if telemetry["paused"] else ""
     flags += " FELL" if telemetry["fell"] else ""
     return (
-        f"t {telemetry['t']:7.2f}s {telemetry['robot']} {telemetry['gait']} "
+        f"{prefix}t {telemetry['t']:7.2f}s {telemetry['robot']} {telemetry['gait']} "
         f"z {base['position'][2]:.3f}m "
         f"v [{v[0]:+.2f} {v[1]:+.2f}] {cmd} | qp {telemetry['qp']['status']} "
         f"{telemetry['qp']['solve_us']:.0f}us | on-time {on_time:.4f}"
@@ -129,6 +145,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="lab teleop", description=__doc__, formatter_class=argparse.RawTextHelpFormatter
     )
     p.add_argument("--connect", default=DEFAULT_ENDPOINT, help="Zenoh endpoint of the server")
+    p.add_argument(
+        "--lab-id", help="the lab to drive first (default: the only one, or the first by id)"
+    )
     p.add_argument("--push-force", type=float, default=150.0, help="N (default: 150)")
     p.add_argument("--body", help="link to push (default: the robot's base link)")
     return p
@@ -136,20 +155,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 def teleop_main(argv: list[str]) -> int:
     args = build_parser().parse_args(argv)
-    with LabClient(args.connect) as lab:
-        info = lab.command("info")
-        if not info.get("ok"):
-            print(f"lab teleop: info failed: {info.get('error')}", file=sys.stderr)
-            return 1
-        body = args.body or default_push_body(info["bodies"])
+    try:
+        lab = LabClient(args.connect, lab_id=args.lab_id, first=True)
+    except (LabNotFound, LabIdError) as error:
+        print(f"lab teleop: {error}", file=sys.stderr)
+        return 1
+    with lab:
         print(__doc__.split("\n\n")[1])
-        state = TeleopState(paused=bool(info.get("paused", False)), gait=info["gait"])
+        started = _start(lab, args.body)
+        if started is None:
+            return 1
         fd = sys.stdin.fileno()
         saved = termios.tcgetattr(fd) if sys.stdin.isatty() else None
         if saved is not None:
             tty.setcbreak(fd)
         try:
-            _run(lab, state, body, args.push_force, fd)
+            _run(lab, *started, args.push_force, fd, args.body)
         finally:
             if saved is not None:
                 termios.tcsetattr(fd, termios.TCSADRAIN, saved)
@@ -157,7 +178,26 @@ def teleop_main(argv: list[str]) -> int:
     return 0
 
 
-def _run(lab: LabClient, state: TeleopState, body: str, push_force: float, fd: int) -> None:
+def _start(lab: LabClient, body: str | None) -> tuple[TeleopState, str] | None:
+    """The state and push body of the lab `lab` drives now, from its `info` (None if it does
+    not answer)."""
+    print(f"\r\x1b[K{labs_line(lab.labs(), lab.lab_id)}")
+    info = lab.command("info")
+    if not info.get("ok"):
+        print(f"lab teleop: {lab.lab_id}: info failed: {info.get('error')}", file=sys.stderr)
+        return None
+    state = TeleopState(paused=bool(info.get("paused", False)), gait=info["gait"])
+    return state, body or default_push_body(info["bodies"])
+
+
+def _run(
+    lab: LabClient,
+    state: TeleopState,
+    body: str,
+    push_force: float,
+    fd: int,
+    body_asked: str | None,
+) -> None:
     last_sent = time.monotonic()
     while True:
         ready, _, _ = select.select([fd], [], [], REFRESH_S)
@@ -165,6 +205,17 @@ def _run(lab: LabClient, state: TeleopState, body: str, push_force: float, fd: i
             data = os.read(fd, 1).decode(errors="replace")
             if not data or data in QUIT_KEYS:
                 return
+            if data == NEXT_LAB_KEY:
+                following = next_online(lab.labs(), lab.lab_id)
+                if following is None or following == lab.lab_id:
+                    print(f"\r\x1b[Kno other lab online; {labs_line(lab.labs(), lab.lab_id)}")
+                    continue
+                if state.velocity() != TeleopState().velocity():  # the lab left behind stops
+                    lab.command("velocity", **TeleopState().velocity())
+                lab.select(following)
+                started = _start(lab, body_asked)
+                state, body = started if started is not None else (TeleopState(), body)
+                continue
             before = state
             state, commands = key_to_commands(data, state, body, push_force)
             for verb, payload in commands:
@@ -178,4 +229,5 @@ def _run(lab: LabClient, state: TeleopState, body: str, push_force: float, fd: i
         ):
             lab.command("velocity", **state.velocity())
             last_sent = time.monotonic()
-        print(f"\r\x1b[K{status_line(lab.latest_telemetry(), state)}", end="", flush=True)
+        line = status_line(lab.latest_telemetry(), state, lab.lab_id, lab.connected)
+        print(f"\r\x1b[K{line}", end="", flush=True)

@@ -26,7 +26,7 @@ def test_connecting_to_nothing_fails_within_the_timeout() -> None:
 
 def test_unanswered_command_becomes_an_error_reply_and_telemetry_wait_times_out() -> None:
     port = free_port()
-    transport = ServerTransport(server_config(port))  # nobody drains its queries
+    transport = ServerTransport(server_config(port), "client-unanswered")  # nobody drains queries
     try:
         with LabClient(f"tcp/127.0.0.1:{port}") as lab:
             start = time.monotonic()
@@ -45,11 +45,12 @@ def test_unanswered_command_becomes_an_error_reply_and_telemetry_wait_times_out(
 
 def test_queries_are_decoded_and_answered_on_their_key() -> None:
     port = free_port()
-    transport = ServerTransport(server_config(port))
+    transport = ServerTransport(server_config(port), "client-decoding")
     try:
         with LabClient(f"tcp/127.0.0.1:{port}") as lab:
             session = lab._session
-            handler = session.get("lab/cmd/push", payload=b'{"body": "base"}', timeout=2.0)
+            push = b'{"body": "base"}'
+            handler = session.get("lab/client-decoding/cmd/push", payload=push, timeout=2.0)
             request = _receive(transport)
             assert (request.verb, request.payload, request.error) == (
                 "push",
@@ -58,10 +59,10 @@ def test_queries_are_decoded_and_answered_on_their_key() -> None:
             )
             transport.reply(request, {"ok": True, "echo": request.payload})
             reply = next(iter(handler))
-            assert str(reply.ok.key_expr) == "lab/cmd/push"
+            assert str(reply.ok.key_expr) == "lab/client-decoding/cmd/push"
             assert json.loads(reply.ok.payload.to_bytes()) == {"ok": True, "echo": {"body": "base"}}
             for payload, error in [(b"", None), (b"null", "got null"), (b"[1,", "not valid JSON")]:
-                session.get("lab/cmd/reset", payload=payload, timeout=0.5)
+                session.get("lab/client-decoding/cmd/reset", payload=payload, timeout=0.5)
                 request = _receive(transport)
                 assert request.error is None if error is None else error in request.error
                 transport.reply(request, {"ok": error is None})

@@ -75,7 +75,7 @@ class LiveServer:
     def __init__(self, robot: str) -> None:
         self.session = FaultySession(SessionConfig(robot=robot))
         self.endpoint = f"tcp/127.0.0.1:{free_port()}"
-        self.transport = ServerTransport(server_config(listen=[self.endpoint]))
+        self.transport = ServerTransport(server_config(listen=[self.endpoint]), "faults")
         self.loop = SimLoop(
             self.session, self.transport, LoopConfig(rate_hz=RATE_HZ, sched="other")
         )

@@ -31,7 +31,7 @@ PAGE_TIMEOUT_MS = 60_000
 # s: from a click in the page to its effect in telemetry or `info`. A second or less when idle;
 # generous because on a loaded 2-core machine the browser and the UI process share what is left.
 UI_ACTION_TIMEOUT_S = 30.0
-VIEWPORT = {"width": 1100, "height": 700}
+VIEWPORT = {"width": 1400, "height": 800}  # plots | 3-D view | controls
 # ms: a robot's view is built (status line "Loading …") in a second or two from the mesh cache,
 # but converting the meshes on a cold cache took ANYmal 40 s on a busy 2-core machine.
 LOAD_TIMEOUT_MS = 180_000
@@ -79,14 +79,15 @@ def page(browser, serve: LabServe, lab: LabClient):
 
 
 def dark_pixels(pg) -> int:
-    """Pixels of the 3-D view (left of the control panel) darker than the floor and grid lines:
-    the robot's meshes and their shadows."""
+    """Pixels of the 3-D view (its canvas, between the plots and the control panel) darker than
+    the floor and grid lines: the robot's meshes and their shadows."""
     import io
 
     from PIL import Image
 
+    box = pg.locator("canvas").first.bounding_box()  # viser's 3-D canvas comes first
     shot = np.asarray(Image.open(io.BytesIO(pg.screenshot())).convert("L"))
-    view = shot[150:, : int(shot.shape[1] * 0.65)]
+    view = shot[150:, int(box["x"]) : int(box["x"] + box["width"])]
     return int((view < 90).sum())
 
 
@@ -148,6 +149,15 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
     # the robot is drawn in the view (the page's first draw took up to 60 s at load 20)
     assert wait_dark_pixels(page, lambda n: n > 1500, timeout=LOAD_TIMEOUT_MS / 1000) > 1500
     page.get_by_text("RTF").wait_for()  # status line from live telemetry
+    # the charts are in sight beside the 3-D view as the page opens, without scrolling
+    chart = page.locator(".uplot").first
+    chart.wait_for()
+    box, view = chart.bounding_box(), page.locator("canvas").first.bounding_box()
+    assert box["x"] + box["width"] <= view["x"], (box, view)  # left of the view, not over it
+    assert box["y"] + box["height"] <= VIEWPORT["height"], (box, VIEWPORT)
+
+    # the Lab dropdown lists the one lab, which the page found without being told its id
+    page.get_by_text("1 of 1 labs online").wait_for()
 
 
 def test_push_button_moves_the_base_in_the_pushed_direction(

@@ -520,3 +520,35 @@ def test_the_per_level_chart_has_one_series_per_stack_level_of_the_live_session(
     times = chart.values_of(tel)
     assert len(times) == levels and all(t > 0.0 for t in times), times  # every level was timed
     assert chart.labels_of({**tel, "solution": None}) == ()  # fallback torques: no solution
+
+
+def test_the_plots_forget_a_lab_left_behind(viser_server) -> None:
+    """After `clear` (another lab shown) the charts hold only what came after it, even from a
+    clock ahead of the old one, which the rewind check alone would keep beside the old data."""
+    from lab.ui.plots import Plots
+
+    plots = Plots(viser_server.gui, viser_server.gui.add_folder("plots"))
+    qp = next(c for c in plots.charts if c.title.startswith("QP solve"))
+
+    def message(t: float, us: float) -> dict:
+        foot = {"name": "lf", "measured_force": [0, 0, 90], "position": [0, 0, 0], "active": True}
+        zero = [0.0, 0.0, 0.0]
+        return {
+            "t": t,
+            "qp": {"solve_us": us},
+            "contacts": [foot],
+            "cop": {"net": None},
+            "momentum": {"linear": zero, "angular": zero},
+            "tasks": [],
+            "solution": {},
+        }
+
+    for t in (1.0, 1.01, 1.02):
+        plots.record(message(t, 50.0))
+    plots.draw()
+    assert len(qp.buffer) == 3 and len(qp.shown[0]) == 3
+    plots.clear()
+    for t in (7.0, 7.01):  # the other lab's clock is ahead
+        plots.record(message(t, 80.0))
+    plots.draw()
+    assert qp.shown[0].tolist() == [7.0, 7.01] and qp.shown[1].tolist() == [80.0, 80.0]

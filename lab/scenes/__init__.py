@@ -31,8 +31,16 @@ SCENES: dict[str, Scene] = {
 FRICTION_IMPRATIO: dict[str, float] = {"split_wedges": 10.0}
 
 
-def scene_geoms(name: str) -> tuple[TerrainGeom, ...]:
-    """The terrain of scene `name`; an unknown name raises KeyError naming the known scenes."""
+# Scenes with random terrain: their generator takes a seed (a scenario's `terrain_seed`).
+SEEDED_SCENES: dict[str, Callable[[int], tuple[TerrainGeom, ...]]] = {"rough": rough}
+
+
+def scene_geoms(name: str, seed: int | None = None) -> tuple[TerrainGeom, ...]:
+    """The terrain of scene `name`, its random terrain drawn with `seed` (None: the scene's
+    own; scenes without random terrain have nothing to seed); an unknown name raises KeyError
+    naming the known scenes."""
     if name not in SCENES:
         raise KeyError(f"unknown scene {name!r}; known scenes: {', '.join(sorted(SCENES))}")
+    if seed is not None and name in SEEDED_SCENES:
+        return SEEDED_SCENES[name](seed)
     return SCENES[name]()

@@ -2,8 +2,9 @@
 
 The tiles start a little ahead of the robot's standing place (x = START) so that it starts on
 flat ground, and cover LENGTH x WIDTH metres; each tile's top height is drawn uniformly from
-[0, MAX_HEIGHT] by a generator seeded with SEED, so the terrain is the same in every run. Box
-geoms (not a height field) so that the browser draws them like any other terrain.
+[0, MAX_HEIGHT] by a generator seeded with `seed` (SEED unless a scenario's `terrain_seed` says
+otherwise), so the terrain is the same in every run with that seed. Box geoms (not a height
+field) so that the browser draws them like any other terrain.
 """
 
 import numpy as np
@@ -20,8 +21,8 @@ MAX_HEIGHT = 0.04  # m
 DEPTH = 0.05  # m, tiles reach this far below the floor
 
 
-def rough() -> tuple[TerrainGeom, ...]:
-    rng = np.random.default_rng(SEED)
+def rough(seed: int = SEED) -> tuple[TerrainGeom, ...]:
+    rng = np.random.default_rng(seed)
     nx, ny = round(LENGTH / TILE), round(WIDTH / TILE)
     heights = rng.uniform(0.0, MAX_HEIGHT, size=(nx, ny))
     tiles = []

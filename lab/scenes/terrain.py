@@ -22,10 +22,11 @@ GEOM_TYPES = {
 }
 
 
-def add_scene(spec: mujoco.MjSpec, name: str, friction: float) -> None:
-    """Add scene `name` to `spec`, `friction` for geoms that set none; an unknown name raises
-    KeyError naming the known scenes."""
-    for geom in scene_geoms(name):
+def add_scene(spec: mujoco.MjSpec, name: str, friction: float, seed: int | None = None) -> None:
+    """Add scene `name` to `spec` (its random terrain drawn with `seed`, see `scene_geoms`),
+    `friction` for geoms that set none; an unknown name raises KeyError naming the known
+    scenes."""
+    for geom in scene_geoms(name, seed):
         add_terrain_geom(spec, geom, friction)
     if name in FRICTION_IMPRATIO:
         spec.option.impratio = FRICTION_IMPRATIO[name]

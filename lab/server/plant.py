@@ -204,8 +204,11 @@ def _fold_static_inertias(spec: mujoco.MjSpec) -> None:
         body.fullinertia = [*np.diag(inertia), inertia[0, 1], inertia[0, 2], inertia[1, 2]]
 
 
-def build_spec(robot: Robot, scene: str, timestep: float) -> mujoco.MjSpec:
-    """The MuJoCo world: robot from its URDF (see module docstring), motors and scene."""
+def build_spec(
+    robot: Robot, scene: str, timestep: float, terrain_seed: int | None = None
+) -> mujoco.MjSpec:
+    """The MuJoCo world: robot from its URDF (see module docstring), motors and scene (its
+    random terrain drawn with `terrain_seed`, lab.scenes.scene_geoms)."""
     desc = robot.description
     urdf = ET.parse(desc.urdf_path).getroot()
     collisions = _strip_geometry(urdf)
@@ -270,7 +273,7 @@ def build_spec(robot: Robot, scene: str, timestep: float) -> mujoco.MjSpec:
             ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
             ctrlrange=[-limit, limit],
         )
-    add_scene(spec, scene, desc.friction)
+    add_scene(spec, scene, desc.friction, terrain_seed)
     return spec
 
 
@@ -330,9 +333,15 @@ def _mute_shank_meshes(m: mujoco.MjModel, foot_geoms: np.ndarray) -> None:
 class MujocoPlant:
     """One robot in one MuJoCo scene; every argument and result in pinocchio conventions."""
 
-    def __init__(self, robot: Robot, scene: str = "flat", timestep: float = 1e-3) -> None:
+    def __init__(
+        self,
+        robot: Robot,
+        scene: str = "flat",
+        timestep: float = 1e-3,
+        terrain_seed: int | None = None,
+    ) -> None:
         self.robot = robot
-        self.mj_model = build_spec(robot, scene, timestep).compile()
+        self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
         self.nq, self.nv = robot.model.nq, robot.model.nv

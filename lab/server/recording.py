@@ -2,7 +2,9 @@
 
 A recording holds, on the protocol's own topics, what a live lab publishes: telemetry
 (`lab/telemetry`, with the joint torques of that tick), the drawing state (`lab/state`), events
-(`lab/events`) and every command with its reply (`lab/commands`). Messages are JSON with a JSON
+(`lab/events`) and every command with its reply (`lab/commands`): the names of the messages,
+without the lab id that scopes them on Zenoh (`lab/<id>/telemetry`), so a recording is served
+again under any lab id (`lab replay --serve --lab-id`). Messages are JSON with a JSON
 schema per topic, the encodings Foxglove and PlotJuggler open without configuration. Log times
 are the session clock (ns since the session started), so a recording's timeline is sim time.
 The session's configuration and limits are the metadata record `session`, so a recording can be

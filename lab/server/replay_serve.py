@@ -1,8 +1,9 @@
 """`lab replay FILE.mcap --serve`: a recording served over the protocol like a live session.
 
-The recorded telemetry, drawing states and events go out on `lab/telemetry`, `lab/state` and
-`lab/events` at their recorded pace (times the speed), so the browser UI, `lab.client` scripts
-and plots follow a recording as they follow the sim. Commands on `lab/cmd/<verb>` steer the
+The recorded telemetry, drawing states and events go out on `lab/<id>/telemetry`, `.../state`
+and `.../events` (the lab id `--lab-id`, by default `<host>-replay`) at their recorded pace
+(times the speed), so the browser UI, `lab.client` scripts and plots follow a recording as they
+follow the sim. Commands on `lab/<id>/cmd/<verb>` steer the
 playback: `info`, `pause`, `resume`, `speed {factor}`, `seek {t}`; every other verb is refused
 (a recording is read-only). docs/recording.md and docs/protocol.md.
 """
@@ -18,6 +19,7 @@ from dataclasses import dataclass, field
 
 import zenoh
 
+from lab.protocol import LabIdError, default_lab_id
 from lab.server.recording import Message, read_recording
 from lab.server.transport import Request, ServerTransport, server_config
 
@@ -173,16 +175,19 @@ class ReplayServer:
             publish[message.kind](data)
 
 
-def replay_serve_main(path: str, port: int, speed: float) -> int:
-    """Serve `path` on 127.0.0.1:`port` until SIGINT or SIGTERM; 2 for a recording or a port
-    it cannot use."""
+def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = None) -> int:
+    """Serve `path` on 127.0.0.1:`port` as lab `lab_id` (default `<host>-replay`) until SIGINT
+    or SIGTERM; 2 for a recording, a port or a lab id it cannot use."""
     if not 0.0 < speed <= SPEED_MAX:
         print(f"lab replay: --speed must be in (0, {SPEED_MAX:g}]", file=sys.stderr)
         return 2
     try:
-        transport = ServerTransport(server_config(port))
+        transport = ServerTransport(server_config(port), lab_id or default_lab_id("replay"))
     except zenoh.ZError as error:
         print(f"lab replay: Zenoh: {error}", file=sys.stderr)
+        return 2
+    except LabIdError as error:
+        print(f"lab replay: --lab-id: {error}", file=sys.stderr)
         return 2
     try:
         server = ReplayServer(path, transport, speed)

@@ -1,6 +1,7 @@
 """Headless scenarios: a TOML file → a session run as fast as the CPU allows → one JSON report.
 
-A scenario names `robot`, `scene`, `duration` (s), a `[controller]` table (`method`, `solver`,
+A scenario names `robot`, `scene` (with `terrain_seed`, an integer, for a scene with random
+terrain: `rough`), `duration` (s), a `[controller]` table (`method`, `solver`,
 optional `kernel` — `native` or `python` —, optional `stack` — a list of levels or the name of a
 preset in `stacks/` — and `[controller.gains.<task>]` tables), `metrics` to report besides the
 standing ones, and `[[events]]`, each with a time `t` and exactly one command written with the
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from lab.controller.native import KERNELS
+from lab.scenes import SEEDED_SCENES
 from lab.server.commands import CommandError, parse_command
 from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
@@ -36,6 +38,7 @@ SCENARIO_KEYS = {
     "events",
     "metrics",
     "limits",
+    "terrain_seed",
 }
 CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
 RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now
@@ -89,6 +92,7 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
     if not isinstance(duration, int | float) or not duration > 0:
         raise ScenarioError(f"{path}: duration must be a positive number of seconds")
     stack, method, gains = _stack(path, controller)
+    terrain_seed = _terrain_seed(path, data)
     kernel = controller.get("kernel")
     if kernel not in (None, *KERNELS):
         raise ScenarioError(f"{path}: [controller] kernel must be one of {KERNELS}, got {kernel!r}")
@@ -100,6 +104,7 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
         kernel=kernel,
         stack=stack,
         gains=gains,
+        terrain_seed=terrain_seed,
     )
     metrics = data.get("metrics", [])
     unknown = [name for name in metrics if name not in METRICS]
@@ -114,6 +119,22 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
         ("standing", *(name for name in metrics if name != "standing")),
         limits=_limits(path, data),
     )
+
+
+def _terrain_seed(path: Path, data: dict) -> int | None:
+    """`terrain_seed`: a non-negative integer, for a scene with random terrain only."""
+    seed = data.get("terrain_seed")
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ScenarioError(f"{path}: terrain_seed must be a non-negative integer, got {seed!r}")
+    scene = data.get("scene", "flat")
+    if scene not in SEEDED_SCENES:
+        raise ScenarioError(
+            f"{path}: terrain_seed: scene {scene!r} has no random terrain to seed "
+            f"(scenes that do: {', '.join(SEEDED_SCENES)})"
+        )
+    return seed
 
 
 def _stack(path: Path, controller: dict) -> tuple[list | None, str, dict]:

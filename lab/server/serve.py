@@ -12,7 +12,7 @@ from pathlib import Path
 
 import zenoh
 
-from lab.protocol import DEFAULT_PORT
+from lab.protocol import DEFAULT_PORT, LabIdError, LabKeys, default_lab_id
 from lab.server.access import read_users, remote_listen_refusal
 from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
 from lab.server.transport import ServerTransport, server_config
@@ -26,6 +26,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", default="anymal", help="robot to start with (default: anymal)")
     p.add_argument("--scene", default="flat", help="scene to start with (default: flat)")
     p.add_argument("--port", type=int, default=DEFAULT_PORT, help="TCP port on 127.0.0.1")
+    p.add_argument(
+        "--lab-id",
+        help="the id that scopes this lab's Zenoh keys, lab/<id>/... (default: <host>-<robot>); "
+        "several labs behind one router need different ones",
+    )
     p.add_argument(
         "--listen",
         action="append",
@@ -89,6 +94,12 @@ def serve_main(argv: list[str]) -> int:
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
         return 2
+    lab_id = args.lab_id or default_lab_id(args.robot)
+    try:
+        LabKeys(lab_id)
+    except LabIdError as error:
+        print(f"lab serve: --lab-id: {error}", file=sys.stderr)
+        return 2
     secured = bool(args.users or args.zenoh_config)
     if refusal := remote_listen_refusal("lab serve", args.listen, secured, args.open):
         print(refusal, file=sys.stderr)
@@ -113,7 +124,8 @@ def serve_main(argv: list[str]) -> int:
         transport = ServerTransport(
             server_config(
                 args.port, args.listen, args.connect, args.users, ui_credentials, args.zenoh_config
-            )
+            ),
+            lab_id,
         )
     except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
@@ -152,14 +164,17 @@ def serve_main(argv: list[str]) -> int:
         endpoint = (args.listen or [f"tcp/127.0.0.1:{args.port}"])[0]
         endpoint = endpoint.replace("/0.0.0.0:", "/127.0.0.1:")  # the UI runs on this host
         ui_command = [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--exit-with-parent"]
-        ui_command += ["--port", str(args.ui_port)]
+        ui_command += ["--port", str(args.ui_port), "--lab-id", lab_id]
         ui_env = os.environ | (ui_credentials.env() if ui_credentials else {})
         if not args.headless:
             ui = subprocess.Popen(ui_command, env=ui_env)
         mode = "fast" if args.fast else f"{args.rate:g} Hz, SCHED_{loop.wanted_sched.upper()}"
         if not args.fast and args.sched == "auto":
             mode += " (auto)"
-        print(f"lab serve: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}", flush=True)
+        print(
+            f"lab serve: lab {lab_id}: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}",
+            flush=True,
+        )
         ui_died_at = None
         while not stop.wait(0.5):
             if ui is None or ui.poll() is None:

@@ -84,6 +84,7 @@ class SessionConfig:
     gains: dict[str, dict[str, float]] = field(default_factory=dict)
     timestep: float = 1e-3
     kernel: str | None = None  # native | python; None: the robot's, else native when built
+    terrain_seed: int | None = None  # of a scene with random terrain (rough); None: its own
 
 
 @dataclass
@@ -121,7 +122,7 @@ class Session:
             raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
         description = load_description(config.robot)
         robot = build_robot(description)
-        plant = MujocoPlant(robot, config.scene, config.timestep)
+        plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
         model = RobotModel(robot.model, robot.contacts)
         gains = dict(description.gains)
         for name, overrides in config.gains.items():

@@ -15,16 +15,7 @@ import msgspec
 import numpy as np
 import zenoh
 
-from lab.protocol import (
-    CMD_PREFIX,
-    DEFAULT_ENDPOINT,
-    DEFAULT_PORT,
-    KEY_ALIVE,
-    KEY_EVENTS,
-    KEY_STATE,
-    KEY_TELEMETRY,
-    MAX_PAYLOAD_BYTES,
-)
+from lab.protocol import DEFAULT_ENDPOINT, DEFAULT_PORT, MAX_PAYLOAD_BYTES, LabKeys
 from lab.server.access import ENV_CONFIG, Credentials, credentials_from_env, usrpwd_settings
 
 COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
@@ -100,9 +91,9 @@ class Request:
     query: zenoh.Query
 
 
-def decode_query(query: zenoh.Query) -> Request:
-    """Verb from `lab/cmd/<verb>`; payload parsed as JSON (empty payload = {})."""
-    verb = str(query.key_expr).removeprefix(CMD_PREFIX)[:64]
+def decode_query(query: zenoh.Query, keys: LabKeys) -> Request:
+    """Verb from `lab/<id>/cmd/<verb>`; payload parsed as JSON (empty payload = {})."""
+    verb = str(query.key_expr).removeprefix(keys.cmd_prefix)[:64]
     raw = query.payload.to_bytes() if query.payload is not None else b""
     if len(raw) > MAX_PAYLOAD_BYTES:
         return Request(verb, None, f"{verb}: payload larger than {MAX_PAYLOAD_BYTES} bytes", query)
@@ -118,22 +109,24 @@ def decode_query(query: zenoh.Query) -> Request:
 
 
 class ServerTransport:
-    """The sim process's Zenoh session: one command queryable, three publishers."""
+    """The sim process's Zenoh session: one command queryable, three publishers and the
+    liveliness token, all under the lab's keys (`lab/<lab_id>/...`)."""
 
-    def __init__(self, config: zenoh.Config) -> None:
+    def __init__(self, config: zenoh.Config, lab_id: str) -> None:
+        self.keys = LabKeys(lab_id)
         self._session = zenoh.open(config)
         self._queryable = self._session.declare_queryable(
-            CMD_PREFIX + "**", zenoh.handlers.RingChannel(COMMAND_QUEUE)
+            self.keys.cmd("**"), zenoh.handlers.RingChannel(COMMAND_QUEUE)
         )
-        self._telemetry = self._session.declare_publisher(KEY_TELEMETRY)
-        self._state = self._session.declare_publisher(KEY_STATE)
-        self._events = self._session.declare_publisher(KEY_EVENTS)
-        self._alive = self._session.liveliness().declare_token(KEY_ALIVE)
+        self._telemetry = self._session.declare_publisher(self.keys.telemetry)
+        self._state = self._session.declare_publisher(self.keys.state)
+        self._events = self._session.declare_publisher(self.keys.events)
+        self._alive = self._session.liveliness().declare_token(self.keys.alive)
 
     def receive(self) -> Request | None:
         """The oldest waiting command, without blocking."""
         query = self._queryable.try_recv()
-        return None if query is None else decode_query(query)
+        return None if query is None else decode_query(query, self.keys)
 
     def reply(self, request: Request, body: dict[str, object]) -> None:
         try:

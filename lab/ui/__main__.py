@@ -1,4 +1,5 @@
-"""`python -m lab.ui --port <http> --connect <zenoh endpoint>`: the browser lab process."""
+"""`python -m lab.ui --port <http> --connect <zenoh endpoint> [--lab-id ID]`: the browser lab
+process."""
 
 import argparse
 import os
@@ -8,7 +9,7 @@ import threading
 
 import zenoh
 
-from lab.protocol import DEFAULT_ENDPOINT
+from lab.protocol import DEFAULT_ENDPOINT, LabIdError, LabKeys
 from lab.ui.app import LabApp
 
 PARENT_CHECK_S = 1.0
@@ -19,6 +20,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--port", type=int, default=8080, help="HTTP port (default: 8080)")
     parser.add_argument("--host", default="127.0.0.1", help="HTTP bind address (default: loopback)")
     parser.add_argument("--connect", default=DEFAULT_ENDPOINT, help="Zenoh endpoint of the server")
+    parser.add_argument(
+        "--lab-id",
+        help="the lab to show first (default: the first one seen; the page lists every lab)",
+    )
     parser.add_argument(
         "--exit-with-parent",
         action="store_true",
@@ -31,7 +36,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.exit_with_parent:
         threading.Thread(target=_watch_parent, args=(stop,), daemon=True).start()
     try:
-        app = LabApp(args.port, args.connect, host=args.host, stop=stop)
+        if args.lab_id is not None:
+            LabKeys(args.lab_id)  # checked before the HTTP server starts
+    except LabIdError as error:
+        print(f"lab ui: --lab-id: {error}", file=sys.stderr, flush=True)
+        return 2
+    try:
+        app = LabApp(args.port, args.connect, host=args.host, stop=stop, lab_id=args.lab_id)
     except zenoh.ZError as error:
         print(f"lab ui: no lab server at {args.connect}: {error}", file=sys.stderr, flush=True)
         return 1

@@ -12,6 +12,7 @@ import time
 import traceback
 from collections import deque
 from collections.abc import Callable
+from concurrent import futures
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import ParamSpec
@@ -38,6 +39,7 @@ from lab.ui.terrain_view import TerrainView
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
 PLOT_S = 1.0 / 20.0  # plot redraw period
 OVERLAY_S = 1.0 / 30.0  # overlay redraw period
+PLOT_PANEL_PX = 400  # width of the plots panel docked left of the 3-D view
 STATUS_S = 0.2
 SLOW_COMMAND_S = 1.0  # a command answered later than this is logged (the lab answers in ms)
 REFRESH_S = 0.2  # resend a non-zero velocity (deadman 0.5 s) and an active drag push
@@ -51,6 +53,7 @@ CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow ti
 ERROR_RETRY_S = 1.0  # after an exception in the render loop, wait this long before the next frame
 # s (wall): a fall this soon after a hierarchy switch is explained in the log by what it changed
 SWITCH_BLAME_S = 10.0
+SWITCH_WAIT_S = 3.0  # for a command in flight to the lab the page switches away from
 DISCONNECTED = (
     "the lab server (sim process) is not reachable: stopped, crashed, or the network link to it "
     "broke. The page shows the last state it had and reconnects by itself when the server is back."
@@ -101,6 +104,7 @@ class LabApp:
         endpoint: str,
         host: str = "127.0.0.1",
         stop: threading.Event | None = None,
+        lab_id: str | None = None,
     ) -> None:
         self.server = viser.ViserServer(host=host, port=http_port, label="WBC lab", verbose=False)
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
@@ -110,7 +114,7 @@ class LabApp:
         self.server.scene.configure_environment_map(None)
         self.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
         try:  # waits for a sim that is still starting, unless `stop` is set meanwhile
-            self.link = Link(endpoint, stop.is_set if stop is not None else lambda: False)
+            self.link = Link(endpoint, stop.is_set if stop is not None else lambda: False, lab_id)
         except zenoh.ZError:
             self.server.stop()
             raise
@@ -119,6 +123,8 @@ class LabApp:
         self.telemetry: dict | None = None
         self._lost_at: float | None = None  # wall time the sim process was last seen to vanish
         self._seen_alive = False
+        self._watched_lab: str | None = None  # the lab whose telemetry the page shows
+        self._wanted_lab: str | None = None  # a browser's switch, done by the render loop
         self.panels: dict[int, ControlPanel] = {}
         self._lock = threading.RLock()
         self._sender = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lab-ui-send")
@@ -153,9 +159,13 @@ class LabApp:
                 box = gui.add_checkbox(name, name != "friction cones")
                 self._overlay_visible[name] = box.value
                 box.on_update(lambda e, n=name: self._toggle_overlay(n, e.target.value))
-        # right below the push buttons: the charts are read while pushing
-        self._plot_folder = gui.add_folder("Plots", order=5.5)
-        self.plots = Plots(gui, self._plot_folder, self.guard)
+        # The charts are read while pushing: their own panel docked left of the 3-D view, the
+        # controls docked right of it, so that both stay in sight, the robot between them.
+        self.plot_panel = gui.add_panel()
+        self.plots = Plots(gui, self.plot_panel.add_tab("Plots", viser.Icon.CHART_LINE), self.guard)
+        self.plot_panel.dock_left()
+        self.plot_panel.set_width(PLOT_PANEL_PX)
+        gui.main_panel.dock_right()
         self.recording = RecordingControls(gui, self.send, self.guard)
         self.server.on_client_connect(self.guard(self._connect))
         self.server.on_client_disconnect(self.guard(self._disconnect))
@@ -205,6 +215,7 @@ class LabApp:
             self.ownership.claim_if_free(client.client_id)
         if self.info is not None:
             panel.show_info(self.info)
+        panel.labs.show(self.link.directory.labs(), self.link.lab_id)
         self._show_ownership()
 
     def _disconnect(self, client: viser.ClientHandle) -> None:
@@ -227,6 +238,38 @@ class LabApp:
             panels = list(self.panels.values())
         for panel in panels:
             panel.show_ownership(self.ownership.owner)
+
+    def switch_lab(self, client: viser.ClientHandle, lab_id: str) -> None:
+        """Show and drive lab `lab_id` from now on, for every browser (the render loop
+        switches); refused for a browser that does not hold control."""
+        if not self.ownership.is_owner(client.client_id):
+            self.notify_error(client, "lab", "this browser is read-only: press Take control")
+            return
+        self._wanted_lab = lab_id
+
+    def _watch_labs(self) -> None:
+        """Follow the labs coming and going, switch to the one a browser chose, and list them
+        in every panel."""
+        self.link.poll_labs()
+        wanted, self._wanted_lab = self._wanted_lab, None
+        if wanted is not None and wanted != self.link.lab_id:
+            if self._pending is not None:  # a velocity or drag push on its way to the old lab
+                futures.wait([self._pending], SWITCH_WAIT_S)
+            if not self._velocity.is_zero:  # the lab left behind stops now, not at its deadman
+                self.link.request("velocity", VelocityCommand().payload())
+            self._velocity, self._drag = VelocityCommand(), None
+            self.link.select(wanted)
+        if self.link.lab_id != self._watched_lab:
+            self._watched_lab = self.link.lab_id
+            self.telemetry, self._lost_at, self._seen_alive, self._switch = None, None, False, None
+            self.log.add("info", f"showing lab {self._watched_lab}")
+            self.plots.clear()
+            self.refresh_info()
+        labs = self.link.directory.labs()
+        with self._lock:
+            panels = list(self.panels.values())
+        for panel in panels:
+            panel.labs.show(labs, self.link.lab_id)
 
     def _stop_motion(self) -> None:
         self._drag = None
@@ -395,7 +438,7 @@ class LabApp:
             return None
         tel = batch[-1]
         self.telemetry = tel
-        self._rtf.add(time.monotonic(), tel["t"], (tel["robot"], tel["scene"]))
+        self._rtf.add(time.monotonic(), tel["t"], (self.link.lab_id, tel["robot"], tel["scene"]))
         return tel
 
     def _watch_link(self) -> None:
@@ -465,8 +508,15 @@ class LabApp:
     def run(self, stop: threading.Event) -> None:
         """The render loop: draw state, overlays, plots and status until `stop` is set. An
         exception in one frame is shown in the page and the loop goes on."""
-        while not stop.is_set() and not self.refresh_info():
-            self.status.content = "Waiting for the lab server (no reply to `info`)…"
+        while not stop.is_set():
+            self._watch_labs()
+            if self.refresh_info():
+                break
+            self.status.content = (
+                "Waiting for the lab server (no reply to `info`)…"
+                if self.link.lab_id is not None
+                else "Waiting for a lab (sim process) to appear…"
+            )
             stop.wait(0.5)
         clock = _FrameClock(time.monotonic())
         while not stop.is_set():
@@ -488,6 +538,7 @@ class LabApp:
     def _frame(self, now: float, clock: "_FrameClock") -> bool:
         """One pass of the render loop; whether a browser is watching."""
         self._finish_loading()
+        self._watch_labs()
         self._watch_link()
         tel = self._take_telemetry()  # plots keep recording while nobody watches
         state = self.link.latest_state()

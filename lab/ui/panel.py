@@ -24,6 +24,7 @@ from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import stack_risks
 from lab.ui.joystick import JoystickLimits, from_offset, tap
+from lab.ui.lab_picker import add_lab_picker
 from lab.ui.numbers import NumberError, NumberRange, format_number
 
 
@@ -40,6 +41,8 @@ class PanelHost(Protocol):
         """Send a command for `client` (None when it does not hold control)."""
 
     def take_control(self, client_id: int) -> None: ...
+
+    def switch_lab(self, client: viser.ClientHandle, lab_id: str) -> None: ...
 
     def set_velocity(self, client: viser.ClientHandle, cmd: VelocityCommand) -> None: ...
 
@@ -99,13 +102,14 @@ class ControlPanel:
         self.velocity = VelocityCommand()
         self._yaw_from_slider = 0.0
         self._last_level: dict[str, int] = {}
-        self._syncing = False
         gui = client.gui
         self._controls: list = []
 
         self.banner = gui.add_markdown("", order=1)
         self.take = gui.add_button("Take control", icon=viser.Icon.HAND_GRAB, order=2)
         self.take.on_click(app.guard(lambda _: app.take_control(client.client_id)))
+        self.labs = add_lab_picker(app, client, order=2.5)
+        self._controls.append(self.labs.dropdown)
 
         with gui.add_folder("Robot & controller", order=3):
             self.robot = gui.add_dropdown("Robot", ("…",))
@@ -243,32 +247,29 @@ class ControlPanel:
 
     # ---- info / telemetry -----------------------------------------------------------------------
     def show_info(self, info: dict) -> None:
-        """Set every widget to the server's acknowledged state without re-sending it."""
-        self._syncing = True
-        try:
-            for dropdown, options, value in (
-                (self.robot, info["robots"], info["robot"]),
-                (self.scene, info["scenes"], info["scene"]),
-                (self.method, info["methods"], info["hierarchy"]["method"]),
-                (self.kernel, info["kernels"], info["kernel"]),
-                (self.solver, info["solvers"], info["hierarchy"]["solver"]),
-                (self.formulation, info["formulations"], info["hierarchy"]["formulation"]),
-                (self.gait, gait_options(info["gaits"], info["gait"]), info["gait"]),
-            ):
-                dropdown.options = tuple(options)
-                dropdown.value = value
-            names = [t["name"] for t in info["tasks"]]
-            if names:
-                current = self.task.value if self.task.value in names else names[0]
-                self.task.options = tuple(names)
-                self.task.value = current
-            if info["stack_presets"]:
-                self.preset.options = tuple(info["stack_presets"])
-            note = ROBOT_NOTES.get(info["robot"], "")
-            self.robot_note.content, self.robot_note.visible = note, bool(note)
-            self._show_task()
-        finally:
-            self._syncing = False
+        """Set every widget to the server's acknowledged state without re-sending it (an
+        assignment here calls the widgets' callbacks with no client: they send nothing)."""
+        for dropdown, options, value in (
+            (self.robot, info["robots"], info["robot"]),
+            (self.scene, info["scenes"], info["scene"]),
+            (self.method, info["methods"], info["hierarchy"]["method"]),
+            (self.kernel, info["kernels"], info["kernel"]),
+            (self.solver, info["solvers"], info["hierarchy"]["solver"]),
+            (self.formulation, info["formulations"], info["hierarchy"]["formulation"]),
+            (self.gait, gait_options(info["gaits"], info["gait"]), info["gait"]),
+        ):
+            dropdown.options = tuple(options)
+            dropdown.value = value
+        names = [t["name"] for t in info["tasks"]]
+        if names:
+            current = self.task.value if self.task.value in names else names[0]
+            self.task.options = tuple(names)
+            self.task.value = current
+        if info["stack_presets"]:
+            self.preset.options = tuple(info["stack_presets"])
+        note = ROBOT_NOTES.get(info["robot"], "")
+        self.robot_note.content, self.robot_note.visible = note, bool(note)
+        self._show_task()
 
     def _show_task(self) -> None:
         info = self.app.info
@@ -283,16 +284,12 @@ class ControlPanel:
         task = tasks.get(name)
         if task is None:
             return
-        was, self._syncing = self._syncing, True
-        try:
-            self.enabled.value = name in in_stack
-            for handle, key in ((self.kp, "kp"), (self.kd, "kd"), (self.weight, "weight")):
-                has = task[key] is not None
-                handle.visible = has
-                if has:
-                    handle.value = format_number(task[key])
-        finally:
-            self._syncing = was
+        self.enabled.value = name in in_stack
+        for handle, key in ((self.kp, "kp"), (self.kd, "kd"), (self.weight, "weight")):
+            has = task[key] is not None
+            handle.visible = has
+            if has:
+                handle.value = format_number(task[key])
 
     def show_command(self, command: dict) -> None:
         self.command_text.content = (
@@ -321,12 +318,14 @@ class ControlPanel:
                 self.client.camera.position, self.client.camera.look_at = position, look_at
 
     # ---- commands --------------------------------------------------------------------------
+    # Viser calls a widget's callbacks from a thread pool for a browser's change, and at once
+    # with no client for an assignment in this process (`show_info`): only the first is the user.
     def _switch(self, event: viser.GuiEvent, verb: str, payload: dict) -> None:
-        if not self._syncing:
+        if event.client_id is not None:
             self.app.send(self.client, verb, payload)
 
-    def _hierarchy(self, _: viser.GuiEvent) -> None:
-        if not self._syncing:
+    def _hierarchy(self, event: viser.GuiEvent) -> None:
+        if event.client_id is not None:
             payload = {
                 "method": self.method.value,
                 "solver": self.solver.value,
@@ -342,8 +341,8 @@ class ControlPanel:
             self.app.send(self.client, "robot", {"name": info["robot"]})
             self.app.report("info", f"{info['robot']} reset with its default stack and gains")
 
-    def _choose_gait(self, _: viser.GuiEvent) -> None:
-        if self._syncing:
+    def _choose_gait(self, event: viser.GuiEvent) -> None:
+        if event.client_id is None:
             return
         name = self.gait.value
         reply = self.app.send(self.client, "gait", {"name": name})
@@ -367,8 +366,8 @@ class ControlPanel:
             dx, dy = float(self.pad.position[0]), float(self.pad.position[1])
         self._set_velocity(from_offset(dx, dy, self._yaw_from_slider, self.limits))
 
-    def _yaw_changed(self, _: viser.GuiEvent) -> None:
-        if self._syncing:
+    def _yaw_changed(self, event: viser.GuiEvent) -> None:
+        if event.client_id is None:
             return
         self._yaw_from_slider = float(self.yaw.value)
         v = self.velocity
@@ -377,16 +376,12 @@ class ControlPanel:
     def _tap(self, axis: str, direction: int) -> None:
         cmd = tap(self.velocity, axis, direction, self.limits)
         self._yaw_from_slider = cmd.yaw_rate
-        was, self._syncing = self._syncing, True
         self.yaw.value = cmd.yaw_rate
-        self._syncing = was
         self._set_velocity(cmd)
 
     def stop(self) -> None:
         self._yaw_from_slider = 0.0
-        was, self._syncing = self._syncing, True
         self.yaw.value = 0.0
-        self._syncing = was
         self.pad.position = (0.0, 0.0, 0.0)
         self._set_velocity(VelocityCommand())
 
@@ -461,12 +456,9 @@ class ControlPanel:
 
     def _show_value(self, handle: viser.GuiInputHandle, value: float | str) -> None:
         """Make the browser show `value` in `handle` even if this process already holds it."""
-        was, self._syncing = self._syncing, True
-        try:  # viser skips an assignment of the value it holds: assign another one first
-            handle.value = value + " " if isinstance(value, str) else value + 1.0
-            handle.value = value
-        finally:
-            self._syncing = was
+        # viser skips an assignment of the value it holds: assign another one first
+        handle.value = value + " " if isinstance(value, str) else value + 1.0
+        handle.value = value
 
     def _send_stack(self, levels: list[list[str]]) -> None:
         """Send `levels`; a stack that will drop the robot is first explained in a dialog that
@@ -511,9 +503,9 @@ class ControlPanel:
             return
         self._send_stack(new)
 
-    def _toggle_enabled(self, _: viser.GuiEvent) -> None:
+    def _toggle_enabled(self, event: viser.GuiEvent) -> None:
         info = self.app.info
-        if self._syncing or info is None:
+        if event.client_id is None or info is None:
             return
         levels = [list(level) for level in info["stack"]]
         task = self.task.value

@@ -27,6 +27,7 @@ MAX_POINTS = 250  # points per series sent to the browser
 TOP_LEVELS = 3  # task errors are plotted for this many highest-priority levels
 ERROR_FLOOR = 1e-12  # a task error of 0 plots as 10⁻¹²
 Y_AXIS_PX = 64  # room for tick labels such as "12,500"
+Container = viser.GuiFolderHandle | viser.GuiTabHandle  # where the charts and their controls go
 PALETTE = (
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#17becf", "#8c564b", "#e377c2",
 )  # fmt: skip
@@ -131,9 +132,9 @@ def _series(labels: tuple[str, ...], title: str) -> tuple[uplot.Series, ...]:
 
 
 class Chart:
-    def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, spec: ChartSpec) -> None:
+    def __init__(self, gui: viser.GuiApi, container: Container, spec: ChartSpec) -> None:
         self._gui = gui
-        self._folder = folder
+        self._container = container
         self.spec = spec
         self.title = spec.title
         self.labels: tuple[str, ...] | None = None
@@ -164,7 +165,7 @@ class Chart:
         step = max(1, len(data[0]) // MAX_POINTS)
         data = tuple(np.ascontiguousarray(a[::step]) for a in data)
         if self._handle is None:
-            with self._folder:
+            with self._container:
                 self._handle = self._add(data)
         else:
             self._handle.data = data
@@ -194,9 +195,9 @@ class Plots:
     """The charts with their controls: pause, window length, CSV export of what is shown."""
 
     def __init__(
-        self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, guard: Callable = lambda f: f
+        self, gui: viser.GuiApi, container: Container, guard: Callable = lambda f: f
     ) -> None:
-        with folder:
+        with container:
             self.paused = gui.add_checkbox(
                 "Pause plots", False, hint="freeze the charts (recording goes on); drag to zoom"
             )
@@ -207,11 +208,16 @@ class Plots:
             png = gui.add_button("Export PNG", hint="the shown window of every chart, as a figure")
         csv.on_click(guard(self._export_csv))
         png.on_click(guard(self._export_png))
-        self.charts = [Chart(gui, folder, spec) for spec in CHARTS]
+        self.charts = [Chart(gui, container, spec) for spec in CHARTS]
 
     def record(self, tel: dict) -> None:
         for chart in self.charts:
             chart.record(tel)
+
+    def clear(self) -> None:
+        """Forget every chart's data (another lab is shown: its clock is not this one's)."""
+        for chart in self.charts:
+            chart.labels = None  # the next message rebuilds the chart with an empty buffer
 
     def draw(self) -> None:
         if self.paused.value:
