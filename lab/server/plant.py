@@ -45,7 +45,8 @@ import pinocchio as pin
 import trimesh
 
 from lab.robot import Robot
-from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, add_scene
+from lab.scenes import scene_bodies
+from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, ScriptedJoints, add_scene
 
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
@@ -344,6 +345,7 @@ class MujocoPlant:
         self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
+        self.scene_bodies = ScriptedJoints(m, scene_bodies(scene))
         self.nq, self.nv = robot.model.nq, robot.model.nv
         joints = [m.joint(name) for name in robot.joint_names]
         if any(j.type[0] != mujoco.mjtJoint.mjJNT_HINGE for j in joints):
@@ -359,8 +361,10 @@ class MujocoPlant:
         foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
         _shorten_shanks(m, self.foot_geom_ids)
         _mute_shank_meshes(m, self.foot_geom_ids)
-        # Per geom, as lists for the per-contact loops: is it terrain, which foot is it (or −1).
-        self._terrain_list = (m.geom_bodyid == 0).tolist()
+        # Per geom, as lists for the per-contact loops: is it terrain (not on the robot's tree:
+        # the world's geoms and a scene's moving bodies), which foot is it (or −1).
+        robot_root = m.body_rootid[self.base_body_id]
+        self._terrain_list = (m.body_rootid[m.geom_bodyid] != robot_root).tolist()
         self._foot_of_geom_list = foot_of_geom.tolist()
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
@@ -428,6 +432,7 @@ class MujocoPlant:
         d.qvel[3:6] = v[3:6]
         d.qvel[self._dof_index] = v[6:]
         d.time = time
+        self.scene_bodies.reset(self.mj_model, d, time)
         self._point_pushes.clear()
         mujoco.mj_forward(self.mj_model, d)
         self._steps += 1  # a new state: measured forces are stale
@@ -473,6 +478,7 @@ class MujocoPlant:
         Raises `SimulationDiverged` if the state after it is not valid (see `check`)."""
         m, d = self.mj_model, self.mj_data
         self._steps += 1
+        self.scene_bodies.apply(m, d, d.time)
         if not self._point_pushes:
             mujoco.mj_step(m, d)
         else:
@@ -563,6 +569,19 @@ class MujocoPlant:
             if foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
                 touching[foot] = True
         return touching
+
+    def foot_pressure_centres(self) -> np.ndarray:
+        """Measured centre of pressure of each foot (n_contacts, 3), m, world frame: its contact
+        points weighted by their normal forces; NaN for a foot that does not press."""
+        total = np.zeros(len(self._forces))
+        moment = np.zeros((len(self._forces), 3))
+        efc_force, points = self.mj_data.efc_force, self.mj_data.contact.pos
+        for i, foot, row, _ in self._terrain_contacts():
+            if foot >= 0 and row >= 0 and efc_force[row] > 0.0:
+                total[foot] += efc_force[row]
+                moment[foot] += efc_force[row] * points[i]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return moment / total[:, None]
 
     def foot_forces(self) -> np.ndarray:
         """Measured terrain force on each foot (n_contacts, 3), N, world frame.

@@ -27,8 +27,8 @@ from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
 from lab.description import ROBOT_NAMES, load_description
 from lab.protocol import TaskGains
-from lab.robot import FramePlacements, Robot, build_robot
-from lab.scenes import SCENES
+from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
+from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
@@ -120,8 +120,16 @@ class Session:
             raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(ROBOT_NAMES)})")
         if config.scene not in SCENES:
             raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
+        made_for = SCENE_ROBOTS.get(config.scene, (config.robot,))
+        if config.robot not in made_for:
+            raise ValueError(
+                f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
+                f"not {config.robot!r}"
+            )
         description = load_description(config.robot)
         robot = build_robot(description)
+        if config.scene in START_RISE:  # one foot starts on a block
+            robot = with_raised_contact(robot, *START_RISE[config.scene])
         plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
         model = RobotModel(robot.model, robot.contacts)
         gains = dict(description.gains)
