@@ -26,7 +26,7 @@ HALF_WIDTH = 0.5  # m
 MASS = 15.0  # kg
 FLOOR_DEPTH = 0.15  # m below the level board's top
 # (sim time s, tilt rad): level, down to the lowest tilt, up to the highest, held there
-WAYPOINTS = ((0.0, 0.0), (0.5, 0.0), (1.3, TILT_MIN), (2.5, TILT_MAX), (3.0, TILT_MAX))
+WAYPOINTS = ((0.0, 0.0), (0.3, 0.0), (0.8, TILT_MIN), (1.8, TILT_MAX), (2.0, TILT_MAX))
 DROP = WAYPOINTS[-1][0]  # s, the board is let go
 
 
