@@ -44,8 +44,13 @@ def test_block_stands_with_one_foot_raised() -> None:
 
 
 def test_block_is_refused_for_a_quadruped() -> None:
+    """Refused by name, at start and as a live switch, which changes nothing."""
     with pytest.raises(ValueError, match="made for robot talos"):
         Session(SessionConfig(robot="solo12", scene="block"))
+    session = Session(SessionConfig(robot="solo12"))
+    reply = session.handle("scene", {"name": "block"})
+    assert not reply["ok"] and "made for robot talos" in reply["error"]
+    assert session.config.scene == "flat"
 
 
 def test_platform_moves_and_the_soles_go_with_it() -> None:
