@@ -113,6 +113,7 @@ class ScriptedJoints:
         self.apply(model, data, t)
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
+        """Before a step at sim time t: each joint equality's target from its script, or off."""
         for body, eq in zip(self.bodies, self._eq, strict=True):
             targets = body.script(t)
             if targets is None:

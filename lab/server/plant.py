@@ -30,6 +30,9 @@ Physics choices (documented in the report of issue 2):
   robot at the model's origin and the clock at 0. `step()` instead raises `SimulationDiverged`
   (MuJoCo's bad position / velocity / acceleration warnings, or a non-finite state) and the
   caller decides what state comes next (the session: docs/architecture.md, "Faults").
+- A scene's moving terrain (a rolling platform, a balance board: `lab.scenes.terrain`) is
+  driven by its script before every step (`moving_terrain`); its joints come after the robot's
+  in qpos and qvel. Terrain is every geom not on the robot's body tree.
 - Joint damping is 0 (the controller's model has none) unless the caller sets it with
   `set_joint_damping`: the session damps the limp joints of a fallen robot. `implicitfast`
   integrates it implicitly, so any damping is stable.
@@ -345,7 +348,7 @@ class MujocoPlant:
         self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
-        self.scene_bodies = ScriptedJoints(m, scene_bodies(scene))
+        self.moving_terrain = ScriptedJoints(m, scene_bodies(scene))
         self.nq, self.nv = robot.model.nq, robot.model.nv
         joints = [m.joint(name) for name in robot.joint_names]
         if any(j.type[0] != mujoco.mjtJoint.mjJNT_HINGE for j in joints):
@@ -432,7 +435,7 @@ class MujocoPlant:
         d.qvel[3:6] = v[3:6]
         d.qvel[self._dof_index] = v[6:]
         d.time = time
-        self.scene_bodies.reset(self.mj_model, d, time)
+        self.moving_terrain.reset(self.mj_model, d, time)
         self._point_pushes.clear()
         mujoco.mj_forward(self.mj_model, d)
         self._steps += 1  # a new state: measured forces are stale
@@ -478,7 +481,7 @@ class MujocoPlant:
         Raises `SimulationDiverged` if the state after it is not valid (see `check`)."""
         m, d = self.mj_model, self.mj_data
         self._steps += 1
-        self.scene_bodies.apply(m, d, d.time)
+        self.moving_terrain.apply(m, d, d.time)
         if not self._point_pushes:
             mujoco.mj_step(m, d)
         else:

@@ -22,7 +22,7 @@ class SceneMotionMetrics:
     def __init__(self, session: "Session") -> None:
         plant = session.plant
         m = plant.mj_model
-        scripted = plant.scene_bodies
+        scripted = plant.moving_terrain
         bodies = scripted.bodies
         names = [scripted_joint_name(b.name, k) for b in bodies for k in range(len(b.joints))]
         self.joints = [(name, m.joint(name).qposadr[0]) for name in names]

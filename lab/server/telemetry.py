@@ -243,6 +243,6 @@ def state_message(session: SessionView) -> dict:
         "joints": {"names": list(session.robot.joint_names), "positions": q[7:].tolist()},
         "frames": session.frame_placements.message(q),
     }
-    if session.plant.scene_bodies.body_ids:
-        message["scene_bodies"] = session.plant.scene_bodies.poses(session.plant.mj_data)
+    if session.plant.moving_terrain.body_ids:
+        message["scene_bodies"] = session.plant.moving_terrain.poses(session.plant.mj_data)
     return message
