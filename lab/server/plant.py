@@ -30,6 +30,9 @@ Physics choices (documented in the report of issue 2):
   robot at the model's origin and the clock at 0. `step()` instead raises `SimulationDiverged`
   (MuJoCo's bad position / velocity / acceleration warnings, or a non-finite state) and the
   caller decides what state comes next (the session: docs/architecture.md, "Faults").
+- A scene's moving terrain (a rolling platform, a balance board: `lab.scenes.terrain`) is
+  driven by its script before every step (`moving_terrain`); its joints come after the robot's
+  in qpos and qvel. Terrain is every geom not on the robot's body tree.
 - Joint damping is 0 (the controller's model has none) unless the caller sets it with
   `set_joint_damping`: the session damps the limp joints of a fallen robot. `implicitfast`
   integrates it implicitly, so any damping is stable.
@@ -45,7 +48,8 @@ import pinocchio as pin
 import trimesh
 
 from lab.robot import Robot
-from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, add_scene
+from lab.scenes import scene_bodies
+from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, ScriptedJoints, add_scene
 
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
@@ -347,6 +351,7 @@ class MujocoPlant:
         self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
+        self.moving_terrain = ScriptedJoints(m, scene_bodies(scene))
         self.nq, self.nv = robot.model.nq, robot.model.nv
         joints = [m.joint(name) for name in robot.joint_names]
         if any(j.type[0] != mujoco.mjtJoint.mjJNT_HINGE for j in joints):
@@ -362,8 +367,10 @@ class MujocoPlant:
         foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
         _shorten_shanks(m, self.foot_geom_ids)
         _mute_shank_meshes(m, self.foot_geom_ids)
-        # Per geom, as lists for the per-contact loops: is it terrain, which foot is it (or −1).
-        self._terrain_list = (m.geom_bodyid == 0).tolist()
+        # Per geom, as lists for the per-contact loops: is it terrain (not on the robot's tree:
+        # the world's geoms and a scene's moving bodies), which foot is it (or −1).
+        robot_root = m.body_rootid[self.base_body_id]
+        self._terrain_list = (m.body_rootid[m.geom_bodyid] != robot_root).tolist()
         self._foot_of_geom_list = foot_of_geom.tolist()
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
@@ -435,6 +442,7 @@ class MujocoPlant:
         d.qvel[3:6] = v[3:6]
         d.qvel[self._dof_index] = v[6:]
         d.time = time
+        self.moving_terrain.reset(self.mj_model, d, time)
         self._point_pushes.clear()
         mujoco.mj_forward(self.mj_model, d)
         self._steps += 1  # a new state: measured forces are stale
@@ -481,6 +489,7 @@ class MujocoPlant:
         Raises `SimulationDiverged` if the state after it is not valid (see `check`)."""
         m, d = self.mj_model, self.mj_data
         self._steps += 1
+        self.moving_terrain.apply(m, d, d.time)
         if not self._point_pushes:
             mujoco.mj_step(m, d)
         else:
@@ -577,6 +586,19 @@ class MujocoPlant:
             if foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
                 touching[foot] = True
         return touching
+
+    def foot_pressure_centres(self) -> np.ndarray:
+        """Measured centre of pressure of each foot (n_contacts, 3), m, world frame: its contact
+        points weighted by their normal forces; NaN for a foot that does not press."""
+        total = np.zeros(len(self._forces))
+        moment = np.zeros((len(self._forces), 3))
+        efc_force, points = self.mj_data.efc_force, self.mj_data.contact.pos
+        for i, foot, row, _ in self._terrain_contacts():
+            if foot >= 0 and row >= 0 and efc_force[row] > 0.0:
+                total[foot] += efc_force[row]
+                moment[foot] += efc_force[row] * points[i]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return moment / total[:, None]
 
     def foot_forces(self) -> np.ndarray:
         """Measured terrain force on each foot (n_contacts, 3), N, world frame.
