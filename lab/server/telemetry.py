@@ -265,12 +265,16 @@ def telemetry_message(session: SessionView) -> dict:
 
 def state_message(session: SessionView) -> dict:
     """What the UI needs to draw the robot (`lab/state`): base pose, joint positions and the
-    world placement of every link and contact frame."""
+    world placement of every link and contact frame; in a scene whose terrain moves, the pose of
+    each moving body (`scene_bodies`)."""
     q, _ = session.plant.state()
-    return {
+    message = {
         "t": session.time,
         "robot": session.config.robot,
         "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
         "joints": {"names": list(session.robot.joint_names), "positions": q[7:].tolist()},
         "frames": session.frame_placements.message(q),
     }
+    if session.plant.moving_terrain.body_ids:
+        message["scene_bodies"] = session.plant.moving_terrain.poses(session.plant.mj_data)
+    return message

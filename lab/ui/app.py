@@ -428,6 +428,8 @@ class LabApp:
         if state["robot"] != self._robot_name:
             self._load_robot(state["robot"])
             self.refresh_info()
+        if self.terrain is not None and "scene_bodies" in state:  # moving terrain, where it is
+            self.terrain.set_poses(state["scene_bodies"])
         if self.robot_view is None:
             return
         self.robot_view.set_state(state["frames"])
