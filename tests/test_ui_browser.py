@@ -507,7 +507,7 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
         choose(page, dropdown, value)  # the option click was lost: a user clicks again
         lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
     wait_drawn(page, robot)
-    if robot == "bolt":  # the page says how Bolt stands and that it cannot step yet
+    if robot == "bolt":  # the page says how Bolt stands and how to make it step
         page.get_by_text("Bolt stands on its two point feet").first.wait_for()
     pushes.seen.clear()
     press(page, "front")
