@@ -11,6 +11,7 @@
 #include <array>
 #include <memory>
 
+#include "behaviours/python.hpp"  // leg_posture_velocity: the walking behaviour's hot part
 #include "controller.hpp"
 #if __has_include("hierarchy/python.hpp")
 #include "hierarchy/python.hpp"  // solve_hierarchy: the native methods on a given problem
@@ -308,6 +309,7 @@ NB_MODULE(_kernel, m) {
 #ifdef LAB_BIND_HIERARCHY
   lab::bind_hierarchy(m);
 #endif
+  lab::bind_behaviours(m);
 
   nb::class_<lab::Kernel>(m, "Kernel")
       .def(

@@ -86,7 +86,6 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
   const pinocchio::Model& model = *this->model;
   pinocchio::Data& data = *this->data;
   pinocchio::computeAllTerms(model, data, q, v);
-  pinocchio::updateFramePlacements(model, data);
   // computeAllTerms fills the upper triangle of M only.
   data.M.triangularView<Eigen::StrictlyLower>() =
       data.M.transpose().triangularView<Eigen::StrictlyLower>();
@@ -100,7 +99,9 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
   base_rotation = Eigen::Quaterniond(q.segment<4>(3)).toRotationMatrix();
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const auto fid = frame_ids[i];
-    const auto& placement = data.oMf[fid];
+    // The contact frames' placements only (ANYmal's model has 161 frames; the frame Jacobians and
+    // accelerations below read the joints' placements, not data.oMf).
+    const auto& placement = pinocchio::updateFramePlacement(model, data, fid);
     contact_positions[i] = placement.translation();
     contact_rotations[i] = placement.rotation();
     const int start = force_starts[i];

@@ -103,6 +103,7 @@ STACK_MAX_LEVELS = 16
 STACK_MAX_TASKS = 64  # task names over all levels
 STEP_HEIGHT_MAX = 0.5  # m, 0 < step_height <= max (the behaviour checks it against the legs)
 CYCLE_TIME_MAX = 5.0  # s, 0 < cycle_time <= max
+SWING_HZ_MAX = 1.0  # Hz, 0 <= stance swing <= max (Herzog's leg swing: 0.25 Hz)
 
 LIMITS: dict[str, float] = {
     "vx": VX_MAX,
@@ -250,9 +251,11 @@ class InternalForceCommand:
 @dataclass(frozen=True)
 class StanceCommand:
     """Stand on both soles or lift one (Herzog 2016 §5.4): `double`, `left` or `right` (a biped
-    with flat feet; the stance sole is the one named)."""
+    with flat feet; the stance sole is the one named). `swing` (Hz, None: unchanged) swings the
+    lifted leg's hip and knee in single support, 0 stops it. Either may be left out (None)."""
 
-    side: str
+    side: str | None = None
+    swing: float | None = None
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@ controller use (free-flyer model, locked joints removed, contact frames added, s
 and `FramePlacements` reads the world placements of its links that the UI draws with.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
@@ -142,6 +142,31 @@ def build_robot(desc: RobotDescription) -> Robot:
         tuple(foot_links),
         tuple(foot_offsets),
     )
+
+
+def with_raised_contact(robot: Robot, contact: str, rise: float) -> Robot:
+    """`robot` whose standing posture has contact `contact` `rise` m higher and otherwise where
+    it was (same orientation; the base and the other feet stay): a foot standing on a block.
+    The leg's joints are found by closed-loop inverse kinematics on the contact frame (pinocchio's
+    frame Jacobian, base columns left out); raises ValueError if they cannot reach it."""
+    names = [c.name for c in robot.contacts]
+    if contact not in names:
+        raise KeyError(f"robot {robot.description.name!r} has no contact {contact!r} ({names})")
+    model, data = robot.model, robot.model.createData()
+    frame = model.getFrameId(robot.contacts[names.index(contact)].frame)
+    q = robot.q_standing.copy()
+    pin.framesForwardKinematics(model, data, q)
+    target = pin.SE3(data.oMf[frame].rotation, data.oMf[frame].translation + np.array([0, 0, rise]))
+    for _ in range(100):
+        pin.framesForwardKinematics(model, data, q)
+        error = pin.log6(data.oMf[frame].actInv(target)).vector
+        if np.linalg.norm(error) < 1e-10:
+            return replace(robot, q_standing=q)
+        jacobian = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL)
+        step = np.zeros(model.nv)
+        step[6:] = np.linalg.lstsq(jacobian[:, 6:], error, rcond=None)[0]
+        q = pin.integrate(model, q, step)
+    raise ValueError(f"robot {robot.description.name!r}: contact {contact!r} cannot rise {rise} m")
 
 
 class FramePlacements:

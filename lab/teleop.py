@@ -3,7 +3,8 @@
 Keys (velocity in the robot's heading frame, pushes along world axes on the base link):
   w / s  forward / back        a / d  strafe left / right      q / e  turn left / right
   space  stop                  i / k  push +x / -x             j / l  push +y / -y
-  g      gait: stand -> trot -> crawl -> stand (the velocity keys steer the walking gaits)
+  g      gait: stand -> trot -> crawl -> biped_step -> stand, skipping those the robot cannot
+         run (Bolt: stand <-> biped_step); the velocity keys steer the walking gaits
   r      reset                 p      pause / resume           x      quit (also Ctrl-C, EOF)
   n      next lab (behind a router: the labs seen are listed, offline ones marked)
 Velocity is resent every 0.1 s while non-zero (the server's deadman stops the robot 0.5 s after
@@ -31,7 +32,7 @@ YAW_STEP = 0.2  # rad/s
 PUSH_DURATION_S = 0.2
 REFRESH_S = 0.1  # resend a non-zero velocity this often
 PUSH_DIRECTIONS = {"i": (1.0, 0.0), "k": (-1.0, 0.0), "j": (0.0, 1.0), "l": (0.0, -1.0)}
-GAIT_CYCLE = ("stand", "trot", "crawl")  # the order the `g` key steps through
+GAIT_CYCLE = ("stand", "trot", "crawl", "biped_step")  # the order the `g` key steps through
 QUIT_KEYS = ("x", "\x03", "\x04")
 NEXT_LAB_KEY = "n"
 BASE_LINK_NAMES = ("base", "base_link", "trunk", "pelvis")  # the usual names of a floating base
@@ -221,6 +222,13 @@ def _run(
             for verb, payload in commands:
                 reply = lab.command(verb, **payload)
                 print(f"\r\x1b[K{verb} {payload} -> {reply}")
+                # a gait this robot cannot run: the next one of the cycle, until one is taken
+                for _ in range(len(GAIT_CYCLE) - 2):
+                    if verb != "gait" or reply.get("ok") or state.gait == before.gait:
+                        break
+                    state, [(verb, payload)] = key_to_commands("g", state, body, push_force)
+                    reply = lab.command(verb, **payload)
+                    print(f"\r\x1b[K{verb} {payload} -> {reply}")
                 state = acknowledged(state, before, verb, reply)
                 last_sent = time.monotonic()
         if (

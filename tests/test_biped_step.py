@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from lab.controller.behaviours import BEHAVIOURS
 from lab.controller.behaviours.biped_step import BipedStepping, Phase
@@ -72,3 +73,62 @@ def test_the_lifting_foot_is_unloaded_by_a_ramp_and_then_tracks_its_swing() -> N
     s = stepping.swing
     assert not refs.contact_active[s] and refs.contact_active[1 - s]
     assert refs.foot_position[s, 2] > model.contact_positions[s, 2] + 0.01
+
+
+def test_a_step_that_would_need_a_crossover_is_cut_short_at_the_width_limit() -> None:
+    """Kim §V-2 on Bolt, without simulation: the CoM moving 0.3 m/s towards the stance foot
+    as the left foot lifts needs a foot across the stance leg; the planner puts it at the
+    4 cm width limit instead and cuts the swing from 0.2 s to `min_swing`, and its prediction
+    (Figs. 4-5) starts at the CoM and ends t′ after the switch."""
+    robot = build_robot(load_description("bolt"))
+    model = RobotModel(robot.model, robot.contacts)
+    stepping = BipedStepping(model, robot.q_standing)
+    v = np.zeros(robot.model.nv)
+    v[1] = -0.3 * stepping.sides[stepping.swing]  # towards the stance foot
+    model.update(robot.q_standing, v)
+    touching = np.ones(2, dtype=bool)
+    t = 0.0
+    while stepping.phase is not Phase.LIFT:
+        stepping.update(t, model, np.zeros(3), touching)
+        t += 1e-3
+    s, times = stepping.swing, stepping.times
+    width = stepping.sides[s] * (stepping.target[1] - model.contact_positions[1 - s, 1])
+    assert width == pytest.approx(times.min_width, abs=1e-6)
+    assert stepping.shortened == 1
+    assert stepping.swing_duration == pytest.approx(times.min_swing, abs=1e-9)
+    lateral = stepping.prediction.lateral
+    assert lateral[0, 1] == pytest.approx(model.com[1], abs=1e-9)
+    assert lateral[-1, 0] == pytest.approx(t - 1e-3 + times.min_swing + times.reversal_time)
+
+
+def test_a_sideways_push_in_stride_is_recovered_by_stepping() -> None:
+    """1.5 N for 0.1 s to the left (0.12 of Bolt's weight) at 1.2 s into stepping in place
+    fell Bolt when the swing could not be cut short; now it steps on for 1.2 s more."""
+    scenario = load_scenario(SCENARIOS / "bolt_step_in_place.toml")
+    push = {"body": "base_link", "force": [0.0, 1.5, 0.0], "duration": 0.1}
+    scenario.events.append(Event(1.2, "push", push))
+    report = run_scenario(scenario, duration=2.4)
+    assert not report["fell"]
+    assert report["metrics"]["swings_cut"] >= 1
+
+
+def test_the_com_ellipse_reference_turns_in_the_plane_of_the_foot_line() -> None:
+    """Kim Fig. 6b: after the hold, the CoM reference (less the foot-line balance's lean,
+    which is across the line) lies on the ellipse 1.5 cm along the line by 1 cm up, at the
+    constant rate of one turn in 4 s, and its velocity reference is the path's derivative."""
+    from lab.controller.behaviours import com_ellipse
+
+    robot = build_robot(load_description("bolt"))
+    model = RobotModel(robot.model, robot.contacts)
+    model.update(robot.q_standing, np.zeros(robot.model.nv))
+    ellipse = com_ellipse.ComEllipse(model, robot.q_standing)
+    start = ellipse.references.com.copy()
+    line = model.contact_positions[1] - model.contact_positions[0]
+    along = line / np.linalg.norm(line)
+    for t in (0.0, 1.0, 1.5, 2.5, 4.5):
+        ellipse.update(t, model, np.zeros(3), np.ones(2, dtype=bool))
+        d = ellipse.references.com - start
+        phase = 2 * np.pi / com_ellipse.PERIOD * max(t - com_ellipse.HOLD, 0.0)
+        assert d @ along == pytest.approx(0.015 * np.sin(phase), abs=1e-9)
+        assert d[2] == pytest.approx(0.01 * (np.cos(phase) - 1.0), abs=1e-9)
+    assert np.linalg.norm(ellipse.references.com_velocity) == pytest.approx(0.015 * np.pi / 2)

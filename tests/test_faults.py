@@ -140,8 +140,8 @@ def test_an_infeasible_problem_is_a_solver_failure_and_the_solver_takes_over_aft
 ) -> None:
     """Weighted, infeasible contact limits for 50 ticks: every tick ends as a solver failure
     (fallback torques, a solver_failure event), and once the limits are sane the solver takes
-    over and the robot stands. (eiquadprog cycled without end on such a problem: the native
-    weighted method now finds contradictory bounds before it calls the solver.)"""
+    over and the robot stands. (eiquadprog cycled without end on such a problem; the native
+    kernel now solves with DAQP, which calls it infeasible: tests/test_kernel.py.)"""
     session = Session(SessionConfig(robot="anymal"))
     assert session.handle("hierarchy", {"method": "weighted", "kernel": kernel})["ok"]
     for _ in range(100):

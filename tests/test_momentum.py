@@ -97,9 +97,15 @@ def test_lqr_gains_are_optimal_for_the_linearized_momentum_dynamics() -> None:
     value, final = closed_loop_cost(design, s0, cost)
     assert value == pytest.approx(s0 @ design.P @ s0, rel=1e-6)
     assert np.linalg.norm(final) < 1e-6 * np.linalg.norm(s0)
-    # The momentum-space gain is the force gain seen through the contact map (eq. 24).
+    # The momentum-space gain is the force gain seen through the contact map (eq. 24) less the
+    # static forces' moment about the displaced CoG, so that the rate the task asks,
+    # ḣ = −K_h s, closes the loop the design optimised: ṡ = (A − B K) s.
     G = contact_map(model, active)
-    np.testing.assert_allclose(design.momentum_gain, G @ design.K, atol=1e-9)
+    np.testing.assert_allclose(design.momentum_gain, G @ design.K - design.A[3:], atol=1e-9)
+    kinematic = np.zeros((9, 9))
+    kinematic[:3, 3:6] = np.eye(3) / model.mass  # ċ = h_lin / m, all the task leaves to physics
+    asked = kinematic - np.vstack((np.zeros((3, 6)), np.eye(6))) @ design.momentum_gain
+    np.testing.assert_allclose(asked, design.A - design.B @ design.K, atol=1e-9)
     worse = replace(design, K=1.2 * design.K)
     assert closed_loop_cost(worse, s0, cost)[0] > value * (1 + 1e-4)
 
@@ -146,7 +152,7 @@ def test_talos_balances_a_herzog_push_under_table_2(mode: str) -> None:
 
 def test_the_momentum_law_is_chosen_live_and_a_bad_one_changes_nothing() -> None:
     session = Session(SessionConfig(robot="talos"))
-    assert session.info()["momentum_modes"] == ["pd", "lqr"]
+    assert session.info()["momentum_modes"] == ["pd", "lqr", "lqr_talos"]
     assert session.handle("momentum", {"mode": "pd"}) == {"ok": True, "momentum": {"mode": "pd"}}
     reply = session.handle("momentum", {"mode": "pid"})
     assert not reply["ok"] and "pid" in reply["error"] and "lqr" in reply["error"]
@@ -184,10 +190,12 @@ UI_PUSHES = {
 }
 
 
-@pytest.mark.parametrize("mode", ["pd", "lqr"])
-@pytest.mark.parametrize("push", UI_PUSHES)
-def test_talos_survives_the_ui_push_under_table_2(mode: str, push: str) -> None:
-    force, duration = UI_PUSHES[push]
+def push_at_the_pelvis(
+    mode: str, force: list[float], duration: float, ticks: int
+) -> tuple[float, float]:
+    """Talos under Table 2 with momentum law `mode`, pushed at the pelvis after 0.2 s: the
+    largest horizontal distance of the CoG from where it stood in the `ticks` after the push
+    starts, and the distance left at the end (m). Fails on a fall or a QP failure."""
     session = Session(SessionConfig(robot="talos"))
     assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
     assert session.handle("momentum", {"mode": mode})["ok"]
@@ -195,14 +203,33 @@ def test_talos_survives_the_ui_push_under_table_2(mode: str, push: str) -> None:
         session.tick()
     start = session.model.com[:2].copy()
     body = session.robot.base_link
-    assert session.handle("push", {"body": body, "force": list(force), "duration": duration})["ok"]
+    assert session.handle("push", {"body": body, "force": force, "duration": duration})["ok"]
     worst = 0.0
-    for _ in range(1200):
+    for _ in range(ticks):
         session.tick()
         worst = max(worst, float(np.linalg.norm(session.model.com[:2] - start)))
     assert not session.fell and session.qp_failures == 0
+    return worst, float(np.linalg.norm(session.model.com[:2] - start))
+
+
+@pytest.mark.parametrize("mode", ["pd", "lqr"])
+@pytest.mark.parametrize("push", UI_PUSHES)
+def test_talos_survives_the_ui_push_under_table_2(mode: str, push: str) -> None:
+    force, duration = UI_PUSHES[push]
+    worst, final = push_at_the_pelvis(mode, list(force), duration, 1200)
     assert worst < 0.08
-    assert np.linalg.norm(session.model.com[:2] - start) < 0.75 * worst
+    assert final < 0.75 * worst
+
+
+def test_talos_survives_the_ui_default_push_from_the_front_under_lqr() -> None:
+    """The UI's default push (150 N for 0.2 s at the pelvis) from the front felled Talos under
+    the LQR with the printed cost while the momentum rows left out the static forces' moment
+    about the displaced CoG (the torso joint saturated at 78 N m). Now: no fall, no QP failure,
+    the CoG at most 12 cm off (measured 10.1 cm; 1.7 cm under `lqr_talos`) and coming back
+    (8.4 cm 1.2 s after the push: the printed cost's slow mode, 0.11 /s)."""
+    worst, final = push_at_the_pelvis("lqr", [150.0, 0.0, 0.0], 0.2, 1200)
+    assert worst < 0.12
+    assert final < 0.95 * worst
 
 
 def test_the_table_3_campaign_reports_each_push() -> None:
@@ -218,3 +245,15 @@ def test_the_table_3_campaign_reports_each_push() -> None:
     assert 1e-4 < metrics["push0_max_cog_error_m"] < 0.02
     assert metrics["push0_max_linear_momentum"] > 1.0  # ~3 N s went into the robot
     assert metrics["push0_fell"] == 0.0 and "push1_peak_force_n" not in metrics
+
+
+def test_lqr_holds_the_cog_closer_than_pd_on_the_same_push() -> None:
+    """Herzog Fig. 6: under the LQR (the cost retuned for Talos) the CoG strays less than under
+    the PD from the same push, the campaign's strongest (293 N for 32 ms, 9.5 N s, at the hip
+    from the front). Measured 2.9 mm against 5.9 mm; asserted: LQR below 0.8 × PD, both under
+    2 cm."""
+    push = ([-293.0, 0.0, 0.0], 0.0324)
+    pd, _ = push_at_the_pelvis("pd", *push, 500)
+    lqr, _ = push_at_the_pelvis("lqr_talos", *push, 500)
+    assert 1e-3 < pd < 0.02
+    assert lqr < 0.8 * pd

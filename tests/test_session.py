@@ -376,3 +376,17 @@ def test_a_stack_preset_brings_its_levels_gains_and_method() -> None:
     # A gain a task does not read is null: the UI hides it.
     assert gains["forces"]["gains"] == ["weight"] and gains["forces"]["kp"] is None
     assert gains["contact"]["kp"] is None and gains["contact"]["kd"] is not None
+
+
+def test_the_foot_forces_reach_the_controller_only_while_a_task_reads_them() -> None:
+    """The session measures the feet's forces for the controller only while the internal-force
+    task (Kim eq. 12) is in the stack, and then every tick: standing, they carry the weight."""
+    session = Session(SessionConfig(robot="anymal"))
+    run(session, 0.05)
+    task = session.controller.internal_force
+    assert task.measured_forces is None
+    levels = [*session.controller.config.stack.as_lists(), ["internal_force"]]
+    assert session.handle("stack", {"levels": levels})["ok"]
+    run(session, 0.05)
+    weight = session.model.mass * 9.81
+    assert task.measured_forces[:, 2].sum() == pytest.approx(weight, rel=0.1)

@@ -55,11 +55,12 @@ def test_pause_toggles_and_reset_clears_velocity() -> None:
     assert state == TeleopState(paused=True)
 
 
-def test_gait_key_cycles_stand_trot_crawl() -> None:
-    state, sent = press("gggg")
+def test_gait_key_cycles_stand_trot_crawl_biped_step() -> None:
+    state, sent = press("ggggg")
     assert [payload["name"] for verb, payload in sent if verb == "gait"] == [
         "trot",
         "crawl",
+        "biped_step",
         "stand",
         "trot",
     ]

@@ -20,7 +20,7 @@ from ports import free_port
 
 from lab.client import LabClient
 from lab.description import ROBOT_NAMES, load_description
-from lab.scenes import SCENES
+from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.server.recording import read_recording
 from lab.stack_presets import load_stack_preset
 
@@ -310,9 +310,9 @@ def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
 def test_the_balance_buttons_send_the_momentum_law_and_a_refused_stance_says_why(
     page, lab: LabClient
 ) -> None:
-    """PD and LQR reach the server; `On left` on ANYmal (point feet) is refused, and the page
-    says why."""
-    for label, mode in (("PD", "pd"), ("LQR", "lqr")):
+    """PD, LQR and LQR Talos reach the server; `On left` on ANYmal (point feet) is refused, and
+    the page says why."""
+    for label, mode in (("PD", "pd"), ("LQR", "lqr"), ("LQR Talos", "lqr_talos")):
         press(page, label)
         end = time.monotonic() + UI_ACTION_TIMEOUT_S
         while lab.command("info")["momentum"]["mode"] != mode and time.monotonic() < end:
@@ -507,7 +507,7 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
         choose(page, dropdown, value)  # the option click was lost: a user clicks again
         lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
     wait_drawn(page, robot)
-    if robot == "bolt":  # the page says how Bolt stands and that it cannot step yet
+    if robot == "bolt":  # the page says how Bolt stands and how to make it step
         page.get_by_text("Bolt stands on its two point feet").first.wait_for()
     pushes.seen.clear()
     press(page, "front")
@@ -515,19 +515,25 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
     ui_alive(page, serve)
 
 
+def for_anymal(scene: str) -> bool:
+    """Is `scene` one ANYmal may stand in (not one made for another robot's feet)?"""
+    return "anymal" in SCENE_ROBOTS.get(scene, ("anymal",))
+
+
 def test_every_robot_and_scene_switches_draws_takes_a_push_and_the_ui_lives(
     page, lab: LabClient, serve: LabServe, pushes: Pushes, subtests
 ) -> None:
     """One page walks every robot the Robot dropdown offers (ANYmal last) and then every scene
-    of the Scene dropdown with ANYmal (flat last): one server and page for all, the switches
-    being what is tested."""
+    of the Scene dropdown with ANYmal (flat last; not the scenes made for another robot's feet):
+    one server and page for all, the switches being what is tested."""
     info = lab.command("info")
     assert (info["robots"], info["scenes"]) == (list(ROBOT_NAMES), list(SCENES))
     robots, scenes = offered(page, "Robot"), offered(page, "Scene")
     assert (robots, scenes) == (list(ROBOT_NAMES), list(SCENES))
     type_number(slider_box(page, "Magnitude [N]"), "100")  # the box keeps it across switches
     walk = [("Robot", r, r) for r in robots if r != "anymal"] + [("Robot", "anymal", "anymal")]
-    walk += [("Scene", s, "anymal") for s in scenes if s != "flat"] + [("Scene", "flat", "anymal")]
+    walk += [("Scene", s, "anymal") for s in scenes if s != "flat" and for_anymal(s)]
+    walk += [("Scene", "flat", "anymal")]
     for dropdown, value, robot in walk:
         with subtests.test(dropdown=dropdown, value=value):
             switch_draw_push(page, lab, serve, pushes, dropdown, value, robot)

@@ -464,7 +464,7 @@ def test_the_plots_export_is_the_shown_window_as_csv() -> None:
         '"QP solve time [µs]: solve µs"'
     )
     assert lines[1:] == ["1.0,1.0,0.0,", "1.01,2.0,0.0,50.5", "1.02,3.0,0.0,60.0"]
-    assert shown_csv([("empty", (), ())]).splitlines() == ['"t [s]"']
+    assert shown_csv([("empty", (), ()), ("portrait", ("path",), ())]).splitlines() == ['"t [s]"']
 
 
 def test_the_plots_export_as_png_draws_one_panel_per_chart_with_data() -> None:

@@ -8,6 +8,7 @@
 #include <nanobind/stl/vector.h>
 
 #include "hierarchy/problem.hpp"
+#include "hierarchy/qp.hpp"
 
 namespace nb = nanobind;
 
@@ -50,12 +51,32 @@ nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynam
   return out;
 }
 
+/// One QP through the kernel's backend: (x, ok, exit flag, its name, iterations).
+std::tuple<Eigen::VectorXd, bool, int, std::string, int> solve_one_qp(
+    const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
+    const Eigen::VectorXd& h, const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  const Eigen::Index n = q.size();
+  if (P.rows() != n || P.cols() != n || G.cols() != n || A.cols() != n || G.rows() != h.size() ||
+      A.rows() != b.size())
+    throw nb::value_error(
+        "P, G and A must have one column per entry of q, h and b one entry per row");
+  Eigen::VectorXd x;
+  QpReport report;
+  const bool ok = solve_qp(P, q, G, h, A, b, x, &report);
+  return {x, ok, report.exitflag, qp_exit_name(report.exitflag), report.iterations};
+}
+
 }  // namespace
 
 void bind_hierarchy(nb::module_& m) {
   m.def("solve_hierarchy", &solve_hierarchy, nb::arg("method"), nb::arg("dynamics_A"),
         nb::arg("dynamics_b"), nb::arg("levels"), nb::arg("support"),
         "Solve one HierarchyProblem with a native method: levels are (A, b, C, d, weight).");
+  m.def("solve_qp", &solve_one_qp, nb::arg("P"), nb::arg("q"), nb::arg("G"), nb::arg("h"),
+        nb::arg("A"), nb::arg("b"),
+        "min 1/2 x'Px + q'x s.t. Gx <= h, Ax = b with the kernel's QP backend (DAQP): "
+        "(x, ok, exit flag, its name, iterations).");
+  m.attr("qp_iteration_limit") = qp_iteration_limit();
 }
 
 }  // namespace lab

@@ -1,19 +1,34 @@
-// The dense QP backend of the native kernel (mirrors lab/controller/qp.py): eiquadprog, the
-// Goldfarb-Idnani active-set solver TSID uses.
+// The dense QP backend of the native kernel (mirrors lab/controller/qp.py): DAQP, the dual
+// active-set solver the Python kernel calls through qpsolvers, compiled from the C sources its
+// sdist ships (cpp/third_party/daqp), with the same settings. Every solve is bounded: DAQP
+// stops after its iteration limit, or on a cycle, and says why in its exit flag.
 #pragma once
 
 #include <Eigen/Dense>
 
 namespace lab {
 
+/// How a QP solve ended: DAQP's exit flag (> 0: x is a solution) and its iteration count.
+struct QpReport {
+  int exitflag = 0;
+  int iterations = 0;
+};
+
+/// DAQP's name for an exit flag ("optimal", "infeasible", "iteration limit", ...).
+const char* qp_exit_name(int exitflag);
+
+/// The iteration limit of every solve (DAQP's default, which the Python kernel runs with too).
+int qp_iteration_limit();
+
 /// min 1/2 x^T P x + q^T x  s.t.  G x <= h, A x = b (P positive definite). Returns false when
-/// the solver finds no solution (infeasible, or it gave up); x is then unspecified.
+/// the solver finds no solution (infeasible, cycling, iteration limit); x is then unspecified.
+/// `report`, when given, receives the exit flag and the iteration count.
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
               const Eigen::VectorXd& h, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-              Eigen::VectorXd& x);
+              Eigen::VectorXd& x, QpReport* report = nullptr);
 
 /// The same without equality rows.
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
-              const Eigen::VectorXd& h, Eigen::VectorXd& x);
+              const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report = nullptr);
 
 }  // namespace lab

@@ -1,8 +1,9 @@
 """Fig. 7 of Herzog 2016 for Talos: one push, PD against LQR momentum control, under Table 2.
 
-Runs two short headless sessions (the campaign's strongest hip push from the front, 293 N for
+Runs three short headless sessions (the campaign's strongest hip push from the front, 293 N for
 32 ms, 9.5 N s, at the pelvis) and plots the push force, the CoG error and the linear and angular
-momentum against time, PD on the left and LQR on the right, into docs/herzog_push_response.png.
+momentum against time, one column per law (PD, LQR with the paper's cost, LQR with the cost
+retuned for Talos), into docs/herzog_push_response.png.
 Needs matplotlib (not a dependency of the lab): `pip install matplotlib`, then
 `python docs/figures/herzog_push_response.py`.
 """
@@ -21,6 +22,7 @@ PUSH_FORCE = np.array([-293.0, 0.0, 0.0])  # N, at the pelvis, from the front
 PUSH_DURATION = 0.0324  # s: 9.5 N s
 SETTLE_S, PUSH_AT_S, END_S = 0.3, 0.5, 2.5
 OUT = Path(__file__).resolve().parent.parent / "herzog_push_response.png"
+MODES = {"pd": "PD", "lqr": "LQR (paper's cost)", "lqr_talos": "LQR (Talos cost)"}
 
 
 def respond(mode: str) -> dict[str, np.ndarray]:
@@ -56,9 +58,9 @@ def respond(mode: str) -> dict[str, np.ndarray]:
 
 def main() -> None:
     """Simulate both laws and save the figure."""
-    fig, axes = plt.subplots(4, 2, sharex=True, figsize=(10, 9))
+    fig, axes = plt.subplots(4, len(MODES), sharex=True, sharey="row", figsize=(14, 9))
     labels = ("x", "y", "z")
-    for column, mode in enumerate(("pd", "lqr")):
+    for column, mode in enumerate(MODES):
         series = respond(mode)
         t = series["t"]
         panels = (
@@ -73,9 +75,9 @@ def main() -> None:
                 ax.plot(t, scale * series[key][:, axis], label=label, linewidth=1.0)
             ax.set_ylabel(title)
             ax.grid(alpha=0.3)
-        axes[0, column].set_title(f"{mode.upper()} momentum control")
+        axes[0, column].set_title(f"{MODES[mode]} momentum control")
     axes[0, 0].legend(loc="upper right")
-    for column in range(2):
+    for column in range(len(MODES)):
         axes[-1, column].set_xlabel("time [s]")
     fig.suptitle("Talos, Table 2 stack: 293 N for 32 ms (9.5 N s) at the pelvis from the front")
     fig.tight_layout()

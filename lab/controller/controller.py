@@ -270,6 +270,12 @@ class WholeBodyController:
         values of the last tick."""
         return self.tasks["internal_force"]
 
+    @property
+    def reads_sensing(self) -> bool:
+        """Whether a task of the stack reads what `set_sensing` hands over (the internal force's
+        feedback): the session measures the foot forces only then."""
+        return any(InternalForceTask.name in level for level in self.config.stack.levels)
+
     def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
         """What the sensors measured over the last step: the force of the terrain on each foot
         (n_contacts × 3, N, world) and the joint torques applied (N m), for the feedback of the

@@ -24,6 +24,7 @@ from lab.protocol import (
     STACK_MAX_LEVELS,
     STACK_MAX_TASKS,
     STEP_HEIGHT_MAX,
+    SWING_HZ_MAX,
     VX_MAX,
     VY_MAX,
     WEIGHT_MAX,
@@ -263,8 +264,11 @@ def _internal_force(f: _Fields) -> InternalForceCommand:
 
 
 def _stance(f: _Fields) -> StanceCommand:
-    f.only("side")
-    return StanceCommand(side=f.name("side"))
+    f.only("side", "swing")
+    if not f.has("side") and not f.has("swing"):
+        raise CommandError("stance: give a 'side', a 'swing' frequency or both")
+    swing = f.number("swing", 0.0, SWING_HZ_MAX) if f.has("swing") else None
+    return StanceCommand(side=f.name("side") if f.has("side") else None, swing=swing)
 
 
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {

@@ -8,7 +8,8 @@ reference, and the largest foot slide.
 - `stepping`: the steps of a stepping behaviour (touchdowns) and how long it stepped; the
   largest errors of the CoM height, of the base height and of the body's roll-pitch against
   their references while stepping (Kim Fig. 8d: 2 cm, 0.15 rad); how far the CoM wandered
-  horizontally from where stepping began, and where it ended (world x, y from there).
+  horizontally from where stepping began, and where it ended (world x, y from there); how
+  many swings the lateral planner cut short (`biped_step`).
 """
 
 from typing import TYPE_CHECKING
@@ -57,7 +58,7 @@ class SteppingMetrics:
     def __init__(self, session: "Session") -> None:
         self.start: float | None = None
         self.origin = np.zeros(2)
-        self.steps = 0
+        self.steps = self.cut = 0
         self.duration = 0.0
         self.com_height = self.base_height = self.orientation = self.wander = 0.0
         self.travel = np.zeros(2)
@@ -71,6 +72,7 @@ class SteppingMetrics:
         if self.start is None:
             self.start, self.origin = session.time, model.com[:2].copy()
         self.steps, self.duration = steps, session.time - self.start
+        self.cut = getattr(behaviour, "shortened", 0)
         self.com_height = max(self.com_height, abs(refs.com[2] - model.com[2]))
         self.base_height = max(self.base_height, abs(refs.base_height - model.base_position[2]))
         tilt = pin.log3(refs.base_rotation.T @ model.base_rotation)
@@ -84,6 +86,7 @@ class SteppingMetrics:
         return {
             "steps": float(self.steps),
             "stepping_s": self.duration,
+            "swings_cut": float(self.cut),
             "max_com_height_error_m": self.com_height,
             "max_base_height_error_m": self.base_height,
             "max_roll_pitch_error_rad": self.orientation,

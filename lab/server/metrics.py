@@ -9,11 +9,14 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from lab.server.cop_metrics import CopBindingMetrics
 from lab.server.kim_metrics import KIM_METRICS
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
 from lab.server.push_metrics import PushMetrics
-from lab.server.tracking_metrics import CogTrackingMetrics
+from lab.server.scene_metrics import SceneMotionMetrics
+from lab.server.sole_cop_metrics import SoleCopMetrics
+from lab.server.tracking_metrics import CogTrackingMetrics, SwingTrackingMetrics
 
 if TYPE_CHECKING:
     from lab.server.session import Session
@@ -50,6 +53,10 @@ METRICS: dict[str, type] = {
     "locomotion": LocomotionMetrics,
     "pushes": PushMetrics,
     "cog_tracking": CogTrackingMetrics,
+    "swing_tracking": SwingTrackingMetrics,
+    "cop_binding": CopBindingMetrics,
+    "sole_cop": SoleCopMetrics,
+    "scene_motion": SceneMotionMetrics,
     **LOAD_METRICS,
     **KIM_METRICS,
 }

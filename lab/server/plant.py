@@ -30,6 +30,9 @@ Physics choices (documented in the report of issue 2):
   robot at the model's origin and the clock at 0. `step()` instead raises `SimulationDiverged`
   (MuJoCo's bad position / velocity / acceleration warnings, or a non-finite state) and the
   caller decides what state comes next (the session: docs/architecture.md, "Faults").
+- A scene's moving terrain (a rolling platform, a balance board: `lab.scenes.terrain`) is
+  driven by its script before every step (`moving_terrain`); its joints come after the robot's
+  in qpos and qvel. Terrain is every geom not on the robot's body tree.
 - Joint damping is 0 (the controller's model has none) unless the caller sets it with
   `set_joint_damping`: the session damps the limp joints of a fallen robot. `implicitfast`
   integrates it implicitly, so any damping is stable.
@@ -45,11 +48,15 @@ import pinocchio as pin
 import trimesh
 
 from lab.robot import Robot
-from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, add_scene
+from lab.scenes import scene_bodies
+from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, ScriptedJoints, add_scene
 
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
 # 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
+# MuJoCo flags a coordinate beyond mjMAXVAL (1e10) as bad; the sum of squares of all of them
+# below its square holds each one below it.
+MAX_STATE_SQUARED = mujoco.mjMAXVAL**2
 BAD_STATE_WARNINGS = {
     int(mujoco.mjtWarning.mjWARN_BADQPOS): "position",
     int(mujoco.mjtWarning.mjWARN_BADQVEL): "velocity",
@@ -344,6 +351,7 @@ class MujocoPlant:
         self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
+        self.moving_terrain = ScriptedJoints(m, scene_bodies(scene))
         self.nq, self.nv = robot.model.nq, robot.model.nv
         joints = [m.joint(name) for name in robot.joint_names]
         if any(j.type[0] != mujoco.mjtJoint.mjJNT_HINGE for j in joints):
@@ -359,19 +367,25 @@ class MujocoPlant:
         foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
         _shorten_shanks(m, self.foot_geom_ids)
         _mute_shank_meshes(m, self.foot_geom_ids)
-        # Per geom, as lists for the per-contact loops: is it terrain, which foot is it (or −1).
-        self._terrain_list = (m.geom_bodyid == 0).tolist()
+        # Per geom, as lists for the per-contact loops: is it terrain (not on the robot's tree:
+        # the world's geoms and a scene's moving bodies), which foot is it (or −1).
+        robot_root = m.body_rootid[self.base_body_id]
+        self._terrain_list = (m.body_rootid[m.geom_bodyid] != robot_root).tolist()
         self._foot_of_geom_list = foot_of_geom.tolist()
         self._body_of_link = self._pushable_bodies()
         self.body_names = tuple(sorted(self._body_of_link))
         self._rotation = np.zeros(9)
         self._forces = np.zeros((len(robot.contacts), 3))
-        self._steps = 0  # MuJoCo steps and resets so far: the key of the measured-force cache
+        self._steps = 0  # MuJoCo steps and resets so far: the key of the per-step caches
         self._forces_step = -1
+        self._contacts: list[tuple[int, int, int, float]] = []
+        self._contacts_step = -1
         self._point_pushes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         # Live views into mj_data (never reallocated): `check` runs twice a tick, ~1 µs this way.
         self._warning_counts = self.mj_data.warning.number
         self._qpos, self._qvel = self.mj_data.qpos, self.mj_data.qvel
+        self._ctrl = self.mj_data.ctrl  # `state` and `set_torques` run every tick
+        self._base_in_world = self._rotation.reshape(3, 3)  # a view: mju_quat2Mat fills it
         self._coordinate_names = self._name_coordinates()
         self._valid_time = 0.0  # sim time of the last state `check` passed
         self.reset(robot.q_standing)
@@ -428,6 +442,7 @@ class MujocoPlant:
         d.qvel[3:6] = v[3:6]
         d.qvel[self._dof_index] = v[6:]
         d.time = time
+        self.moving_terrain.reset(self.mj_model, d, time)
         self._point_pushes.clear()
         mujoco.mj_forward(self.mj_model, d)
         self._steps += 1  # a new state: measured forces are stale
@@ -435,11 +450,11 @@ class MujocoPlant:
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in pinocchio conventions (new arrays)."""
-        qpos, qvel = self.mj_data.qpos, self.mj_data.qvel
+        qpos, qvel = self._qpos, self._qvel
         q = qpos[self._q_order]  # quaternion (w, x, y, z) → (x, y, z, w), joints by name
         v = qvel[self._v_order]
         mujoco.mju_quat2Mat(self._rotation, qpos[3:7])
-        v[:3] = self._rotation.reshape(3, 3).T @ v[:3]  # linear velocity: world → base frame
+        v[:3] = self._base_in_world.T @ v[:3]  # linear velocity: world → base frame
         return q, v
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
@@ -456,9 +471,10 @@ class MujocoPlant:
     def set_torques(self, tau: np.ndarray) -> None:
         """Joint torques (N m) in pinocchio joint order; MuJoCo clips them to the torque limits."""
         tau = np.asarray(tau, dtype=float)
-        if tau.shape != self.mj_data.ctrl.shape or not np.isfinite(tau).all():
-            raise ValueError(f"set_torques needs {self.mj_data.ctrl.size} finite torques (N m)")
-        self.mj_data.ctrl[:] = tau  # actuators were added in pinocchio joint order
+        ctrl = self._ctrl
+        if tau.shape != ctrl.shape or not np.isfinite(tau).all():
+            raise ValueError(f"set_torques needs {ctrl.size} finite torques (N m)")
+        ctrl[:] = tau  # actuators were added in pinocchio joint order
 
     def set_joint_damping(self, damping: float | np.ndarray) -> None:
         """Viscous damping (N m s/rad) of the actuated joints, one value or one per joint in
@@ -473,6 +489,7 @@ class MujocoPlant:
         Raises `SimulationDiverged` if the state after it is not valid (see `check`)."""
         m, d = self.mj_model, self.mj_data
         self._steps += 1
+        self.moving_terrain.apply(m, d, d.time)
         if not self._point_pushes:
             mujoco.mj_step(m, d)
         else:
@@ -485,13 +502,15 @@ class MujocoPlant:
 
     def check(self) -> None:
         """Raise `SimulationDiverged` unless the state is valid: MuJoCo flagged no bad position,
-        velocity or acceleration since the last `reset`, and qpos and qvel are finite."""
+        velocity or acceleration since the last `reset`, and qpos and qvel are finite and within
+        MuJoCo's own bound (a state its next step would flag: the controller never sees it)."""
         d, counts, qpos, qvel = self.mj_data, self._warning_counts, self._qpos, self._qvel
         flagged = any(counts[kind] for kind in BAD_STATE_WARNINGS)
-        if not flagged and math.isfinite(qpos.dot(qpos) + qvel.dot(qvel)):  # NaN, inf propagate
+        # NaN and inf propagate into the sum and fail the comparison
+        if not flagged and qpos.dot(qpos) + qvel.dot(qvel) < MAX_STATE_SQUARED:
             self._valid_time = d.time
             return
-        cause = "non-finite position or velocity"
+        cause = f"non-finite position or velocity, or one beyond {mujoco.mjMAXVAL:g}"
         for kind, quantity in BAD_STATE_WARNINGS.items():
             if counts[kind]:
                 where = self._coordinate_names[kind][d.warning[kind].lastinfo]
@@ -536,7 +555,10 @@ class MujocoPlant:
         """(contact, foot or −1, first constraint row or −1, sign) of each contact of the last step
         between the robot and the terrain. The sign is +1 where the robot's geom is geom2: the
         contact force acts from geom1 onto geom2. A plain loop: a step has a handful of
-        contacts, fewer than the numpy calls that would replace it cost."""
+        contacts, fewer than the numpy calls that would replace it cost. Computed once per step:
+        the touch sensing, the measured forces and the fall check all read it."""
+        if self._contacts_step == self._steps:
+            return self._contacts
         d = self.mj_data
         terrain, foot_of = self._terrain_list, self._foot_of_geom_list
         geoms, rows = d.contact.geom[: d.ncon].tolist(), d.contact.efc_address[: d.ncon].tolist()
@@ -545,6 +567,7 @@ class MujocoPlant:
             if terrain[g1] != terrain[g2]:  # one side is the robot
                 robot_geom, sign = (g2, 1.0) if terrain[g1] else (g1, -1.0)
                 found.append((i, foot_of[robot_geom], row, sign))
+        self._contacts, self._contacts_step = found, self._steps
         return found
 
     def non_foot_ground_contact(self) -> bool:
@@ -563,6 +586,19 @@ class MujocoPlant:
             if foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
                 touching[foot] = True
         return touching
+
+    def foot_pressure_centres(self) -> np.ndarray:
+        """Measured centre of pressure of each foot (n_contacts, 3), m, world frame: its contact
+        points weighted by their normal forces; NaN for a foot that does not press."""
+        total = np.zeros(len(self._forces))
+        moment = np.zeros((len(self._forces), 3))
+        efc_force, points = self.mj_data.efc_force, self.mj_data.contact.pos
+        for i, foot, row, _ in self._terrain_contacts():
+            if foot >= 0 and row >= 0 and efc_force[row] > 0.0:
+                total[foot] += efc_force[row]
+                moment[foot] += efc_force[row] * points[i]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return moment / total[:, None]
 
     def foot_forces(self) -> np.ndarray:
         """Measured terrain force on each foot (n_contacts, 3), N, world frame.

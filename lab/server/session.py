@@ -27,8 +27,8 @@ from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
 from lab.description import ROBOT_NAMES, load_description
 from lab.protocol import TaskGains
-from lab.robot import FramePlacements, Robot, build_robot
-from lab.scenes import SCENES
+from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
+from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server import commands as cmd
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
@@ -120,8 +120,16 @@ class Session:
             raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(ROBOT_NAMES)})")
         if config.scene not in SCENES:
             raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
+        made_for = SCENE_ROBOTS.get(config.scene, (config.robot,))
+        if config.robot not in made_for:
+            raise ValueError(
+                f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
+                f"not {config.robot!r}"
+            )
         description = load_description(config.robot)
         robot = build_robot(description)
+        if config.scene in START_RISE:  # one foot starts on a block
+            robot = with_raised_contact(robot, *START_RISE[config.scene])
         plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
         model = RobotModel(robot.model, robot.contacts)
         gains = dict(description.gains)
@@ -252,7 +260,8 @@ class Session:
             warnings.simplefilter("always")  # every tick's warnings, for telemetry
             try:
                 self.controller.update(q, v)
-                self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
+                if self.controller.reads_sensing:  # measured only for a task that reads it
+                    self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
                 self.behaviour.update(self.time, self.model, self.velocity, touching)
                 out = self.controller.solve()
                 if not np.isfinite(out.tau).all():
@@ -425,14 +434,16 @@ class Session:
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
                 return {"momentum": momentum_report(self.controller)}
-            case cmd.StanceCommand(side=side):
-                return self._stance(side)
+            case cmd.StanceCommand(side=side, swing=swing):
+                return self._stance(side, swing)
         return {}
 
-    def _stance(self, side: str) -> dict:
-        """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py); starts the
-        stance behaviour, with STANCE_PRESET if the stack has no `swing_sole`. Raises ValueError
-        for a robot without two flat soles or an unknown side, changing nothing."""
+    def _stance(self, side: str | None, swing: float | None = None) -> dict:
+        """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py; None: where it
+        stands), swinging the lifted leg at `swing` Hz if given; starts the stance behaviour,
+        with STANCE_PRESET if the stack has no `swing_sole` (or no `swing_leg` for a swing).
+        Raises ValueError for a robot without two flat soles or an unknown side, changing
+        nothing."""
         contacts = self.model.contacts
         if len(contacts) != 2 or any(contact.kind != "flat" for contact in contacts):
             raise ValueError(f"stance: robot {self.config.robot!r} is not a biped with flat soles")
@@ -440,14 +451,18 @@ class Session:
         if not isinstance(self.behaviour, Stance):
             self.model.update(*self.plant.state())
             behaviour = Stance(self.model, self.robot.q_standing)
-            behaviour.request(side)  # raises before anything changes
+            if side is not None:
+                behaviour.request(side)  # raises before anything changes
             self.behaviour = behaviour
             self.controller.references = behaviour.references
-            if "swing_sole" not in self.controller.config.stack.names():
-                reply = self._use_preset(STANCE_PRESET)
-        else:
+        elif side is not None:
             self.behaviour.request(side)
-        return {"stance": side, **reply}
+        if swing is not None:
+            self.behaviour.swing(swing)
+        names = self.controller.config.stack.names()
+        if "swing_sole" not in names or (self.behaviour.swing_hz and "swing_leg" not in names):
+            reply = self._use_preset(STANCE_PRESET)
+        return {"stance": side or self.behaviour.stance, "swing": self.behaviour.swing_hz, **reply}
 
     def _push(
         self, body: str, force: np.ndarray, duration: float, point: np.ndarray | None

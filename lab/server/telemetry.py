@@ -17,6 +17,8 @@ from lab.robot import FramePlacements, Robot
 from lab.server.plant import MujocoPlant
 
 COP_MIN_FORCE = 1e-6  # N: a foot or the robot pressing less than this has no centre of pressure
+PREDICTION_STRIDE = 2  # of the planner's 10 ms rows: 20 ms apart in telemetry
+_NOT_STEPPING = object()
 
 
 class PushView(Protocol):
@@ -85,6 +87,35 @@ def internal_force_report(controller: NativeController) -> dict:
         "sensed": task.sensed.tolist() if running else [],
         "command": task.command.tolist() if running else [],
     }
+
+
+def stepping_report(behaviour: BehaviourView, model: RobotModel) -> dict | None:
+    """A point-foot stepping behaviour's state for the phase portraits (Kim 2016 Figs. 4–5):
+    touchdowns, swings cut short, the CoM and its velocity in the heading frame (the base's
+    yaw, world origin; m, m/s: forward, lateral), and the planner's last prediction (its
+    footstep and the CoM's predicted [t, x, ẋ] rows per axis, every 20 ms); None for other
+    behaviours."""
+    prediction = getattr(behaviour, "prediction", _NOT_STEPPING)
+    if prediction is _NOT_STEPPING:
+        return None
+    yaw = float(np.arctan2(model.base_rotation[1, 0], model.base_rotation[0, 0]))
+    c, s = np.cos(yaw), np.sin(yaw)
+    to_heading = np.array([[c, s], [-s, c]])
+    report = {
+        "steps": behaviour.steps,
+        "swings_cut": behaviour.shortened,
+        "com": (to_heading @ model.com[:2]).tolist(),
+        "com_velocity": (to_heading @ model.com_velocity[:2]).tolist(),
+        "prediction": None,
+    }
+    if prediction is not None:
+        report["prediction"] = {
+            "t": prediction.t,
+            "foot": prediction.foot.tolist(),
+            "forward": prediction.forward[::PREDICTION_STRIDE].tolist(),
+            "lateral": prediction.lateral[::PREDICTION_STRIDE].tolist(),
+        }
+    return report
 
 
 def momentum_report(controller: NativeController) -> dict:
@@ -206,6 +237,7 @@ def telemetry_message(session: SessionView) -> dict:
         "stack": controller.config.stack.as_lists(),
         "momentum_control": momentum_report(controller),
         "internal_force": internal_force_report(controller),
+        "stepping": stepping_report(session.behaviour, model),
         "hierarchy": hierarchy_report(controller),
         "kernel": controller.kernel_ran,
         "kernel_note": controller.kernel_note,
@@ -233,12 +265,16 @@ def telemetry_message(session: SessionView) -> dict:
 
 def state_message(session: SessionView) -> dict:
     """What the UI needs to draw the robot (`lab/state`): base pose, joint positions and the
-    world placement of every link and contact frame."""
+    world placement of every link and contact frame; in a scene whose terrain moves, the pose of
+    each moving body (`scene_bodies`)."""
     q, _ = session.plant.state()
-    return {
+    message = {
         "t": session.time,
         "robot": session.config.robot,
         "base": {"position": q[:3].tolist(), "quaternion": q[3:7].tolist()},
         "joints": {"names": list(session.robot.joint_names), "positions": q[7:].tolist()},
         "frames": session.frame_placements.message(q),
     }
+    if session.plant.moving_terrain.body_ids:
+        message["scene_bodies"] = session.plant.moving_terrain.poses(session.plant.mj_data)
+    return message

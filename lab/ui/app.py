@@ -26,10 +26,12 @@ from lab.protocol import VelocityCommand
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import EventLog
 from lab.ui.guard_rails import error_growth
+from lab.ui.internal_force_plot import add_internal_force_plot
 from lab.ui.link import Link
 from lab.ui.overlays import OVERLAYS, Overlays
 from lab.ui.ownership import ControlOwnership
 from lab.ui.panel import ControlPanel
+from lab.ui.phase_portrait_plot import add_phase_portrait_plot
 from lab.ui.plots import Plots
 from lab.ui.recording import RecordingControls
 from lab.ui.robot_view import RobotView
@@ -162,7 +164,10 @@ class LabApp:
         # The charts are read while pushing: their own panel docked left of the 3-D view, the
         # controls docked right of it, so that both stay in sight, the robot between them.
         self.plot_panel = gui.add_panel()
-        self.plots = Plots(gui, self.plot_panel.add_tab("Plots", viser.Icon.CHART_LINE), self.guard)
+        plots_tab = self.plot_panel.add_tab("Plots", viser.Icon.CHART_LINE)
+        self.plots = Plots(gui, plots_tab, self.guard)
+        self.plots.charts.append(add_internal_force_plot(gui, plots_tab))
+        self.plots.charts += add_phase_portrait_plot(gui, plots_tab)
         self.plot_panel.dock_left()
         self.plot_panel.set_width(PLOT_PANEL_PX)
         gui.main_panel.dock_right()
@@ -423,6 +428,8 @@ class LabApp:
         if state["robot"] != self._robot_name:
             self._load_robot(state["robot"])
             self.refresh_info()
+        if self.terrain is not None and "scene_bodies" in state:  # moving terrain, where it is
+            self.terrain.set_poses(state["scene_bodies"])
         if self.robot_view is None:
             return
         self.robot_view.set_state(state["frames"])

@@ -10,8 +10,9 @@ from typing import Protocol
 
 import viser
 
-MOMENTUM_LABELS = {"PD": "pd", "LQR": "lqr"}
+MOMENTUM_LABELS = {"PD": "pd", "LQR": "lqr", "LQR Talos": "lqr_talos"}
 STANCE_LABELS = {"Both feet": "double", "On left": "left", "On right": "right"}
+SWING_LABELS = {"Swing leg 0.25 Hz": 0.25, "Stop swing": 0.0}  # Herzog §5.4, Fig. 11
 
 
 class CommandHost(Protocol):
@@ -30,6 +31,7 @@ def add_balance_controls(app: CommandHost, client: viser.ClientHandle, order: in
     with gui.add_folder("Balance (Herzog 2016)", order=order):
         momentum = gui.add_button_group("Momentum", tuple(MOMENTUM_LABELS))
         stance = gui.add_button_group("Stance", tuple(STANCE_LABELS))
+        swing = gui.add_button_group("Leg swing", tuple(SWING_LABELS))
         note = gui.add_markdown("")
 
     def send(verb: str, payload: dict) -> None:
@@ -41,4 +43,5 @@ def add_balance_controls(app: CommandHost, client: viser.ClientHandle, order: in
         app.guard(lambda e: send("momentum", {"mode": MOMENTUM_LABELS[e.target.value]}))
     )
     stance.on_click(app.guard(lambda e: send("stance", {"side": STANCE_LABELS[e.target.value]})))
-    return [momentum, stance]
+    swing.on_click(app.guard(lambda e: send("stance", {"swing": SWING_LABELS[e.target.value]})))
+    return [momentum, stance, swing]

@@ -73,7 +73,8 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
 ROBOT_NOTES = {  # shown under the Robot dropdown while that robot runs
     "bolt": "Bolt stands on its two point feet by leaning its CoM to balance about the line "
-    "between them (docs/controller.md); it cannot step yet, so a push across that line fells it.",
+    "between them (docs/controller.md): a push across that line fells it standing. Choose the "
+    "biped_step gait to step: it walks where the velocity steers it and steps out of pushes.",
 }
 PUSH_FORCE_RANGE = NumberRange("Magnitude", 10.0, 600.0, "N")  # the slider's range
 PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")

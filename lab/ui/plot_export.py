@@ -23,8 +23,11 @@ class Shown(NamedTuple):
 
 def shown_csv(charts: Sequence[Shown]) -> str:
     """CSV of what charts show: one row per sample time of any chart, a column "t [s]" and one
-    per series named "<chart title>: <series>" (empty where that chart has no sample)."""
-    columns = [f"{title}: {label}" for title, labels, _ in charts for label in labels]
+    per series named "<chart title>: <series>" (empty where that chart has no sample); a chart
+    with nothing shown, or no time axis (a phase portrait), has no columns."""
+    columns = [
+        f"{title}: {label}" for title, labels, data in charts if len(data) for label in labels
+    ]
     rows: dict[float, dict[str, float]] = {}
     for title, labels, data in charts:
         if len(data) == 0:

@@ -13,8 +13,9 @@ import numpy as np
 from lab.controller.behaviours.balance import Balance
 from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.biped_step import BIPED_BEHAVIOURS
+from lab.controller.behaviours.com_ellipse import ComEllipse
 from lab.controller.behaviours.hutter import HUTTER_BEHAVIOURS
-from lab.controller.behaviours.squat import Squat
+from lab.controller.behaviours.squat import CopSquat, Squat
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.model import RobotModel
 
@@ -25,7 +26,9 @@ BEHAVIOURS: dict[str, BehaviourFactory] = {
     **HUTTER_BEHAVIOURS,
     **WALKING_BEHAVIOURS,
     Squat.name: Squat,
+    CopSquat.name: CopSquat,
     **BIPED_BEHAVIOURS,
+    ComEllipse.name: ComEllipse,
 }
 
 __all__ = ["BEHAVIOURS", "Balance", "Behaviour", "BehaviourFactory"]

@@ -17,6 +17,13 @@ the planner aims at the commanded velocity t′ after the switch instead of zero
 frame), so the robot walks where it is steered. The step stays within `reach` of the stance
 foot and the swing foot on its own side, at least `min_width` from the stance foot across.
 
+Across (§V-2), y is planned before x and may shorten the swing, which x then plans with:
+Kim's rule (the switch comes where the PIPM's |ẏ| reaches `max_lateral_speed`), and, where
+the reversal would need the swing foot closer than `min_width` to the stance foot or across it
+(a crossover the legs cannot make without touching), the swing cut to `min_swing`: the foot
+lands at the width limit at once, so that the other foot, on the side the CoM is heading, steps
+sooner. A shortened swing keeps its path and speeds along it from where it is.
+
 The trunk: base height above the stance foot (Kim controls the CoM height), level, at a heading
 turned by the command's yaw rate (never more than YAW_LEAD_MAX ahead of the measured one); the
 CoM's horizontal motion is left to the pendulum and the footsteps, as in Kim's single-support
@@ -32,7 +39,13 @@ import pinocchio as pin
 
 from lab.controller.behaviours.balance import references_at_rest, standing_model
 from lab.controller.behaviours.base import NoOptions
-from lab.controller.behaviours.pipm import LinearSurface, PipmState, plan_step
+from lab.controller.behaviours.pipm import (
+    LinearSurface,
+    PipmState,
+    capped_switch_time,
+    plan_step,
+    predicted_path,
+)
 from lab.controller.behaviours.swing import swing_reference
 from lab.controller.model import RobotModel
 from lab.controller.references import References
@@ -77,8 +90,28 @@ class SteppingTimes:
     replan_from: float = 0.8  # of the lift phase
     reach: float = 0.12
     lateral_offset: float = 0.02  # outwards, added to the planned y: the sway's amplitude
+    # Across, from the stance foot: at 4 cm Bolt's legs (hip-knee-foot centre lines, solved by
+    # IK at the landing) stay 4.0 cm apart; a crossover of 3 cm would need the foot 6 cm ahead
+    # or behind for 3 cm, and its swing passes through the stance leg (docs/controller.md).
     min_width: float = 0.04
     max_width: float = 0.24
+    min_swing: float = 0.16  # s, the shortest a swing may be cut to (at 0.12 the stance foot slid)
+    # Kim's |ẏ| limit 0.65 m/s (Hume) scaled by √(z g) to Bolt's 0.3 m: the lateral phase plane
+    # shortens the step so that the switch comes before the CoM is this fast sideways.
+    max_lateral_speed: float = 0.36
+
+
+@dataclass(frozen=True)
+class StepPrediction:
+    """The planner's last answer for the step under way, in the heading frame (world origin,
+    m): when it was made (s), the footstep, and the CoM's predicted (t, x, ẋ) along forward and
+    lateral axes, over the stance foot to the switch and over the new foot for t′ after it
+    (Kim Figs. 4–5)."""
+
+    t: float
+    foot: np.ndarray
+    forward: np.ndarray  # (n, 3): t (s), x (m), ẋ (m/s)
+    lateral: np.ndarray
 
 
 class BipedStepping(NoOptions):
@@ -118,6 +151,12 @@ class BipedStepping(NoOptions):
         self.since: float | None = None
         self.liftoff = feet[left].copy()
         self.target = feet[left, :2].copy()
+        # The swing clock: the fraction of the swing done, u = u0 + (t − t0) / duration, so that
+        # a swing cut short keeps its place on the path (`_shorten`).
+        self.swing_start = self.swing_t0 = self.swing_u0 = 0.0
+        self.swing_duration = self.times.lift + self.times.land
+        self.shortened = 0  # swings cut short by the lateral planner
+        self.prediction: StepPrediction | None = None
         self.steps = 0  # touchdowns
         self.plans = 0
 
@@ -137,11 +176,17 @@ class BipedStepping(NoOptions):
             self._enter(Phase.LIFT_TRANSITION, t)
         elif self.phase is Phase.LIFT_TRANSITION and elapsed >= times.transition:
             self.liftoff = robot.contact_positions[s].copy()
-            self.target = self._plan(robot, command, times.lift + times.land)
+            self.swing_start = self.swing_t0 = t
+            self.swing_u0, self.swing_duration = 0.0, times.lift + times.land
             self._enter(Phase.LIFT, t)
-        elif self.phase is Phase.LIFT and elapsed >= times.lift:
+            self.target = self._plan(robot, command, t)
+        elif self.phase is Phase.LIFT and self._swing_done(t) >= self._lift_fraction:
             self._enter(Phase.LAND, t)
-        elif self.phase is Phase.LAND and touching[s] and elapsed >= 0.5 * times.land:
+        elif (
+            self.phase is Phase.LAND
+            and touching[s]
+            and self._swing_done(t) >= (times.lift + 0.5 * times.land) / (times.lift + times.land)
+        ):
             self.steps += 1
             self._enter(Phase.LAND_TRANSITION, t)
         elif self.phase is Phase.LAND_TRANSITION and elapsed >= times.transition:
@@ -168,13 +213,15 @@ class BipedStepping(NoOptions):
         if elapsed == 0.0:  # the posture (lowest priority) holds the joints where they are
             refs.posture[:] = robot.joint_positions
         if in_air:
-            into_swing = elapsed + (times.lift if self.phase is Phase.LAND else 0.0)
-            if self.phase is Phase.LIFT and elapsed >= times.replan_from * times.lift:
-                self.target = self._plan(robot, command, times.lift + times.land - into_swing)
+            done = self._swing_done(t)
+            if self.phase is Phase.LIFT and done >= times.replan_from * self._lift_fraction:
+                self.target = self._plan(robot, command, t)
+                done = self._swing_done(t)
             refs.foot_position[:], refs.foot_velocity[:] = robot.contact_positions, 0.0
             refs.foot_acceleration[:] = 0.0
+            duration = self.swing_duration
             swing = swing_reference(
-                self.liftoff, self.target, times.step_height, into_swing, times.lift + times.land
+                self.liftoff, self.target, times.step_height, done * duration, duration
             )
             refs.foot_position[s], refs.foot_velocity[s], refs.foot_acceleration[s] = swing
         on_ground = robot.contact_positions[stance, 2] if in_air else robot.contact_positions[:, 2]
@@ -187,10 +234,27 @@ class BipedStepping(NoOptions):
     def _enter(self, phase: Phase, t: float) -> None:
         self.phase, self.since = phase, t
 
-    def _plan(self, robot: RobotModel, command: np.ndarray, switch_in: float) -> np.ndarray:
-        """The footstep (world x, y) for the swing foot from the CoM state now, the stance foot
-        and the time left until the feet switch (s)."""
+    @property
+    def _lift_fraction(self) -> float:
+        return self.times.lift / (self.times.lift + self.times.land)
+
+    def _swing_done(self, t: float) -> float:
+        """The fraction of the swing done at time `t` (s); above 1 while reaching down."""
+        return self.swing_u0 + (t - self.swing_t0) / self.swing_duration
+
+    def _shorten(self, t: float, switch_in: float) -> None:
+        """End the swing `switch_in` s after `t` instead: the rest of the path, walked faster."""
+        done = self._swing_done(t)
+        self.shortened += self.swing_u0 == 0.0  # counted once per swing
+        self.swing_u0, self.swing_t0 = done, t
+        self.swing_duration = switch_in / (1.0 - done)
+
+    def _plan(self, robot: RobotModel, command: np.ndarray, t: float) -> np.ndarray:
+        """The footstep (world x, y) for the swing foot from the CoM state at time `t` (s) and
+        the stance foot; y first, which may shorten the swing (module docstring)."""
         times, s = self.times, self.swing
+        switch_in = (1.0 - self._swing_done(t)) * self.swing_duration
+        shortest = min(switch_in, max(0.0, times.min_swing - (t - self.swing_start)))
         stance = robot.contact_positions[1 - s]
         yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
         c, sn = math.cos(yaw), math.sin(yaw)
@@ -199,10 +263,11 @@ class BipedStepping(NoOptions):
         velocity = heading.T @ robot.com_velocity[:2]
         target_velocity = np.asarray(command[:2], dtype=float)
         surface = LinearSurface(height=max(float(robot.com[2] - stance[2]), 0.05))
-        step = np.zeros(2)
-        for axis in range(2):
+        side = self.sides[s]
+
+        def foot(axis: int, switch_in: float) -> float:
             now = PipmState(0.0, float(com[axis]), float(velocity[axis]))
-            planned = plan_step(
+            return plan_step(
                 now,
                 0.0,
                 switch_in,
@@ -212,13 +277,38 @@ class BipedStepping(NoOptions):
                 reach=times.reach + abs(float(com[axis])),
                 velocity=float(target_velocity[axis]),
                 tolerance=PLAN_TOLERANCE,
-            )
-            step[axis] = planned.foot
+            ).foot
+
+        lateral = PipmState(0.0, float(com[1]), float(velocity[1]))
+        capped = capped_switch_time(
+            lateral, 0.0, switch_in, surface, times.max_lateral_speed, shortest
+        )
+        y = foot(1, capped) + side * times.lateral_offset
+        if side * y < times.min_width and capped > shortest:  # a crossover: step at once
+            capped = shortest
+            y = foot(1, capped) + side * times.lateral_offset
+        if capped < switch_in - 1e-9:
+            self._shorten(t, capped)
+        step = np.array([foot(0, capped), y])
         step[0] = float(np.clip(step[0], -times.reach, times.reach))
-        side = self.sides[s]
-        step[1] += side * times.lateral_offset
         step[1] = side * float(np.clip(side * step[1], times.min_width, times.max_width))
         self.plans += 1
+        origin = heading.T @ stance[:2]  # the stance foot, heading frame
+        self.prediction = StepPrediction(
+            t,
+            origin + step,
+            *(
+                predicted_path(
+                    PipmState(t, float(com[axis]), float(velocity[axis])),
+                    capped,
+                    float(step[axis]),
+                    times.reversal_time,
+                    surface,
+                    origin=float(origin[axis]),
+                )
+                for axis in range(2)
+            ),
+        )
         return stance[:2] + heading @ step
 
 

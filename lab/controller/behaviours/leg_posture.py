@@ -26,6 +26,9 @@ to the ground, not to the foot centre.
 Each leg's integration starts from its measured joints at lift-off and at touchdown, so a
 haptic touchdown early or late (rough ground) starts the stance from where the leg really is.
 Joint velocities, foot offsets r = x_f − x_base and the Jacobians are in world axes.
+
+On a tick whose model update the native kernel ran, `update` computes q̇_d with the same
+steps in C++ (cpp/behaviours/leg_posture.cpp, when built); this module stays the reference.
 """
 
 import numpy as np
@@ -34,6 +37,11 @@ from scipy.linalg.lapack import dposv as posv
 
 from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.tasks.posture import leg_joints
+
+try:
+    from lab._kernel import leg_posture_velocity as native_velocity
+except ImportError:  # the native kernel is not built: every tick runs the code below
+    native_velocity = None
 
 CLIK_GAIN = 10.0  # 1/s, P of eqs. 30–31 (Raiola Table 2)
 DAMPING = 1e-3  # damped least squares near a stretched leg's singularity
@@ -63,6 +71,7 @@ class LegPostureReference:
         self.position = q_joints.copy()
         self.velocity = np.zeros_like(q_joints)
         self.radius = [contact.radius for contact in robot.contacts]
+        self._radius = np.array(self.radius)  # the native update's copy
         self._rotations = robot.contact_rotations.copy()  # the feet's orientations last tick
 
     def restart(self, robot: RobotModel, leg: int, carry_from: list[int]) -> None:
@@ -99,6 +108,26 @@ class LegPostureReference:
         """Integrate one tick. `stance` flags the legs in stance, `foot_*` are the swing
         references (world; rows of stance legs unused), `base_*` the commanded base twist
         (world), `height_error` ΔH_z of eq. 32."""
+        if native_velocity is not None and robot.updated_by == "native":
+            native_velocity(
+                robot.contact_positions,
+                robot.contact_rotations,
+                self._rotations,
+                robot.Jc,
+                self._radius,
+                stance,
+                foot_position,
+                foot_velocity,
+                robot.base_position,
+                base_velocity,
+                base_angular_velocity,
+                height_error,
+                dt,
+                DAMPING,
+                self.velocity,
+            )
+            self.position += dt * self.velocity
+            return
         base = robot.base_position
         turn = pin.skew(base_angular_velocity)
         r = robot.contact_positions - base

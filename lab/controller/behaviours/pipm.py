@@ -132,6 +132,42 @@ def plan_step(
     return PlannedStep(foot, switching, post, reversal)
 
 
+def predicted_path(
+    now: PipmState,
+    switch_in: float,
+    foot: float,
+    reversal_time: float,
+    surface: LinearSurface,
+    origin: float = 0.0,
+    every: float = 0.01,
+) -> np.ndarray:
+    """The PIPM's path (rows t, x, ẋ; x shifted by `origin`, m) over a stance foot at 0 for
+    `switch_in` s from `now`, then over `foot` for `reversal_time` s (Fig. 4: ● → ◇, ◆ → ★),
+    a row every `every` s. The impact's velocity change is not applied."""
+    before = integrate(now, 0.0, switch_in, surface)
+    after = integrate(before[-1], foot, reversal_time, surface)
+    stride = max(1, round(every / STEP_DT))
+    states = before[::stride] + after[::stride]
+    return np.array([(s.t, s.x + origin, s.xd) for s in states])
+
+
+def capped_switch_time(
+    now: PipmState,
+    stance_foot: float,
+    switch_in: float,
+    surface: LinearSurface,
+    max_speed: float,
+    shortest: float,
+) -> float:
+    """Kim §V-2's lateral timing rule: the time (s) from `now` to the switch, shortened from
+    `switch_in` to where the PIPM over the stance foot first reaches `max_speed` (m/s, |ẋ|),
+    never below `shortest` (s). The y phase plane runs before x so that x plans with it."""
+    for state in integrate(now, stance_foot, switch_in, surface):
+        if abs(state.xd) >= max_speed:
+            return min(switch_in, max(shortest, state.t - now.t))
+    return switch_in
+
+
 def scaled_reversal_time(
     com_height: float, hume_time: float = 0.24, hume_height: float = 1.0
 ) -> float:

@@ -3,6 +3,13 @@
 After HOLD s the CoG reference moves as c(t) = c₀ + [A_x, 0, A_z] sin(2π t / period) with the
 paper's amplitudes (2 cm forward, 3 cm vertical) and its velocity as the momentum reference;
 the period is the gait option `cycle_time` (the paper ran 0.3 and 0.5 Hz: 3.33 s and 2 s).
+
+`squat_cop` is the variant of Fig. 10 whose CoP constraints bind: 4.5 cm forward instead of 2.
+At 0.5 Hz the CoG's forward acceleration peaks at 0.44 m/s², which asks the CoP (LIPM, CoG
+0.88 m high) 4.0 cm beyond the CoG at the front turning point: 9.7 cm before the sole centres
+(the CoG stands 1.2 cm before them), past the 9.35 cm `cop_inner` allows; the vertical sine
+adds to it. The constraint, a level above the momentum, bounds the planned CoP and the CoG
+tracking gives way. (At 6 cm the capture point, x + ẋ/ω₀, passes the bound: Talos fell.)
 """
 
 import numpy as np
@@ -20,6 +27,7 @@ class Squat(Balance):
     """Stand on every foot with the CoG reference on a sine (module docstring)."""
 
     name = "squat"
+    amplitude = AMPLITUDE
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         super().__init__(robot, q_standing)
@@ -31,10 +39,10 @@ class Squat(Balance):
         """`cycle_time`: the sine's period (s) in PERIOD_RANGE; raises ValueError otherwise."""
         unknown = set(options) - {"cycle_time"}
         if unknown:
-            raise ValueError(f"gait 'squat' takes no {', '.join(sorted(unknown))}")
+            raise ValueError(f"gait {self.name!r} takes no {', '.join(sorted(unknown))}")
         period = options.get("cycle_time", self.period)
         if not isinstance(period, int | float) or not PERIOD_RANGE[0] <= period <= PERIOD_RANGE[1]:
-            raise ValueError(f"squat: cycle_time must be in {PERIOD_RANGE} s, got {period!r}")
+            raise ValueError(f"{self.name}: cycle_time must be in {PERIOD_RANGE} s, got {period!r}")
         self.period = float(period)
 
     def update(
@@ -45,5 +53,12 @@ class Squat(Balance):
         phase = max(t - self.start - HOLD, 0.0)
         omega = 2.0 * np.pi / self.period
         active = t - self.start >= HOLD
-        self.references.com = self.centre + AMPLITUDE * np.sin(omega * phase)
-        self.references.com_velocity = AMPLITUDE * omega * np.cos(omega * phase) * active
+        self.references.com = self.centre + self.amplitude * np.sin(omega * phase)
+        self.references.com_velocity = self.amplitude * omega * np.cos(omega * phase) * active
+
+
+class CopSquat(Squat):
+    """The squat of Fig. 10, far enough forward that the CoP constraints bind (module docstring)."""
+
+    name = "squat_cop"
+    amplitude = np.array([0.045, 0.0, 0.03])

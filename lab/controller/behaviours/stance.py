@@ -8,6 +8,12 @@ From double to single support on `side`, in three phases:
 Back to double support the same in reverse: lower the sole to where it lifted off, restore its
 contact with the bound ramping up, and shift the CoG back to the middle. A request waits for the
 running transition to end.
+
+In single support the lifted leg can swing (`swing(hz)`, Herzog §5.4 and Fig. 11): its hip and
+knee flexion joints follow q_lift + a (1 − cos 2π f t) / 2 (SWING_AMPLITUDE, bending both further
+than the lifted posture, so the sole only rises), the leg in joint space (`swing_leg` task) in
+place of its sole pose. A swing stops at the end of a period, back in the lifted posture, and
+before any stance change.
 """
 
 from dataclasses import fields
@@ -15,8 +21,10 @@ from dataclasses import fields
 import numpy as np
 
 from lab.controller.behaviours.balance import Balance
-from lab.controller.model import RobotModel
+from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.tasks.posture import leg_joints
 from lab.controller.tasks.sole import SoleReferences
+from lab.protocol import SWING_HZ_MAX
 
 STANCES = ("double", "left", "right")
 SHIFT_S = 1.0  # s, CoG over the stance sole (or back to the middle)
@@ -24,6 +32,7 @@ UNLOAD_S = 0.5  # s, the leaving sole's normal-force bound from the full weight 
 LIFT_S = 1.0  # s, the sole up by LIFT_HEIGHT (or down to the ground)
 LIFT_HEIGHT = 0.10  # m, Herzog §5.4
 NORMAL_MAX = 5000.0  # N, the bound of a sole that carries load freely (ContactLimits' default)
+SWING_AMPLITUDE = (0.4, 0.6)  # rad, the hip and knee flexion's excursion from the lifted posture
 
 
 def smooth(s: float) -> float:
@@ -49,6 +58,16 @@ class Stance(Balance):
             sole_rotation=robot.contact_rotations.copy(),
         )
         self.references.normal_force_max = np.full(len(robot.contacts), NORMAL_MAX)
+        self.references.leg_swinging = np.zeros(len(robot.contacts), dtype=bool)
+        self.references.leg_position = robot.joint_positions.copy()
+        self.references.leg_velocity = np.zeros(robot.na)
+        self.references.leg_acceleration = np.zeros(robot.na)
+        self._flexion = [flexion_joints(robot, i) for i in range(len(robot.contacts))]
+        self._bend = np.sign(q_standing[7:])  # the side each joint bends to in the crouch
+        self.swing_hz = 0.0  # asked for; 0: hold the lifted sole
+        self._swing: tuple[float, float] | None = None  # (start time, frequency) of a swing
+        self._lifted = robot.joint_positions.copy()  # the posture a swing starts and ends in
+        self._periods_done = 0
         self.names = [contact.name for contact in robot.contacts]
         self.weight = robot.mass * float(np.linalg.norm(robot.gravity))
         self.middle = self.references.com.copy()
@@ -67,15 +86,27 @@ class Stance(Balance):
             raise ValueError(f"stance {stance!r}: this robot's soles are {self.names}")
         self._pending = stance
 
+    def swing(self, hz: float) -> None:
+        """Swing the lifted leg's hip and knee at `hz` (0 stops at the end of the period, in
+        (0, SWING_HZ_MAX] starts in single support); raises ValueError for another frequency."""
+        if not 0.0 <= hz <= SWING_HZ_MAX:
+            raise ValueError(f"swing: frequency must be in [0, {SWING_HZ_MAX}] Hz, got {hz}")
+        self.swing_hz = hz
+
     @property
     def busy(self) -> bool:
-        """Whether a transition is running."""
-        return self._started is not None
+        """Whether a transition or a swing is running."""
+        return self._started is not None or self._swing is not None
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
-        """Advance the running transition, or start the pending one."""
+        """Advance the running transition or swing, or start the pending one."""
+        if self._swing is not None or (
+            self.swing_hz > 0.0 and self._started is None and self._pending is None
+        ):
+            self._update_swing(t, robot)
+            return
         if self._started is None and self._pending is not None:
             pending, self._pending = self._pending, None
             if pending != self.stance:
@@ -130,3 +161,43 @@ class Stance(Balance):
         over[:2] = self._ground[stance][:2]
         refs.com[:] = over + smooth(shift) * (self.middle - over)
         return shift >= 1.0
+
+    def _update_swing(self, t: float, robot: RobotModel) -> None:
+        """Start, advance or end the leg swing (module docstring)."""
+        refs = self.references
+        if self.stance == "double":
+            return
+        leg = 1 - self.names.index(self.stance)
+        if self._swing is None:
+            self._swing = (t, self.swing_hz)
+            self._lifted = robot.joint_positions.copy()
+            self._periods_done = 0
+            refs.leg_position[:] = self._lifted
+            refs.leg_swinging[leg] = True
+        start, hz = self._swing
+        periods_done = int((t - start) * hz)
+        stop = self.swing_hz != hz or self._pending is not None
+        if stop and periods_done > self._periods_done:  # back in the lifted posture
+            self._swing = None
+            refs.leg_swinging[leg] = False
+            refs.leg_position[:] = self._lifted
+            refs.leg_velocity[:] = refs.leg_acceleration[:] = 0.0
+            return
+        self._periods_done = periods_done
+        w = 2.0 * np.pi * hz
+        phase = w * (t - start)
+        for joint, amplitude in zip(self._flexion[leg], SWING_AMPLITUDE, strict=True):
+            a = 0.5 * amplitude * self._bend[joint]
+            refs.leg_position[joint] = self._lifted[joint] + a * (1.0 - np.cos(phase))
+            refs.leg_velocity[joint] = a * w * np.sin(phase)
+            refs.leg_acceleration[joint] = a * w * w * np.cos(phase)
+
+
+def flexion_joints(robot: RobotModel, contact: int) -> np.ndarray:
+    """The hip and knee flexion joints of a flat foot's leg (actuated indices): the first two of
+    its leg's joints whose axis, seen from the sole, is the sole's lateral (y) axis."""
+    rows = robot.force_slices[contact]
+    angular = robot.Jc[rows.start + 3 : rows.start + 6, BASE_DOF:]  # sole frame (LOCAL)
+    leg = leg_joints(robot)[contact]
+    lateral = [j for j in leg if abs(angular[1, j]) > 0.9 * np.linalg.norm(angular[:, j])]
+    return np.array(lateral[:2])

@@ -17,7 +17,7 @@ from lab.controller.tasks.objectives import (
     TorqueTask,
 )
 from lab.controller.tasks.posture import MovingPostureTask, PostureTask
-from lab.controller.tasks.sole import SwingSoleTask
+from lab.controller.tasks.sole import SwingLegTask, SwingSoleTask
 from lab.controller.tasks.trunk import (
     BaseHeightTask,
     BaseOrientationTask,
@@ -47,6 +47,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         MovingPostureTask,
         InternalForceTask,
         SwingSoleTask,
+        SwingLegTask,
     )
 }
 

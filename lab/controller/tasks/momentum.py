@@ -10,7 +10,13 @@ LQR design of eqs. 23–26, chosen by `mode`. The reference momentum is [m ċ_re
 import numpy as np
 
 from lab.controller.model import RobotModel
-from lab.controller.momentum import MOMENTUM_MODES, GainSchedule, LqrCost, lqr_design, pd_gain
+from lab.controller.momentum import (
+    LQR_COSTS,
+    MOMENTUM_MODES,
+    GainSchedule,
+    lqr_design,
+    pd_gain,
+)
 from lab.controller.references import References
 from lab.controller.tasks.base import Task, TaskGains, TaskRows
 
@@ -24,15 +30,17 @@ class MomentumTask(Task):
     def __init__(self, gains: TaskGains | None = None) -> None:
         super().__init__(gains)
         self.mode = "lqr"
-        self.cost = LqrCost()
+        self.cost = LQR_COSTS[self.mode]
         self.schedule = GainSchedule()
 
     def set_mode(self, mode: str) -> None:
-        """`pd` (eq. 22) or `lqr` (eqs. 23–26); raises ValueError naming the modes."""
+        """`pd` (eq. 22), or `lqr` / `lqr_talos` (eqs. 23–26 with the printed cost or the one
+        retuned for Talos); raises ValueError naming the modes."""
         if mode not in MOMENTUM_MODES:
             raise ValueError(f"unknown momentum mode {mode!r} (modes: {', '.join(MOMENTUM_MODES)})")
         if mode != self.mode:
             self.mode = mode
+            self.cost = LQR_COSTS.get(mode, self.cost)
             self.schedule.clear()
 
     def gain(self, robot: RobotModel, refs: References) -> np.ndarray:

@@ -4,6 +4,10 @@ For each flat foot the references leave out of support, J q̈ + J̇ v = a with t
 §5.4 in the sole frame (pinocchio LOCAL, as the contact rows of flat feet):
 a = [Rᵀ kp (p_ref − p) − kd v; kp log₃(Rᵀ R_ref) − kd ω]. References without sole targets
 (`SoleReferences`) and feet in support give no rows.
+
+`swing_leg` is the same foot's motion in joint space, as Herzog's leg-swing experiment does it
+(§5.4, Fig. 11): the joints of a leg the references mark `leg_swinging` track a trajectory,
+q̈ = q̈_ref + kp (q_ref − q) + kd (q̇_ref − q̇), and `swing_sole` leaves that foot alone.
 """
 
 from dataclasses import dataclass, field
@@ -11,10 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.model import RobotModel
+from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.references import References
 from lab.controller.rows import JacobianRows, PerContactSet
 from lab.controller.tasks.base import Task, TaskGains, TaskRows, no_task_rows
+from lab.controller.tasks.posture import leg_joints
 
 
 @dataclass
@@ -24,6 +29,19 @@ class SoleReferences(References):
 
     sole_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     sole_rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    # Per contact: its leg (out of support) follows the joint trajectory below, not its sole pose.
+    leg_swinging: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    # Joint trajectory of the swinging legs (actuated joints, pinocchio order; rad, /s, /s²).
+    leg_position: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    leg_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    leg_acceleration: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def leg_swinging(refs: References) -> np.ndarray | None:
+    """Which contacts' legs swing in joint space (None for references without them)."""
+    if isinstance(refs, SoleReferences) and len(refs.leg_swinging):
+        return refs.leg_swinging & ~refs.contact_active
+    return None
 
 
 def _swinging_soles(robot: RobotModel, active: np.ndarray) -> JacobianRows:
@@ -44,11 +62,15 @@ class SwingSoleTask(Task):
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         if not isinstance(refs, SoleReferences) or not len(refs.sole_position):
             return no_task_rows(robot.nx)
-        rows = self._rows.get(robot, refs.contact_active)
+        held = refs.contact_active  # feet in support, or whose leg swings in joint space
+        swinging = leg_swinging(refs)
+        if swinging is not None:
+            held = held | swinging
+        rows = self._rows.get(robot, held)
         if not len(rows.index):
             return no_task_rows(robot.nx)
         velocity = rows.write(robot) @ robot.v
-        feet = [i for i in np.flatnonzero(~refs.contact_active) if robot.contacts[i].kind == "flat"]
+        feet = [i for i in np.flatnonzero(~held) if robot.contacts[i].kind == "flat"]
         error = np.zeros(6 * len(feet))  # world position error, sole-frame rotation error
         local = np.zeros(6 * len(feet))  # the same in the sole frame, as J's rows
         for k, i in enumerate(feet):
@@ -59,3 +81,29 @@ class SwingSoleTask(Task):
             local[6 * k + 3 : 6 * k + 6] = error[6 * k + 3 : 6 * k + 6]
         b = -robot.Jc_dot_v.take(rows.index) + self.gains.kp * local - self.gains.kd * velocity
         return TaskRows(rows.view, b, error)
+
+
+class SwingLegTask(Task):
+    """The joints of each leg the references mark swinging track their trajectory (module
+    docstring); the error is q_ref − q of those joints (rad)."""
+
+    name = "swing_leg"
+
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self._legs: list[np.ndarray] | None = None
+
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+        swinging = leg_swinging(refs)
+        if swinging is None or not swinging.any():
+            return no_task_rows(robot.nx)
+        assert isinstance(refs, SoleReferences)
+        if self._legs is None:
+            self._legs = leg_joints(robot)
+        joints = np.concatenate([self._legs[i] for i in np.flatnonzero(swinging)])
+        A = np.zeros((len(joints), robot.nx))
+        A[np.arange(len(joints)), BASE_DOF + joints] = 1.0
+        e = refs.leg_position[joints] - robot.joint_positions[joints]
+        de = refs.leg_velocity[joints] - robot.joint_velocities[joints]
+        b = refs.leg_acceleration[joints] + self.gains.kp * e + self.gains.kd * de
+        return TaskRows(A, b, e)

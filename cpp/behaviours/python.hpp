@@ -1,0 +1,10 @@
+// Python bindings of the native behaviour parts (lab/controller/behaviours).
+#pragma once
+
+#include <nanobind/nanobind.h>
+
+namespace lab {
+
+void bind_behaviours(nanobind::module_& m);
+
+}  // namespace lab
