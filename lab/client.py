@@ -154,7 +154,7 @@ class LabClient:
         before the call, then every one after it (a brief event is not missed however late this
         thread runs); raise TimeoutError with the last message."""
         end = time.monotonic() + timeout
-        messages = self._fresh("telemetry")[-1:]
+        messages = self._fresh("telemetry", newest_only=True)
         last = None
         while time.monotonic() < end:
             for message in messages:
@@ -203,13 +203,17 @@ class LabClient:
         with self._lock:
             self._callbacks.append((kind, callback, subscriber))
 
-    def _fresh(self, kind: str) -> list[dict]:
-        """The messages received since the last read (at most BACKLOG[kind]), oldest first."""
+    def _fresh(self, kind: str, newest_only: bool = False) -> list[dict]:
+        """The messages received since the last read (at most BACKLOG[kind]), oldest first;
+        with `newest_only`, the newest alone (the others are dropped unparsed)."""
         with self._lock:
             subscriber = self._latest[kind]
-        messages = []
+        samples = []
         while (sample := subscriber.try_recv()) is not None:
-            messages.append(json.loads(sample.payload.to_bytes()))
+            samples.append(sample)
+        if newest_only:
+            samples = samples[-1:]
+        messages = [json.loads(sample.payload.to_bytes()) for sample in samples]
         if messages:
             with self._lock:
                 if self._latest.get(kind) is subscriber:  # not from a lab switched away from
@@ -217,7 +221,7 @@ class LabClient:
         return messages
 
     def _newest(self, kind: str) -> dict | None:
-        self._fresh(kind)
+        self._fresh(kind, newest_only=True)
         with self._lock:
             return self._last[kind]
 
