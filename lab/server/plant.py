@@ -54,14 +54,13 @@ from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, ScriptedJoints,
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
 # 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
-# MuJoCo flags a coordinate beyond mjMAXVAL (1e10) as bad; the sum of squares of all of them
-# below its square holds each one below it.
-MAX_STATE_SQUARED = mujoco.mjMAXVAL**2
 BAD_STATE_WARNINGS = {
     int(mujoco.mjtWarning.mjWARN_BADQPOS): "position",
     int(mujoco.mjtWarning.mjWARN_BADQVEL): "velocity",
     int(mujoco.mjtWarning.mjWARN_BADQACC): "acceleration",
 }
+# The sum of squares of qpos and qvel below mjMAXVAL² holds each coordinate below it.
+MAX_STATE_SQUARED = mujoco.mjMAXVAL**2
 
 
 class SimulationDiverged(ArithmeticError):
