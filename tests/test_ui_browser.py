@@ -108,6 +108,8 @@ def press(pg, button: str) -> None:
 
 
 OPEN_DROPDOWN_TRIES = 3
+CLICK_TRIES = 3
+CLICK_WAIT_MS = 20_000
 OPEN_DROPDOWN_WAIT_MS = 20_000
 
 
@@ -183,6 +185,7 @@ def test_moving_a_task_in_the_stack_editor_is_acknowledged(page, lab: LabClient)
     before = lab.command("info")["stack"]
     task = before[-1][0]  # a task of the lowest level
     choose(page, "Task", task)
+    page.get_by_text(f"[{task}]").first.wait_for()  # the UI process has taken the choice
     press(page, "▲ level")
     expected_level = len(before) - 2  # into the level above (the last one vanishes if emptied)
     end = time.monotonic() + UI_ACTION_TIMEOUT_S
@@ -218,8 +221,20 @@ def test_default_stack_restores_the_robots_stack(page, lab: LabClient) -> None:
 def test_disabling_the_contact_task_asks_first_and_cancel_changes_nothing(page, lab) -> None:
     before = lab.command("info")["stack"]
     choose(page, "Task", "contact")
-    page.get_by_label("Enabled", exact=True).first.dispatch_event("click")
-    page.get_by_text("the robot will fall: no contact task").first.wait_for()
+    # The UI process has taken the choice once the editor marks it: a click on "Enabled" before
+    # that would toggle the task selected before (a fresh-clone CI run saw no dialog at all).
+    page.get_by_text("[contact]").first.wait_for()
+    enabled = page.get_by_label("Enabled", exact=True).first
+    playwright_api.expect(enabled).to_be_checked()
+    warning = page.get_by_text("the robot will fall: no contact task").first
+    for _ in range(CLICK_TRIES):  # a click that lands while the panel re-renders is lost
+        enabled.dispatch_event("click")
+        try:
+            warning.wait_for(timeout=CLICK_WAIT_MS)
+            break
+        except playwright_api.TimeoutError:
+            assert enabled.is_checked(), "the box was unticked and no dialog asked first"
+    warning.wait_for()
     press(page, "Cancel")
     playwright_api.expect(page.get_by_text("the robot will fall")).to_have_count(0)
     time.sleep(1.0)  # a stack command, had one been sent, would have been applied by now
