@@ -103,6 +103,8 @@ class WholeBodyController:
             self.constraints["sole_torsion"] = SoleTorsionConstraint(config.limits)
         self._support = PerContactSet(_support_mask)
         self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
+        self._sensing_stack: Stack | None = None  # the stack `reads_sensing` last answered for
+        self._reads_sensing = False
         self.set_stack(config.stack)
         self.set_hierarchy(config.method, config.solver, config.formulation)
 
@@ -274,7 +276,11 @@ class WholeBodyController:
     def reads_sensing(self) -> bool:
         """Whether a task of the stack reads what `set_sensing` hands over (the internal force's
         feedback): the session measures the foot forces only then."""
-        return any(InternalForceTask.name in level for level in self.config.stack.levels)
+        stack = self.config.stack  # frozen: the answer holds until the stack is replaced
+        if stack is not self._sensing_stack:
+            self._sensing_stack = stack
+            self._reads_sensing = any(InternalForceTask.name in level for level in stack.levels)
+        return self._reads_sensing
 
     def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
         """What the sensors measured over the last step: the force of the terrain on each foot

@@ -103,6 +103,7 @@ class NativeController(WholeBodyController):
             for name, task in self.tasks.items():
                 self._mirror_gains(name, task.gains)
         self._synced: tuple = ()
+        self._native_method = ""  # the method last set in the kernel ('' before the first solve)
         self._tau, self._x = np.zeros(robot.na), np.zeros(robot.nx)  # the kernel writes these
 
     # ----------------------------------------------------------------------------- settings
@@ -176,8 +177,9 @@ class NativeController(WholeBodyController):
             return super().solve()
         native = self._native
         self._sync_limits()
-        if native.method != self.config.method:
+        if self._native_method != self.config.method:  # a Python str: no crossing to compare
             native.set_method(self.config.method)
+            self._native_method = self.config.method
         # The kernel's own state is current when the last update went through it.
         if self.robot.updated_by != "native":
             native.update(self.robot.q, self.robot.v)
@@ -196,17 +198,21 @@ class NativeController(WholeBodyController):
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
-        limits, joint_limits = self.config.limits, self.constraints["joint_limits"]
-        arrays = (self.torque_limits(), joint_limits.lower, joint_limits.upper)
-        numbers = (limits.friction, limits.normal_min, limits.normal_max)
-        numbers += (self.config.level_weight_ratio,)
+        config, constraints = self.config, self.constraints
+        limits, joint_limits = config.limits, constraints["joint_limits"]
+        arrays = (
+            constraints["torque_limits"].torque_limits,
+            joint_limits.lower,
+            joint_limits.upper,
+        )
+        numbers = (limits.friction, limits.normal_min, limits.normal_max, config.level_weight_ratio)
         synced = self._synced
         if (
             synced
-            and synced[1] == numbers
             and synced[0][0] is arrays[0]
             and synced[0][1] is arrays[1]
             and synced[0][2] is arrays[2]
+            and synced[1] == numbers
         ):
             return
         self._native.set_torque_limits(arrays[0])

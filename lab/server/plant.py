@@ -51,6 +51,11 @@ from lab.robot import Robot
 from lab.scenes import scene_bodies
 from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, ScriptedJoints, add_scene
 
+try:  # the per-tick exchange with MuJoCo in C (cpp/plant); without it the Python path runs
+    from lab import _plant
+except ImportError:
+    _plant = None
+
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
 # 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
@@ -345,7 +350,10 @@ class MujocoPlant:
         scene: str = "flat",
         timestep: float = 1e-3,
         terrain_seed: int | None = None,
+        native: bool = True,
     ) -> None:
+        """`native`: run the per-tick calls (check, state, set_torques, step, touch sensing)
+        through `lab._plant` when it is built (`self.native` says whether they do)."""
         self.robot = robot
         self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
@@ -387,7 +395,23 @@ class MujocoPlant:
         self._base_in_world = self._rotation.reshape(3, 3)  # a view: mju_quat2Mat fills it
         self._coordinate_names = self._name_coordinates()
         self._valid_time = 0.0  # sim time of the last state `check` passed
+        self._native = None
+        if native and _plant is not None:
+            self._native = _plant.PlantStep(
+                self.mj_model,
+                self.mj_data,
+                self._q_order.astype(np.int64),
+                self._v_order.astype(np.int64),
+                np.array(self._terrain_list, dtype=np.int64),
+                foot_of_geom.astype(np.int64),
+                len(robot.contacts),
+            )
         self.reset(robot.q_standing)
+
+    @property
+    def native(self) -> bool:
+        """Whether the per-tick calls run through `lab._plant` (C) rather than Python."""
+        return self._native is not None
 
     def _pushable_bodies(self) -> dict[str, int]:
         """URDF link name -> MuJoCo body that carries it (links on fixed joints are fused)."""
@@ -449,6 +473,8 @@ class MujocoPlant:
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in pinocchio conventions (new arrays)."""
+        if self._native is not None:
+            return self._native.state()
         qpos, qvel = self._qpos, self._qvel
         q = qpos[self._q_order]  # quaternion (w, x, y, z) → (x, y, z, w), joints by name
         v = qvel[self._v_order]
@@ -470,6 +496,9 @@ class MujocoPlant:
     def set_torques(self, tau: np.ndarray) -> None:
         """Joint torques (N m) in pinocchio joint order; MuJoCo clips them to the torque limits."""
         tau = np.asarray(tau, dtype=float)
+        if self._native is not None and tau.ndim == 1:
+            self._native.set_torques(tau)  # ValueError unless na finite torques
+            return
         ctrl = self._ctrl
         if tau.shape != ctrl.shape or not np.isfinite(tau).all():
             raise ValueError(f"set_torques needs {ctrl.size} finite torques (N m)")
@@ -489,6 +518,11 @@ class MujocoPlant:
         m, d = self.mj_model, self.mj_data
         self._steps += 1
         self.moving_terrain.apply(m, d, d.time)
+        if self._native is not None and not self._point_pushes:
+            if self._native.step():  # the new state is not valid: check() names why
+                self.check()
+            self._valid_time = d.time
+            return
         if not self._point_pushes:
             mujoco.mj_step(m, d)
         else:
@@ -503,6 +537,9 @@ class MujocoPlant:
         """Raise `SimulationDiverged` unless the state is valid: MuJoCo flagged no bad position,
         velocity or acceleration since the last `reset`, and qpos and qvel are finite and within
         MuJoCo's own bound (a state its next step would flag: the controller never sees it)."""
+        if self._native is not None and not self._native.check():
+            self._valid_time = self.mj_data.time
+            return
         d, counts, qpos, qvel = self.mj_data, self._warning_counts, self._qpos, self._qvel
         flagged = any(counts[kind] for kind in BAD_STATE_WARNINGS)
         # NaN and inf propagate into the sum and fail the comparison
@@ -571,6 +608,8 @@ class MujocoPlant:
 
     def non_foot_ground_contact(self) -> bool:
         """Does any robot geom other than the feet touch the terrain?"""
+        if self._native is not None:
+            return self._native.non_foot_ground_contact()
         return any(foot < 0 for _, foot, _, _ in self._terrain_contacts())
 
     def feet_touching(self, min_normal_force: float) -> np.ndarray:
@@ -579,6 +618,8 @@ class MujocoPlant:
         The touch sensor of haptic touchdown: cheaper than `foot_forces`, it reads only each
         contact's normal force (the first constraint force of an elliptic-cone contact).
         """
+        if self._native is not None and min_normal_force >= 0.0:
+            return self._native.foot_normal_forces() > min_normal_force
         efc_force = self.mj_data.efc_force
         touching = np.zeros(len(self._forces), dtype=bool)
         for _, foot, row, _ in self._terrain_contacts():

@@ -7,8 +7,8 @@ command changes nothing and the reply names the problem. What a session publishe
 the drawing state) is built in `telemetry.py`.
 """
 
+import math
 import time
-import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -39,6 +39,7 @@ from lab.server.telemetry import (
     task_gains_report,
     telemetry_message,
 )
+from lab.server.warning_capture import WarningCapture
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
 
 FALL_HEIGHT_FRACTION = 0.5  # fallen when the base is lower than this fraction of standing height
@@ -179,6 +180,7 @@ class Session:
         self.forces = np.zeros(self.model.nf)
         self._last_divergence = -DIVERGENCE_REPEAT_S
         self._warnings: dict[str, ControllerWarning] = {}  # by category name
+        self._capture = WarningCapture()  # every tick's warnings, for telemetry
 
     def _set_behaviour(self, name: str, options: dict | None = None) -> dict:
         """Start behaviour `name` from the current state, with walking `options` (step_height,
@@ -256,15 +258,14 @@ class Session:
         q, v = self.plant.state()
         touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")  # every tick's warnings, for telemetry
+        with self._capture as caught:
             try:
                 self.controller.update(q, v)
                 if self.controller.reads_sensing:  # measured only for a task that reads it
                     self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
                 self.behaviour.update(self.time, self.model, self.velocity, touching)
                 out = self.controller.solve()
-                if not np.isfinite(out.tau).all():
+                if not math.isfinite(out.tau.dot(out.tau)):  # NaN and inf propagate into it
                     raise FloatingPointError("non-finite torques")
                 self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
                 self.solution = out.solution

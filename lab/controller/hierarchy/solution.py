@@ -45,6 +45,8 @@ class HierarchySolution:
     def fallback_levels(self) -> tuple[int, ...]:
         """Indices (0 = the first level of the stack) of the levels whose QP the solver failed,
         which kept the solution of the levels above (the cascade's u = 0)."""
+        if KEPT_ABOVE not in self.levels:  # every tick asks; almost every tick has none
+            return ()
         return tuple(i for i, status in enumerate(self.levels) if status == KEPT_ABOVE)
 
     @property

@@ -1,0 +1,38 @@
+"""WarningCapture, the session's per-tick record of warnings: every warning of the block, the
+warnings module as it was afterwards."""
+
+import warnings
+
+import pytest
+
+from lab.server.warning_capture import WarningCapture
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, RuntimeWarning, stacklevel=1)  # one location for every call
+
+
+def test_every_warning_of_the_block_is_recorded_each_time() -> None:
+    capture = WarningCapture()
+    for tick in range(3):
+        with capture as caught:
+            _warn(f"tick {tick} a")
+            _warn(f"tick {tick} b")  # the same location again: "always", not "once"
+        assert [str(w.message) for w in caught] == [f"tick {tick} a", f"tick {tick} b"]
+        assert all(w.category is RuntimeWarning for w in caught)
+
+
+def test_the_warnings_module_is_restored_even_after_an_error() -> None:
+    capture = WarningCapture()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # outside the block, warnings are ignored
+        filters, showwarning = warnings.filters, warnings.showwarning
+        with pytest.raises(ZeroDivisionError), capture as caught:
+            _warn("inside")
+            1 / 0  # noqa: B018
+        assert [str(w.message) for w in caught] == ["inside"]
+        assert warnings.filters is filters and warnings.showwarning is showwarning
+        with warnings.catch_warnings(record=True) as outside:
+            warnings.simplefilter("ignore")
+            _warn("outside")
+        assert outside == []  # the filters outside hold again
