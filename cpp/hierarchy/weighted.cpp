@@ -17,23 +17,37 @@ constexpr double kWellConditionedWeight = 1e-9;
 /// The weighted QP over u after the Newton-Euler rows are eliminated with the base block of M
 /// (x = x0 + Z u, Z = [-A1^-1 A2; I], the cascade's level 0): DAQP then sees no equality row.
 /// The same optimum as with the rows, in 17 instead of 25 us for ANYmal (DAQP's own elimination,
-/// a QR, was most of it). False when the base block is singular or DAQP finds no u.
-bool solve_reduced(const HierarchyProblem& problem, const Eigen::MatrixXd& H,
-                   const Eigen::VectorXd& g, const Eigen::MatrixXd& C, const Eigen::VectorXd& d,
-                   Eigen::VectorXd& x, QpReport& report) {
-  thread_local Eigen::MatrixXd Z, HZ, Hz, Cz;
-  thread_local Eigen::VectorXd x0, gz, dz, u;
+/// a QR, was most of it). Its Hessian and gradient are summed level by level from each level's
+/// A Z, Z^T H Z = sum_r w_r (A_r Z)^T (A_r Z) + eps Z^T Z and Z^T (g + H x0) = sum_r w_r
+/// (A_r Z)^T (A_r x0 - b_r) + eps Z^T x0, never forming the full H (fewer and smaller products:
+/// the rank updates are over u's columns only). Levels of weight 0 add nothing and are skipped.
+/// False when the base block is singular or DAQP finds no u.
+bool solve_reduced(const HierarchyProblem& problem, double regularization, const Eigen::MatrixXd& C,
+                   const Eigen::VectorXd& d, Eigen::VectorXd& x, QpReport& report) {
+  thread_local Eigen::MatrixXd Z, AZ, Hz, Cz;
+  thread_local Eigen::VectorXd x0, gz, dz, u, residual;
   thread_local Eigen::PartialPivLU<Eigen::MatrixXd> lu;
   if (!solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b, Z, x0, lu))
     return false;
   // Z's lower block is the identity: products with Z take its upper k rows only.
   const Eigen::Index k = problem.dynamics_A.rows(), nu = Z.cols();
   const auto Zt = Z.topRows(k);
-  HZ.noalias() = H.leftCols(k) * Zt;
-  HZ += H.rightCols(nu);
-  Hz.noalias() = Zt.transpose() * HZ.topRows(k);
-  Hz += HZ.bottomRows(nu);
-  gz.noalias() = Z.transpose() * (g + H * x0);
+  Hz.setIdentity(nu, nu);
+  Hz.selfadjointView<Eigen::Lower>().rankUpdate(Zt.transpose());  // Z^T Z = Zt^T Zt + I
+  Hz *= regularization;
+  gz.noalias() = Zt.transpose() * x0.head(k);
+  gz += x0.tail(nu);
+  gz *= regularization;
+  for (const Level& level : problem.levels) {
+    if (!level.b.size() || level.weight == 0.0) continue;
+    AZ.noalias() = level.A.leftCols(k) * Zt;
+    AZ += level.A.rightCols(nu);
+    residual = -level.b;
+    residual.noalias() += level.A * x0;
+    Hz.selfadjointView<Eigen::Lower>().rankUpdate(AZ.transpose(), level.weight);
+    gz.noalias() += level.weight * (AZ.transpose() * residual);
+  }
+  Hz.triangularView<Eigen::StrictlyUpper>() = Hz.transpose();
   Cz.noalias() = C.leftCols(k) * Zt;
   Cz += C.rightCols(nu);
   dz = d;
@@ -64,27 +78,31 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
     }
   }
   // min sum_r w_r ||A_r x - b_r||^2 + eps ||x||^2, dynamics exact, every C_r x <= d_r.
-  H.setZero(nx, nx);
-  H.diagonal().setConstant(kRegularization * lightest);
-  g.setZero(nx);
   C.resize(inequalities, nx);
   d.resize(inequalities);
   Eigen::Index row = 0;
   for (const Level& level : problem.levels) {
-    // H is symmetric: the lower triangle's rank update only, mirrored below.
-    H.selfadjointView<Eigen::Lower>().rankUpdate(level.A.transpose(), level.weight);
-    g.noalias() -= level.weight * level.A.transpose() * level.b;
     C.middleRows(row, level.d.size()) = level.C;
     d.segment(row, level.d.size()) = level.d;
     row += level.d.size();
   }
-  H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
   QpReport report;
-  out.ok = lightest >= kWellConditionedWeight
-               ? solve_reduced(problem, H, g, C, d, out.x, report)
-               : solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x, &report);
+  if (lightest >= kWellConditionedWeight) {
+    out.ok = solve_reduced(problem, kRegularization * lightest, C, d, out.x, report);
+  } else {  // the QP as the Python kernel poses it: H, g over x and the Newton-Euler rows
+    H.setZero(nx, nx);
+    H.diagonal().setConstant(kRegularization * lightest);
+    g.setZero(nx);
+    for (const Level& level : problem.levels) {
+      // H is symmetric: the lower triangle's rank update only, mirrored below.
+      H.selfadjointView<Eigen::Lower>().rankUpdate(level.A.transpose(), level.weight);
+      g.noalias() -= level.weight * level.A.transpose() * level.b;
+    }
+    H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
+    out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x, &report);
+  }
   if (!out.ok) {
     // Bounded whatever the problem: DAQP stops at its iteration limit or on a cycle.
     out.message = report.exitflag == 0
