@@ -1,6 +1,9 @@
 #include "hierarchy/qp.hpp"
 
-#include "third_party/daqp/include/api.h"  // DAQP; declares its C API extern "C"
+#include <algorithm>
+
+#include "third_party/daqp/include/api.h"    // DAQP; declares its C API extern "C"
+#include "third_party/daqp/include/utils.h"  // daqp_update_ldp: refill a kept workspace
 
 namespace lab {
 namespace {
@@ -18,6 +21,41 @@ struct DaqpBuffers {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> A;
   Eigen::VectorXd f, upper, lower, lambda;
   Eigen::VectorXi sense;
+};
+
+/// A DAQP workspace for one size of inequality-only QP, set up once and refilled per call.
+struct KeptWorkspace {
+  DaqpBuffers buffer;
+  DAQPSettings settings{};
+  DAQPProblem problem{};
+  DAQPWorkspace work{};
+  int n = -1, m = -1;  // the sizes it is set up for (-1: none)
+
+  ~KeptWorkspace() { release(); }
+
+  void release() {
+    if (n < 0) return;
+    work.settings = nullptr;  // ours: DAQP frees only settings it allocated
+    free_daqp_workspace(&work);
+    free_daqp_ldp(&work);
+    n = m = -1;
+  }
+
+  /// Back to the values a fresh workspace starts from (allocate_daqp_workspace's), then the
+  /// LDP formed anew from `problem`, as setup does; DAQP's error flag (< 0) on failure.
+  int refill() {
+    work.n_prox = 0;
+    std::fill_n(work.prox_mask, n, 0);
+    work.state = 0;
+    work.soft_slack = 0;
+    std::fill_n(work.u, n, 0.0);
+    work.outer_iter = 1;
+    reset_daqp_workspace(&work);
+    constexpr int everything = DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d |
+                               DAQP_UPDATE_sense | DAQP_UPDATE_unconstrained |
+                               DAQP_UPDATE_eliminate;
+    return daqp_update_ldp(everything, &work, &problem);
+  }
 };
 
 }  // namespace
@@ -106,6 +144,59 @@ bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::M
   A.resize(0, q.size());
   b.resize(0);
   return solve_qp(P, q, G, h, A, b, x, report);
+}
+
+bool solve_qp_kept(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
+                   const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report) {
+  thread_local KeptWorkspace kept;
+  DaqpBuffers& buffer = kept.buffer;
+  const Eigen::Index n = q.size(), m = G.rows();
+  buffer.H = P;
+  buffer.f = q;
+  buffer.A = G;
+  buffer.upper = h;
+  buffer.lower.setConstant(m, -DAQP_INF);
+  buffer.sense.setZero(m);
+  buffer.lambda.resize(m);
+  x.resize(n);
+  // The buffers' storage may move when a size changes: point the problem at it every call.
+  kept.problem = DAQPProblem{static_cast<int>(n),
+                             static_cast<int>(m),
+                             0,
+                             buffer.H.data(),
+                             buffer.f.data(),
+                             m ? buffer.A.data() : nullptr,
+                             m ? buffer.upper.data() : nullptr,
+                             m ? buffer.lower.data() : nullptr,
+                             m ? buffer.sense.data() : nullptr,
+                             nullptr,
+                             0,
+                             0};
+  int flag;
+  if (kept.n != n || kept.m != m) {
+    kept.release();
+    daqp_default_settings(&kept.settings);
+    kept.settings.primal_tol = kPrimalTol;
+    kept.work = DAQPWorkspace{};
+    kept.work.settings = &kept.settings;
+    // As daqp_quadprog sets up its one-shot workspace (on failure it frees it itself).
+    flag = setup_daqp_main(&kept.problem, &kept.work, nullptr,
+                           DAQP_UPDATE_unconstrained | DAQP_UPDATE_eliminate);
+    if (flag >= 0) kept.n = static_cast<int>(n), kept.m = static_cast<int>(m);
+  } else {
+    flag = kept.refill();
+    if (flag < 0) kept.release();  // set up anew on the next call
+  }
+  if (flag < 0) {
+    if (report) *report = QpReport{flag, 0};
+    return false;
+  }
+  DAQPResult result{};
+  result.x = x.data();
+  result.lam = m ? buffer.lambda.data() : nullptr;
+  daqp_solve(&result, &kept.work);
+  if (report) *report = QpReport{result.exitflag, result.iter};
+  return result.exitflag > 0 && x.allFinite();
 }
 
 }  // namespace lab

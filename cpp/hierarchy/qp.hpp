@@ -31,4 +31,11 @@ bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::M
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
               const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report = nullptr);
 
+/// The same without equality rows, on a DAQP workspace kept from call to call (one per thread)
+/// while the sizes stay, for a QP posed every tick (the weighted method's): DAQP's setup
+/// allocates a dozen buffers per solve otherwise. Each call starts cold, as a fresh workspace
+/// does (no working set carried over), so it finds what `solve_qp` finds.
+bool solve_qp_kept(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
+                   const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report = nullptr);
+
 }  // namespace lab

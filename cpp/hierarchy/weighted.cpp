@@ -52,7 +52,7 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
   Cz += C.rightCols(nu);
   dz = d;
   dz.noalias() -= C * x0;
-  if (!solve_qp(Hz, gz, Cz, dz, u, &report)) return false;
+  if (!solve_qp_kept(Hz, gz, Cz, dz, u, &report)) return false;
   x = x0;
   x.noalias() += Z * u;
   return true;

@@ -33,6 +33,9 @@ Physics choices (documented in the report of issue 2):
 - A scene's moving terrain (a rolling platform, a balance board: `lab.scenes.terrain`) is
   driven by its script before every step (`moving_terrain`); its joints come after the robot's
   in qpos and qvel. Terrain is every geom not on the robot's body tree.
+- The per-tick calls (`check`, `state`, `set_torques`, `step`, touch sensing) cross once each
+  into `lab._plant` (cpp/plant/plant.cpp, MuJoCo's C API on this plant's MjModel and MjData)
+  when it is built; the Python code below is the reference and runs otherwise.
 - Joint damping is 0 (the controller's model has none) unless the caller sets it with
   `set_joint_damping`: the session damps the limp joints of a fallen robot. `implicitfast`
   integrates it implicitly, so any damping is stable.
