@@ -58,6 +58,8 @@ try:  # the per-tick exchange with MuJoCo in C (cpp/plant); without it the Pytho
     from lab import _plant
 except ImportError:
     _plant = None
+if _plant is not None and _plant.mujoco_version != mujoco.mj_versionString():
+    _plant = None  # built against another MuJoCo than the one imported: its structs may differ
 
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
