@@ -23,6 +23,22 @@ struct DaqpBuffers {
   Eigen::VectorXi sense;
 };
 
+/// DAQP's view of the buffers: n variables, m rows.
+DAQPProblem problem_of(DaqpBuffers& buffer, Eigen::Index n, Eigen::Index m) {
+  return DAQPProblem{static_cast<int>(n),
+                     static_cast<int>(m),
+                     0,  // no simple bounds: every row is in A, as qpsolvers passes them
+                     buffer.H.data(),
+                     buffer.f.data(),
+                     m ? buffer.A.data() : nullptr,
+                     m ? buffer.upper.data() : nullptr,
+                     m ? buffer.lower.data() : nullptr,
+                     m ? buffer.sense.data() : nullptr,
+                     nullptr,
+                     0,
+                     0};
+}
+
 /// A DAQP workspace for one size of inequality-only QP, set up once and refilled per call.
 struct KeptWorkspace {
   DaqpBuffers buffer;
@@ -117,18 +133,7 @@ bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::M
   // DAQP's automatic equality elimination stays on, as in the Python kernel: without it ANYmal's
   // weighted QP took 19 us instead of 25, but on hutter_table7 (level weights down to 1e-18)
   // DAQP then stopped 20 % further from the optimum than the Python kernel's solve.
-  DAQPProblem problem{static_cast<int>(n),
-                      static_cast<int>(m),
-                      0,  // no simple bounds: every row is in A, as qpsolvers passes them
-                      buffer.H.data(),
-                      buffer.f.data(),
-                      m ? buffer.A.data() : nullptr,
-                      m ? buffer.upper.data() : nullptr,
-                      m ? buffer.lower.data() : nullptr,
-                      m ? buffer.sense.data() : nullptr,
-                      nullptr,
-                      0,
-                      0};
+  DAQPProblem problem = problem_of(buffer, n, m);
   DAQPResult result{};
   result.x = x.data();
   result.lam = m ? buffer.lambda.data() : nullptr;
@@ -160,18 +165,7 @@ bool solve_qp_kept(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eig
   buffer.lambda.resize(m);
   x.resize(n);
   // The buffers' storage may move when a size changes: point the problem at it every call.
-  kept.problem = DAQPProblem{static_cast<int>(n),
-                             static_cast<int>(m),
-                             0,
-                             buffer.H.data(),
-                             buffer.f.data(),
-                             m ? buffer.A.data() : nullptr,
-                             m ? buffer.upper.data() : nullptr,
-                             m ? buffer.lower.data() : nullptr,
-                             m ? buffer.sense.data() : nullptr,
-                             nullptr,
-                             0,
-                             0};
+  kept.problem = problem_of(buffer, n, m);
   int flag;
   if (kept.n != n || kept.m != m) {
     kept.release();

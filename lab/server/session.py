@@ -330,7 +330,7 @@ class Session:
         q = self.model.q  # this tick's state, pinocchio conventions: quaternion (x, y, z, w)
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
-        tilt = float(np.arccos(np.clip(upright, -1.0, 1.0)))
+        tilt = math.acos(min(1.0, max(-1.0, float(upright))))
         if not self.plant.non_foot_ground_contact():
             self._non_foot_contact_since = None
         elif self._non_foot_contact_since is None:
