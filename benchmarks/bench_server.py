@@ -62,7 +62,6 @@ def measure(
 ) -> dict[str, object]:
     counts = [0, 0]
     lock = threading.Lock()
-    subscribers = [LabClient(endpoint) for _ in counts]
 
     def counter(i: int):
         def count(_message: dict) -> None:
@@ -71,10 +70,14 @@ def measure(
 
         return count
 
-    for i, sub in enumerate(subscribers):
-        sub.subscribe_telemetry(counter(i))
+    # connect() waits for the server to start (seconds on a loaded machine); the subscribers,
+    # whose clients do not wait as long, connect after it.
     client = connect(endpoint)
+    subscribers: list[LabClient] = []
     try:
+        subscribers = [LabClient(endpoint) for _ in counts]
+        for i, sub in enumerate(subscribers):
+            sub.subscribe_telemetry(counter(i))
         client.wait_telemetry(timeout=5.0)
         speeds = (0.0, 0.1)
         if gait is not None:

@@ -2,7 +2,6 @@
 process (`python -m lab.ui`). SIGINT/SIGTERM stop both cleanly."""
 
 import argparse
-import contextlib
 import os
 import signal
 import subprocess
@@ -20,9 +19,6 @@ from lab.server.transport import ServerTransport, server_config
 
 UI_STOP_TIMEOUT_S = 2.0
 UI_RESTART_DELAY_S = 2.0  # a UI process that died is started again after this long
-# The UI process runs this much nicer than the server: on a 2-core machine the two compete for
-# the cores, and the sim loop's deadlines are the ones that must hold (docs/performance.md).
-UI_NICENESS = 5
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -171,7 +167,7 @@ def serve_main(argv: list[str]) -> int:
         ui_command += ["--port", str(args.ui_port), "--lab-id", lab_id]
         ui_env = os.environ | (ui_credentials.env() if ui_credentials else {})
         if not args.headless:
-            ui = _start_ui(ui_command, ui_env)
+            ui = subprocess.Popen(ui_command, env=ui_env)
         mode = "fast" if args.fast else f"{args.rate:g} Hz, SCHED_{loop.wanted_sched.upper()}"
         if not args.fast and args.sched == "auto":
             mode += " (auto)"
@@ -191,7 +187,7 @@ def serve_main(argv: list[str]) -> int:
                     f"lab serve: the UI process exited ({ui.returncode}); restarting it", flush=True
                 )
             elif time.monotonic() - ui_died_at >= UI_RESTART_DELAY_S:
-                ui, ui_died_at = _start_ui(ui_command, ui_env), None
+                ui, ui_died_at = subprocess.Popen(ui_command, env=ui_env), None
     finally:
         stop.set()
         thread.join()
@@ -203,17 +199,6 @@ def serve_main(argv: list[str]) -> int:
         print(f"lab serve: the sim loop stopped: {loop.error!r}", file=sys.stderr)
         return 1
     return 0
-
-
-def _start_ui(command: list[str], env: dict[str, str]) -> subprocess.Popen:
-    """Start the UI process UI_NICENESS nicer than this one. Its niceness is set right after
-    the fork, while the child is still starting its interpreter, so the threads it starts later
-    inherit it; where the system refuses, the UI runs at the server's priority."""
-    ui = subprocess.Popen(command, env=env)
-    with contextlib.suppress(OSError, AttributeError):
-        niceness = os.getpriority(os.PRIO_PROCESS, 0) + UI_NICENESS
-        os.setpriority(os.PRIO_PROCESS, ui.pid, niceness)
-    return ui
 
 
 def _stop_process(process: subprocess.Popen) -> None:
