@@ -86,3 +86,21 @@ def test_native_divergence_and_bad_torques_are_reported_as_in_python() -> None:
             plant.check()  # still bad until a reset
     assert causes[0] == causes[1]
     assert "velocity" in causes[0][0]
+
+
+def test_native_steps_agree_on_moving_terrain() -> None:
+    """A scene whose terrain moves (its script drives a joint before each step, and its geoms
+    are terrain though not on the world body): the same state and touching feet."""
+    native, python = _pair("anymal", "balance_board")
+    assert native.moving_terrain.body_ids  # the board is a moving body
+    for _ in range(300):
+        (q, v), (q_py, v_py) = native.state(), python.state()
+        np.testing.assert_allclose(q, q_py, atol=STATE_TOL)
+        np.testing.assert_allclose(v, v_py, atol=STATE_TOL * (1 + np.abs(v_py).max()))
+        np.testing.assert_array_equal(native.feet_touching(1.0), python.feet_touching(1.0))
+        tau = _pd(python, q_py, v_py)
+        native.set_torques(tau)
+        python.set_torques(tau)
+        native.step()
+        python.step()
+    assert native.feet_touching(1.0).all()  # it stands on the board: contacts were compared
