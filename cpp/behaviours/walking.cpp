@@ -33,6 +33,8 @@ void Walking::update(double t_now, const WalkingModel& robot, const double* targ
   yaw_ref = yaw + clamp(lead, kYawLeadMax);
   const double c = std::cos(yaw), s = std::sin(yaw);
 
+  // The gait from the measured contacts (Raiola §3.1); a leg's posture restarts from its
+  // measured joints at lift-off and touchdown.
   const int n = static_cast<int>(scheduler.legs.size());
   scheduler.advance(t_now, touching, events);
   if (!events.empty()) {
@@ -72,9 +74,13 @@ void Walking::update(double t_now, const WalkingModel& robot, const double* targ
     on_ground += robot.contact_positions(i, 2);
     ++standing_count;
   }
+  // The trunk's height above the mean of the stance feet (Raiola eq. 17: blind, it follows the
+  // ground).
   if (standing_count > 0) refs.base_height = on_ground / standing_count + height;
   if (!all_stance) swing_feet(t_now, robot, yaw, stance, refs);
 
+  // Level with the commanded heading, at the commanded velocity (Hutter Table 7); the CoM moves
+  // with the base.
   const double cr = std::cos(yaw_ref), sr = std::sin(yaw_ref);
   refs.base_rotation << cr, -sr, 0.0, sr, cr, 0.0, 0.0, 0.0, 1.0;
   refs.base_angular_velocity << 0.0, 0.0, yaw_rate;
