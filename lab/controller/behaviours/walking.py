@@ -181,7 +181,7 @@ class Walking:
         if self.scheduler is None:
             self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, t)
             self.t, self.yaw_ref = t, yaw
-        if self._native is not None and robot.updated_by == "native":
+        if self._native is not None and robot.updated_by == "native":  # the steps below, in C++
             self._native.update(self, robot, t, command, touching, self._native_stale)
             self._native_stale = False
             return
