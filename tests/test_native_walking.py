@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lab.controller.behaviours import walking as walking_module
-from lab.controller.behaviours.gait import GAITS
+from lab.controller.behaviours.gait import GAITS, LegState
 from lab.controller.behaviours.walking import Walking
 from lab.controller.model import RobotModel
 from lab.server.session import Session, SessionConfig
@@ -19,6 +19,7 @@ TOL = 1e-9  # relative to 1 + |value|: the same steps, another float order
 RECORDED_TICKS = 700  # a trot cycle (0.6 s on ANYmal) and more: lift-offs and touchdowns
 SWITCH_BLOCK = 37  # ticks per kernel in the walking that alternates Python and native ticks
 CONFIGURE_AT = 300  # a new step height mid-stride: the native state is read again
+NUMB_FROM = 150  # the crawl feels no ground from this tick on
 
 
 @functools.cache
@@ -98,27 +99,34 @@ def assert_same_walking(native: Walking, python: Walking, tick: int) -> None:
         )
 
 
-@pytest.mark.parametrize("footholds", ["robocentric", "raibert"])
-def test_the_native_walking_tick_agrees_with_python(footholds: str) -> None:
+@pytest.mark.parametrize(
+    ("gait", "footholds"),
+    [("trot", "robocentric"), ("trot", "raibert"), ("crawl", "robocentric")],
+)
+def test_the_native_walking_tick_agrees_with_python(gait: str, footholds: str) -> None:
     """Three walkings given a recorded trot (lift-offs, touchdowns, a turn): one runs every tick
     in Python, one every tick natively, one alternates in blocks; a new step height mid-stride.
-    Every state, posture and reference stays equal within 1e-9."""
+    Every state, posture and reference stays equal within 1e-9. The crawl, given the trot's
+    touches and then none, reaches and gives up."""
     assert walking_module.NativeWalking is not None, "the kernel lacks Walking"
     robot, calls = recorded_trot()
     model = RobotModel(robot.model, robot.contacts)
-    python, native, mixed = (Walking(model, robot.q_standing, GAITS["trot"]) for _ in range(3))
+    python, native, mixed = (Walking(model, robot.q_standing, GAITS[gait]) for _ in range(3))
     for walking in (python, native, mixed):
         walking.configure(footholds=footholds)
-    events = 0
+    events, reaching = 0, 0
     for tick, (t, q, v, command, touching) in enumerate(calls):
         if tick == CONFIGURE_AT:
             step_height = 0.8 * python.step_height
             for walking in (python, native, mixed):
                 walking.configure(step_height=step_height)
+        if gait == "crawl" and tick >= NUMB_FROM:
+            touching = np.zeros_like(touching)  # the ground unfelt: a leg reaches, gives up
         model.update(q, v)
         states = [leg.state for leg in python.scheduler.legs] if python.scheduler else []
         python.update(t, model, command, touching)
         events += states != [leg.state for leg in python.scheduler.legs]
+        reaching += any(leg.state is LegState.REACHING for leg in python.scheduler.legs)
         on_native = (tick // SWITCH_BLOCK) % 2 == 1
         if not on_native:
             mixed.update(t, model, command, touching)
@@ -129,7 +137,9 @@ def test_the_native_walking_tick_agrees_with_python(footholds: str) -> None:
         assert not native._native_stale, "the native tick did not run"
         assert_same_walking(native, python, tick)
         assert_same_walking(mixed, python, tick)
-    assert events >= 4  # both diagonal pairs lifted off and landed
+    assert events >= 4  # legs lifted off and landed
+    if gait == "crawl":
+        assert reaching > 0
 
 
 def test_bad_walking_state_raises_a_clear_error() -> None:
