@@ -130,6 +130,14 @@ def open_dropdown(pg, label: str, wanted) -> None:
     wanted.wait_for()
 
 
+def choose_task(pg, task: str) -> None:
+    """Pick `task` in the stack editor and wait until the UI process has taken it: the editor
+    marks the chosen task after it has filled the task's fields. A click or a typed gain before
+    that could act on the task chosen before, or be overwritten by the fields' update."""
+    choose(pg, "Task", task)
+    pg.get_by_text(f"[{task}]").first.wait_for()
+
+
 def choose(pg, label: str, option: str) -> None:
     """Open dropdown `label` and pick `option`."""
     wanted = pg.get_by_role("option", name=option, exact=True)
@@ -184,8 +192,7 @@ def test_push_button_moves_the_base_in_the_pushed_direction(
 def test_moving_a_task_in_the_stack_editor_is_acknowledged(page, lab: LabClient) -> None:
     before = lab.command("info")["stack"]
     task = before[-1][0]  # a task of the lowest level
-    choose(page, "Task", task)
-    page.get_by_text(f"[{task}]").first.wait_for()  # the UI process has taken the choice
+    choose_task(page, task)
     press(page, "▲ level")
     expected_level = len(before) - 2  # into the level above (the last one vanishes if emptied)
     end = time.monotonic() + UI_ACTION_TIMEOUT_S
@@ -220,10 +227,7 @@ def test_default_stack_restores_the_robots_stack(page, lab: LabClient) -> None:
 
 def test_disabling_the_contact_task_asks_first_and_cancel_changes_nothing(page, lab) -> None:
     before = lab.command("info")["stack"]
-    choose(page, "Task", "contact")
-    # The UI process has taken the choice once the editor marks it: a click on "Enabled" before
-    # that would toggle the task selected before (a fresh-clone CI run saw no dialog at all).
-    page.get_by_text("[contact]").first.wait_for()
+    choose_task(page, "contact")  # a fresh-clone CI run saw no dialog: see choose_task
     enabled = page.get_by_label("Enabled", exact=True).first
     playwright_api.expect(enabled).to_be_checked()
     warning = page.get_by_text("the robot will fall: no contact task").first
@@ -411,7 +415,7 @@ def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: P
 
 
 def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
-    choose(page, "Task", "com")
+    choose_task(page, "com")
     for label, text in (("kp", "123.5"), ("kd", "7"), ("weight", "2.5e-3")):
         type_number(text_box(page, label), text)
     press(page, "Apply gains")
@@ -431,7 +435,7 @@ def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
     [("-5", "kp = -5 is below the limit 0"), ("1e9", "kp = 1e+09 is above the limit 100000")],
 )
 def test_out_of_range_gains_are_refused_naming_the_limit(page, lab, text, message) -> None:
-    choose(page, "Task", "com")
+    choose_task(page, "com")
     before = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
     type_number(text_box(page, "kp"), text)
     press(page, "Apply gains")

@@ -1,5 +1,6 @@
 #include "behaviours/leg_posture.hpp"
 
+#include <algorithm>
 #include <pinocchio/spatial/explog.hpp>
 
 namespace lab {
@@ -46,6 +47,50 @@ void leg_posture_velocity(const LegPostureInput& in, Eigen::Map<RowMatrixX3> pre
   llt.compute(JJt);
   rate = llt.solve(rate);
   velocity.noalias() = J.transpose() * rate;
+}
+
+}  // namespace lab
+
+namespace lab {
+namespace {
+constexpr double kMaxCarry = 0.01;  // m, the largest base lag a touchdown carries over
+
+/// The feet's 3 rows of leg `leg`'s joints (J_c[force_slices[leg], BASE_DOF + joints]).
+Eigen::Matrix3Xd leg_jacobian(const Eigen::Ref<const RowMatrixX>& contact_jacobian,
+                              const std::vector<int>& joints, int leg) {
+  Eigen::Matrix3Xd J(3, static_cast<Eigen::Index>(joints.size()));
+  for (std::size_t c = 0; c < joints.size(); ++c)
+    J.col(static_cast<Eigen::Index>(c)) =
+        contact_jacobian.block<3, 1>(3 * leg, kBaseDof + joints[c]);
+  return J;
+}
+}  // namespace
+
+void leg_posture_restart(const Eigen::Ref<const RowMatrixX>& contact_jacobian,
+                         const Eigen::Ref<const Eigen::VectorXd>& joint_positions,
+                         const std::vector<std::vector<int>>& joints, int leg,
+                         const std::vector<int>& carry_from, double damping,
+                         Eigen::Ref<Eigen::VectorXd> position) {
+  for (int j : joints[leg]) position(j) = joint_positions(j);
+  if (carry_from.empty()) return;
+  Eigen::Vector3d lag = Eigen::Vector3d::Zero();
+  const double n = static_cast<double>(carry_from.size());
+  for (int k : carry_from) {
+    const std::vector<int>& jk = joints[k];
+    Eigen::VectorXd behind(static_cast<Eigen::Index>(jk.size()));
+    for (std::size_t c = 0; c < jk.size(); ++c)
+      behind(static_cast<Eigen::Index>(c)) = position(jk[c]) - joint_positions(jk[c]);
+    lag += (leg_jacobian(contact_jacobian, jk, k) * behind) / n;
+  }
+  lag.z() = 0.0;
+  lag *= std::min(1.0, kMaxCarry / std::max(lag.norm(), 1e-12));
+  // J⁻¹ lag for the point foot's 3-row Jacobian, damped: Jᵀ (J Jᵀ + λ² I)⁻¹ lag.
+  const Eigen::Matrix3Xd J = leg_jacobian(contact_jacobian, joints[leg], leg);
+  Eigen::Matrix3d JJt = J * J.transpose();
+  JJt.diagonal().array() += damping * damping;
+  const Eigen::VectorXd step = J.transpose() * JJt.partialPivLu().solve(lag);
+  for (std::size_t c = 0; c < joints[leg].size(); ++c)
+    position(joints[leg][c]) += step(static_cast<Eigen::Index>(c));
 }
 
 }  // namespace lab

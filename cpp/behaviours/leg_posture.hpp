@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <vector>
 
 namespace lab {
 
@@ -29,5 +30,14 @@ struct LegPostureInput {
 /// `previous_rotations` (3n x 3, last tick's on entry: the rolling of a stance foot).
 void leg_posture_velocity(const LegPostureInput& in, Eigen::Map<RowMatrixX3> previous_rotations,
                           Eigen::Map<Eigen::VectorXd> velocity);
+
+/// LegPostureReference.restart: q_d of `leg` (its joints `joints[leg]`, indices into the na
+/// actuated joints) from the measured joint positions, plus the mean horizontal lag of the base
+/// behind the references of the legs `carry_from` (point feet: 3 rows of J_c each).
+void leg_posture_restart(const Eigen::Ref<const RowMatrixX>& contact_jacobian,
+                         const Eigen::Ref<const Eigen::VectorXd>& joint_positions,
+                         const std::vector<std::vector<int>>& joints, int leg,
+                         const std::vector<int>& carry_from, double damping,
+                         Eigen::Ref<Eigen::VectorXd> position);
 
 }  // namespace lab

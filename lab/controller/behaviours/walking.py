@@ -15,6 +15,11 @@ height (Raiola eqs. 30–32, `leg_posture.py`).
 
 Gait, step height, cycle time and foothold planner can change while walking: a new Walking
 continues from the previous one (`continue_from`), legs in the air finish their step.
+
+On a tick whose model update the native kernel ran, `update` runs the same steps in C++ in one
+call (cpp/behaviours/walking.cpp, with gait.cpp, footholds.cpp, swing.cpp and leg_posture.cpp,
+when built): it reads this object's state when it changed since its last call, and writes the
+state back, so this object stays current and this module stays the reference.
 """
 
 import math
@@ -33,6 +38,11 @@ from lab.controller.behaviours.swing import swing_reference
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.walk_references import WalkReferences
+
+try:
+    from lab._kernel import Walking as NativeWalking
+except ImportError:  # the native kernel is not built: every tick runs the code below
+    NativeWalking = None
 
 STEP_HEIGHT_FRACTION = 0.15  # default step height, of the base height above the feet
 ACCELERATION_LIMIT = 1.0  # m/s², commanded linear velocity is rate-limited to this
@@ -106,6 +116,9 @@ class Walking:
         refs.posture_weight = np.ones(n)
         self.posture = LegPostureReference(at_rest, refs.posture)
         refs.posture, refs.posture_velocity = self.posture.position, self.posture.velocity
+        point_feet = all(contact.kind == "point" for contact in robot.contacts)
+        self._native = NativeWalking() if NativeWalking is not None and point_feet else None
+        self._native_stale = True  # the native tick must read this object's state first
 
     # ------------------------------------------------------------------------ parameters
     def configure(
@@ -136,6 +149,7 @@ class Walking:
             if value is not None:
                 setattr(self, name, value)
                 self._configured.add(name)
+        self._native_stale = True
         if self.scheduler is not None:
             self.scheduler.set_gait(self.gait, self.cycle_time)
 
@@ -153,6 +167,7 @@ class Walking:
         for name in ("step_height", "footholds"):
             if name not in self._configured:
                 setattr(self, name, getattr(previous, name))
+        self._native_stale = True
 
     # ------------------------------------------------------------------------ the tick
     def update(
@@ -166,6 +181,11 @@ class Walking:
         if self.scheduler is None:
             self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, t)
             self.t, self.yaw_ref = t, yaw
+        if self._native is not None and robot.updated_by == "native":  # the steps below, in C++
+            self._native.update(self, robot, t, command, touching, self._native_stale)
+            self._native_stale = False
+            return
+        self._native_stale = True
         dt = t - self.t
         self.t = t
         steps = [dt * limit for limit in RATE_LIMITS]
