@@ -1,13 +1,17 @@
 """Herzog 2016 §5.3: the CoG tracks a squat's sines under Table 2."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from lab.controller.behaviours.squat import HOLD
 from lab.controller.model import BASE_DOF
 from lab.controller.tasks import TASK_TYPES
-from lab.server.cop_metrics import CopBindingMetrics
+from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
 # m: the CoG's largest distance from its moving reference (measured: 5.7 mm PD, 11.8 mm LQR,
 # whose vertical stiffness with the paper's cost is 100 N/m), under half the 3 cm vertical sine.
@@ -46,22 +50,16 @@ def test_talos_squats_at_half_a_hertz(mode: str) -> None:
 
 def test_the_squat_cop_variant_binds_the_cop() -> None:
     """Herzog Fig. 10: `squat_cop` (4.5 cm forward) asks the CoP past `cop_inner`'s bound at the
-    front turning point (0.5 s into the sine at 0.5 Hz); until 0.25 s past it the planned CoP
-    sits at its bound for a while (asserted: over 5 % of the ticks; measured 8 %), Talos does
-    not fall and the soles stay flat, as the paper's: tilted under MAX_BINDING_TILT, risen
-    under 1 mm
-    (measured over the scenario's three periods: 0.004 rad, 0 mm; with Table 2's force
-    regularizer at the paper's 10^-4 they rocked on their edges, up to 0.1 rad)."""
-    session = Session(SessionConfig(robot="talos"))
-    assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
-    assert session.handle("momentum", {"mode": "lqr_talos"})["ok"]
-    assert session.handle("gait", {"name": "squat_cop", "cycle_time": 2.0})["ok"]
-    cop = CopBindingMetrics(session)
-    for _ in range(round(1000 * (HOLD + 0.75))):
-        session.tick()
-        cop.update(session)
-    assert not session.fell and session.qp_failures == 0
-    result = cop.result()
+    front turning point (0.5 s into the sine at 0.5 Hz). Its scenario (Table 2 with the soles'
+    internal wrench priced), run to 0.25 s past that point: the planned CoP sits at its bound for
+    a while (asserted: over 5 % of the ticks; measured 8 %), Talos does not fall and the soles
+    stay flat, as the paper's: tilted under MAX_BINDING_TILT, risen under 1 mm (measured over
+    the scenario's three periods: 0.004 rad, 0 mm; under Table 2 as printed they rocked on their
+    edges, up to 0.1 rad)."""
+    report = run_scenario(load_scenario(SCENARIOS / "herzog_squat_cop.toml"), HOLD + 0.75)
+    assert not report["fell"] and report["qp_failures"] == 0
+    assert report["rejected_events"] == []
+    result = report["metrics"]
     assert result["cop_at_bound_fraction"] > 0.05
     assert result["max_sole_tilt_rad"] < MAX_BINDING_TILT
     assert result["max_sole_rise_m"] < 0.001
