@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
-from herzog_push_response import plot_column
+from herzog_push_response import plot_column, save
 
 from lab.controller.constraints import INNER_COP_MARGIN
 from lab.server.scenario import load_scenario
@@ -124,10 +124,7 @@ def main() -> None:
                 ax.set_xlim(0.0, BOARD_END)
     axes[0, 0].legend(loc="upper right")
     axes[3, 0].legend(loc="lower right", fontsize=7, ncol=2)
-    fig.suptitle("Talos on moving ground, Table 2 stack, LQR with Talos's cost")
-    fig.tight_layout()
-    fig.savefig(OUT, dpi=80)
-    print(f"wrote {OUT}")
+    save(fig, "Talos on moving ground, Table 2 stack, LQR with Talos's cost", OUT, 80)
 
 
 if __name__ == "__main__":

@@ -68,6 +68,14 @@ def plot_column(axes, series: dict[str, np.ndarray], panels: tuple, title: str) 
     axes[-1].set_xlabel("time [s]")
 
 
+def save(fig, title: str, out: Path, dpi: int) -> None:
+    """Title, lay out and write `fig` to `out`."""
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(out, dpi=dpi)
+    print(f"wrote {out}")
+
+
 def main() -> None:
     """Simulate both laws and save the figure."""
     fig, axes = plt.subplots(4, len(MODES), sharex=True, sharey="row", figsize=(14, 9))
@@ -80,10 +88,8 @@ def main() -> None:
     for column, mode in enumerate(MODES):
         plot_column(axes[:, column], respond(mode), panels, f"{MODES[mode]} momentum control")
     axes[0, 0].legend(loc="upper right")
-    fig.suptitle("Talos, Table 2 stack: 293 N for 32 ms (9.5 N s) at the pelvis from the front")
-    fig.tight_layout()
-    fig.savefig(OUT, dpi=90)
-    print(f"wrote {OUT}")
+    title = "Talos, Table 2 stack: 293 N for 32 ms (9.5 N s) at the pelvis from the front"
+    save(fig, title, OUT, 90)
 
 
 if __name__ == "__main__":
