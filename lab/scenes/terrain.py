@@ -94,7 +94,8 @@ def add_moving_body(spec: mujoco.MjSpec, body: MovingBody, friction: float) -> N
 
 class ScriptedJoints:
     """The moving bodies of a compiled scene, driven by their scripts: `apply(t)` sets every
-    joint equality's target to the script's value at sim time t, or switches it off.
+    joint equality's target to the script's value at sim time t (the script read t − `start`
+    seconds in), or switches it off.
 
     A script's clock starts at the last `reset`: a reset at any sim time (the session's, or one
     at the time a diverged simulation stopped) puts the bodies back at their scripts' start, so

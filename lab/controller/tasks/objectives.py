@@ -35,12 +35,13 @@ class ForceTask(Task):
 
 class InternalWrenchTask(Task):
     """The support wrenches' internal part → 0: (I − G⁺G) F = 0 with G = J_uᵀ over the forces of
-    the feet in support, the wrench the base feels (its null space is what the feet exert on each
-    other: a squeeze, opposite roll or yaw torques). The momentum does not see that part, so
+    the feet in support (G F is the wrench the base feels; G's null space is what the feet exert
+    on each other: a squeeze, opposite roll or yaw torques). The momentum does not see it, so
     Herzog's regularizer on the whole F at 10⁻⁴ is all that holds it; once a CoP constraint
     binds, the solution then ran to the corners of the soles' CoP, torsion and friction bounds
     (a lateral squeeze saturating Talos's hip roll) and the soles rocked on their edges. This
-    prices that part alone, leaving the load the momentum asks to the regularizer."""
+    prices that part alone, leaving the load the momentum asks to the regularizer (the
+    `herzog_squat_cop` scenario adds it to Table 2; docs/controller.md)."""
 
     name = "internal_wrench"
     GAINS = ("weight",)
