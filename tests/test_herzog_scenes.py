@@ -78,6 +78,23 @@ def test_balance_board_tilts_through_its_range_and_drops() -> None:
     assert metrics["cog_error_max_m"] < 0.03
 
 
+def test_a_reset_after_the_drop_sets_talos_on_a_held_board() -> None:
+    """A reset at a sim time past the board's drop (as after a diverged simulation, which keeps
+    the clock) restarts the board's script: the board is held level under the robot, not let go
+    (which dropped it with Talos on it to its lower limit, 2.3 cm under the feet)."""
+    session = Session(SessionConfig(robot="talos", scene="balance_board"))
+    board = session.plant.moving_terrain
+    session.plant.reset(session.robot.q_standing, time=3.0)
+    assert session.plant.mj_data.eq_active[0]
+    height = session.model.contact_positions[:, 2].copy()
+    while session.time < 3.25:  # the script holds the board level for its first 0.3 s
+        session.tick()
+    assert not session.fell
+    tilt = session.plant.mj_data.qpos[board._qpos[0]]
+    assert np.abs(tilt) < np.radians(0.5)  # the soft hold gives 0.1° under the robot
+    assert session.model.contact_positions[:, 2] == pytest.approx(height, abs=2e-3)
+
+
 def test_the_state_carries_the_platform_where_it_is_and_the_view_draws_it_there() -> None:
     """Solo12 on the platform (the moving scenes load for any robot): after 1.5 s the pose in
     `lab/state` is the script's (y within 2 mm), and the terrain view's frame takes it."""

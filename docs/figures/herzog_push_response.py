@@ -56,33 +56,40 @@ def respond(mode: str) -> dict[str, np.ndarray]:
     }
 
 
+def plot_column(axes, series: dict[str, np.ndarray], panels: tuple, title: str) -> None:
+    """One column of panels: for each (key, scale, label) of `panels`, the 3 axes of
+    series[key] (times scale) against series["t"], one axes of `axes` each, under `title`."""
+    for ax, (key, scale, label) in zip(axes, panels, strict=True):
+        for axis, name in enumerate(("x", "y", "z")):
+            ax.plot(series["t"], scale * series[key][:, axis], label=name, linewidth=1.0)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].set_title(title)
+    axes[-1].set_xlabel("time [s]")
+
+
+def save(fig, title: str, out: Path, dpi: int) -> None:
+    """Title, lay out and write `fig` to `out`."""
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(out, dpi=dpi)
+    print(f"wrote {out}")
+
+
 def main() -> None:
     """Simulate both laws and save the figure."""
     fig, axes = plt.subplots(4, len(MODES), sharex=True, sharey="row", figsize=(14, 9))
-    labels = ("x", "y", "z")
+    panels = (
+        ("cog", 100.0, "CoG error [cm]"),
+        ("linear", 1.0, "linear momentum [kg m/s]"),
+        ("angular", 1.0, "angular momentum [kg m²/s]"),
+        ("force", 1.0, "push force [N]"),
+    )
     for column, mode in enumerate(MODES):
-        series = respond(mode)
-        t = series["t"]
-        panels = (
-            ("cog", 100.0, "CoG error [cm]"),
-            ("linear", 1.0, "linear momentum [kg m/s]"),
-            ("angular", 1.0, "angular momentum [kg m²/s]"),
-            ("force", 1.0, "push force [N]"),
-        )
-        for row, (key, scale, title) in enumerate(panels):
-            ax = axes[row, column]
-            for axis, label in enumerate(labels):
-                ax.plot(t, scale * series[key][:, axis], label=label, linewidth=1.0)
-            ax.set_ylabel(title)
-            ax.grid(alpha=0.3)
-        axes[0, column].set_title(f"{MODES[mode]} momentum control")
+        plot_column(axes[:, column], respond(mode), panels, f"{MODES[mode]} momentum control")
     axes[0, 0].legend(loc="upper right")
-    for column in range(len(MODES)):
-        axes[-1, column].set_xlabel("time [s]")
-    fig.suptitle("Talos, Table 2 stack: 293 N for 32 ms (9.5 N s) at the pelvis from the front")
-    fig.tight_layout()
-    fig.savefig(OUT, dpi=90)
-    print(f"wrote {OUT}")
+    title = "Talos, Table 2 stack: 293 N for 32 ms (9.5 N s) at the pelvis from the front"
+    save(fig, title, OUT, 90)
 
 
 if __name__ == "__main__":

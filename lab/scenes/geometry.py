@@ -38,10 +38,10 @@ class SceneJoint:
 class MovingBody:
     """A terrain body that moves: `geoms` (placed in the body frame) on a body at `position`
     (world, at rest), whose `joints` are applied in order. `script(t)` gives the joints' targets
-    at sim time t (s), which the sim holds each joint to (a soft equality constraint), or None
-    where the body moves freely from then on (under gravity, contact and joint limits). `mass`
-    (kg), `inertia` (principal moments about the centre of mass, kg m², body axes) and `com`
-    (centre of mass, body frame) are the body's."""
+    t seconds after the sim's last reset (its start), which the sim holds each joint to (a soft
+    equality constraint), or None where the body moves freely from then on (under gravity,
+    contact and joint limits). `mass` (kg), `inertia` (principal moments about the centre of
+    mass, kg m², body axes) and `com` (centre of mass, body frame) are the body's."""
 
     name: str
     position: tuple[float, float, float]

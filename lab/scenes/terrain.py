@@ -94,28 +94,39 @@ def add_moving_body(spec: mujoco.MjSpec, body: MovingBody, friction: float) -> N
 
 class ScriptedJoints:
     """The moving bodies of a compiled scene, driven by their scripts: `apply(t)` sets every
-    joint equality's target to the script's value at sim time t, or switches it off."""
+    joint equality's target to the script's value at sim time t (the script read t − `start`
+    seconds in), or switches it off.
+
+    A script's clock starts at the last `reset`: a reset at any sim time (the session's, or one
+    at the time a diverged simulation stopped) puts the bodies back at their scripts' start, so
+    the robot is set down on terrain that is held, as at the first start. (Scripts read sim time
+    before: a reset after the balance board's drop put the robot on a level board its script had
+    already let go, which then fell to its limit with the robot on it.)"""
 
     def __init__(self, model: mujoco.MjModel, bodies: tuple[MovingBody, ...]) -> None:
         self.bodies = bodies
+        self.start = 0.0  # s, the sim time of the last reset: the scripts' zero
         names = [[scripted_joint_name(b.name, k) for k in range(len(b.joints))] for b in bodies]
         self._eq = [np.array([model.equality(n).id for n in body]) for body in names]
         self.body_ids = [model.body(b.name).id for b in bodies]
         self._qpos = [np.array([model.joint(n).qposadr[0] for n in body]) for body in names]
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
-        """Put every scripted body where its script has it at sim time t (at rest), before
-        `mj_forward`; a body its script has let go stays where `mj_resetData` put it."""
+        """Restart every script at sim time t: each body where its script starts (at rest),
+        before `mj_forward`; a body whose script starts let go stays where `mj_resetData` put
+        it."""
+        self.start = t
         for body, qpos in zip(self.bodies, self._qpos, strict=True):
-            targets = body.script(t)
+            targets = body.script(0.0)
             if targets is not None:
                 data.qpos[qpos] = targets
         self.apply(model, data, t)
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
-        """Before a step at sim time t: each joint equality's target from its script, or off."""
+        """Before a step at sim time t: each joint equality's target from its script (at
+        t − the last reset's time), or off."""
         for body, eq in zip(self.bodies, self._eq, strict=True):
-            targets = body.script(t)
+            targets = body.script(t - self.start)
             if targets is None:
                 data.eq_active[eq] = 0
             else:

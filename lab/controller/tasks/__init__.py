@@ -14,6 +14,7 @@ from lab.controller.tasks.objectives import (
     ForceInterpolationTask,
     ForceNormalTask,
     ForceTask,
+    InternalWrenchTask,
     TorqueTask,
 )
 from lab.controller.tasks.posture import MovingPostureTask, PostureTask
@@ -48,6 +49,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         InternalForceTask,
         SwingSoleTask,
         SwingLegTask,
+        InternalWrenchTask,
     )
 }
 

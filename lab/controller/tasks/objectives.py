@@ -6,6 +6,7 @@ Over x = [q̈, F] (with the dynamics on top, as every hierarchy method keeps the
 - `force_normal` (§5.1.5): W_F = blockdiag(tᵢᵀ), the tangential components of each support
   force in the local surface tangent plane → 0, so forces align with the surface normals. The
   weight α of the task is its gain weight.
+- `internal_wrench`: the part of the support wrenches the base does not feel → 0 (below).
 - `force_interpolation` (§5.1.6): for a foot being loaded or unloaded, F_j = w F_j^opt with
   w ∈ [0, 1] from the behaviour; F^opt is the quasi-static minimum-force distribution over the
   feet in support (J_uᵀ F = h_u), the load distribution the foot would carry with full weight.
@@ -30,6 +31,29 @@ class ForceTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         return TaskRows(selection(robot.nx, robot.nv, robot.nx), zeros(robot.nf), zeros(0))
+
+
+class InternalWrenchTask(Task):
+    """The support wrenches' internal part → 0: (I − G⁺G) F = 0 with G = J_uᵀ over the forces of
+    the feet in support (G F is the wrench the base feels; G's null space is what the feet exert
+    on each other: a squeeze, opposite roll or yaw torques). The momentum does not see it, so
+    Herzog's regularizer on the whole F at 10⁻⁴ is all that holds it; once a CoP constraint
+    binds, the solution then ran to the corners of the soles' CoP, torsion and friction bounds
+    (a lateral squeeze saturating Talos's hip roll) and the soles rocked on their edges. This
+    prices that part alone, leaving the load the momentum asks to the regularizer (the
+    `herzog_squat_cop` scenario adds it to Table 2; docs/controller.md)."""
+
+    name = "internal_wrench"
+    GAINS = ("weight",)
+
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+        columns = contact_rows(robot, refs.contact_active)
+        if not len(columns):
+            return no_task_rows(robot.nx)
+        base = robot.Jc[columns, :BASE_DOF].T
+        A = np.zeros((len(columns), robot.nx))
+        A[:, robot.nv + columns] = np.eye(len(columns)) - np.linalg.pinv(base) @ base
+        return TaskRows(A, np.zeros(len(columns)), zeros(0))
 
 
 class TorqueTask(Task):
