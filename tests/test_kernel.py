@@ -39,8 +39,17 @@ _kernel = pytest.importorskip(
 )
 
 # Tasks and constraints written in Python first (issue 12: a stack naming one runs on the Python
-# kernel): Herzog's momentum task, swing sole and leg, flat-sole constraints; Kim's internal force.
-PYTHON_ONLY = {"momentum", "swing_sole", "swing_leg", "cop_inner", "sole_torsion", "internal_force"}
+# kernel): Herzog's momentum task, swing sole and leg, flat-sole constraints and the soles'
+# internal wrench; Kim's internal force.
+PYTHON_ONLY = {
+    "momentum",
+    "swing_sole",
+    "swing_leg",
+    "cop_inner",
+    "sole_torsion",
+    "internal_wrench",
+    "internal_force",
+}
 ROWS_TOL = 1e-9  # relative to the entries' scale: the same pinocchio calls, other float order
 STATES = 6  # random states per robot
 
