@@ -1,5 +1,6 @@
 #include "model.hpp"
 
+#include <pinocchio/algorithm/center-of-mass.hpp>
 #include <pinocchio/algorithm/compute-all-terms.hpp>
 #include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/joint-configuration.hpp>
@@ -86,6 +87,9 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
   const pinocchio::Model& model = *this->model;
   pinocchio::Data& data = *this->data;
   pinocchio::computeAllTerms(model, data, q, v);
+  // computeAllTerms leaves data.acom at zero: the CoM's drift J̇_com v, from the joints' drift
+  // accelerations it computed.
+  pinocchio::centerOfMass(model, data, pinocchio::ACCELERATION, false);
   // computeAllTerms fills the upper triangle of M only.
   data.M.triangularView<Eigen::StrictlyLower>() =
       data.M.transpose().triangularView<Eigen::StrictlyLower>();

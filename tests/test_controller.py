@@ -225,3 +225,24 @@ def test_each_task_declares_the_gains_it_reads() -> None:
         np.testing.assert_allclose(after.b, before[1], rtol=1e-12, atol=1e-12, err_msg=name)
     assert controller.gains_used()["forces"] == ("weight",)
     assert controller.gains_used()["contact"] == ("kd", "weight")
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_com_drift_is_the_rate_of_the_com_velocity_at_zero_acceleration(name: str) -> None:
+    """com_drift = J̇_com v, the CoM task's drift (its row is J_com q̈ = a_d − J̇_com v): the
+    derivative of J_com(q) v along q̇ = v at constant v, by central differences. (Until
+    2026-12-02 both kernels read data.acom after computeAllTerms, which leaves it at zero.)"""
+    robot = build_robot(load_description(name))
+    model = RobotModel(robot.model, robot.contacts)
+    q, v = disturbed_state(robot, np.random.default_rng(3))
+    v *= 10.0  # a drift well above the difference's error
+    model.update(q, v)
+    drift = model.com_drift.copy()
+    step = 1e-6
+    rates = []
+    for sign in (1.0, -1.0):
+        model.update(pin.integrate(robot.model, q, sign * step * v), v)
+        rates.append(model.com_velocity.copy())
+    finite_difference = (rates[0] - rates[1]) / (2.0 * step)
+    assert np.linalg.norm(drift) > 0.1, drift  # m/s²: the check below has something to see
+    np.testing.assert_allclose(drift, finite_difference, atol=1e-5 * (1.0 + np.linalg.norm(drift)))

@@ -77,6 +77,9 @@ class RobotModel:
         # computeAllTerms: M, nle, joint Jacobians, CoM (+Jacobian), centroidal map, and the
         # drift accelerations (q̈ = 0) of every joint, which give J̇v below.
         pin.computeAllTerms(model, data, q, v)
+        # computeAllTerms leaves data.acom at zero: the CoM's drift J̇_com v, from the joints'
+        # drift accelerations it computed
+        pin.centerOfMass(model, data, pin.ACCELERATION, False)
         pin.updateFramePlacements(model, data)
         self.M[:] = data.M
         self.h[:] = data.nle
