@@ -19,7 +19,7 @@ takes the upstream cp314 wheel and retags it py3-none (`wheel tags`): the same b
 `--from-source` builds libtsid from its sdist instead (CMake; over an hour on a loaded 2-core
 machine).
 
-The same problem on both sides (what `problem_note` prints):
+The same problem on both sides:
 - x = [q̈, F], the Newton–Euler rows of the base exact, all feet in support, one weighted QP.
 - Tasks with the robot's gains: contact (kp 0, kd of `gains.contact`), CoM, base orientation
   (TaskSE3Equality on the free-flyer's frame, angular mask, world-aligned), posture, force
@@ -34,10 +34,20 @@ The same problem on both sides (what `problem_note` prints):
   each in its pyramid, wrench = G f. TSID's set is the lab's one with torsion and coupling rows
   added, so the answers are the same where no such row binds; the Hessian regularization then
   still differs (1e-8 on the 12 corner forces, against 1e-8 on the 6 wrench components). The
-  comparison uses the wrench G f and reports which rows bind on each side.
+  comparison uses the wrench G f and reports which rows bind on each side. Every task weight
+  is 1000× the robot's on both sides for Talos (`WEIGHT_SCALE`): the same optimum, with the
+  regularizations' share of it 1000× smaller (it falls as 1/scale: 1.3e-5 → 1.3e-8 on F).
+- The CoM rows: the lab's lack the drift J̇_com v (its model update reads data.acom after
+  pinocchio's computeAllTerms, which leaves it at zero), TSID's have it. The check gives TSID a
+  CoM reference acceleration equal to that drift, so that it solves the lab's problem, and also
+  prints the difference against TSID's own rows.
+- Timed per tick on both sides from Python, cycling through the states: TSID's three
+  setReference, computeProblemData, solve and getActuatorForces; ours the references, the
+  NativeController's update and solve (τ included), and the kernel's own time inside that.
 """
 
 import argparse
+import copy
 import json
 import math
 import os
@@ -139,7 +149,9 @@ def record_states(robot: str, n_standing: int, n_pushed: int) -> dict:
             session.tick()
             if (i + 1) % every == 0 and len(records) < n_standing + n_pushed:
                 refs = session.controller.references
-                records.append((session.model.q.copy(), session.model.v.copy(), _copy_refs(refs)))
+                records.append(
+                    (session.model.q.copy(), session.model.v.copy(), copy.deepcopy(refs))
+                )
 
     run(0.5, n_standing)
     push = {"body": session.robot.base_link, "force": [0.0, PUSH_FRACTION_OF_WEIGHT * weight, 0.0]}
@@ -147,12 +159,6 @@ def record_states(robot: str, n_standing: int, n_pushed: int) -> dict:
     run(0.3, n_pushed)
     assert not session.fell, f"{robot} fell while the states were recorded"
     return {"session": session, "states": records}
-
-
-def _copy_refs(refs: object) -> object:
-    import copy
-
-    return copy.deepcopy(refs)
 
 
 def our_controller(session: object, robot: str) -> object:
@@ -516,6 +522,7 @@ class Worker:
         )
 
     def ask(self, **request: object) -> object:
+        """Send one request, return the worker's reply."""
         self.process.stdin.write(json.dumps(request) + "\n")
         self.process.stdin.flush()
         line = self.process.stdout.readline()
@@ -524,9 +531,7 @@ class Worker:
         return json.loads(line)
 
     def close(self) -> None:
-        self.ask_quit()
-
-    def ask_quit(self) -> None:
+        """Ask the worker to quit and wait for it."""
         self.process.stdin.write(json.dumps({"verb": "quit"}) + "\n")
         self.process.stdin.close()
         self.process.wait(timeout=30)
@@ -544,10 +549,12 @@ def compare(ours: dict, theirs: dict) -> dict[str, float]:
 
 
 def stats(us: np.ndarray) -> str:
+    """Median, p99 and minimum (µs), formatted."""
     return f"{np.median(us):7.1f} {np.percentile(us, 99):7.1f} {np.min(us):7.1f}"
 
 
 def bench_robot(worker_: Worker, robot: str, args: argparse.Namespace, tmp: Path) -> dict:
+    """Record the states, check the answers, time both sides in alternating blocks."""
     recorded = record_states(robot, args.standing, args.pushed)
     session, states = recorded["session"], recorded["states"]
     controller = our_controller(session, robot)
