@@ -41,6 +41,7 @@ _kernel = pytest.importorskip(
 # Tasks and constraints written in Python first (issue 12: a stack naming one runs on the Python
 # kernel): Herzog's momentum task, swing sole and leg, flat-sole constraints; Kim's internal force.
 PYTHON_ONLY = {"momentum", "swing_sole", "swing_leg", "cop_inner", "sole_torsion", "internal_force"}
+PYTHON_ONLY |= {"com_along_feet", "com_across_feet"}  # Kim's Fig. 6c CoM split
 ROWS_TOL = 1e-9  # relative to the entries' scale: the same pinocchio calls, other float order
 STATES = 6  # random states per robot
 

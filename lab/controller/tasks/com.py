@@ -37,7 +37,7 @@ class ComXYTask(ComTask):
 
 def foot_line(robot: RobotModel, refs: References) -> np.ndarray | None:
     """The horizontal unit vector (world) from the first to the second point foot in support,
-    or None with fewer than two point feet in support."""
+    or None with fewer than two point feet in support (or two over each other)."""
     feet = np.flatnonzero(
         refs.contact_active & np.array([c.kind == "point" for c in robot.contacts])
     )
@@ -45,7 +45,8 @@ def foot_line(robot: RobotModel, refs: References) -> np.ndarray | None:
         return None
     line = robot.contact_positions[feet[1]] - robot.contact_positions[feet[0]]
     line[2] = 0.0
-    return line / np.linalg.norm(line)
+    length = np.linalg.norm(line)
+    return line / length if length > 1e-6 else None
 
 
 class ComAlongFeetTask(ComTask):
