@@ -50,6 +50,7 @@ PYTHON_ONLY = {
     "internal_wrench",
     "internal_force",
 }
+PYTHON_ONLY |= {"com_along_feet", "com_across_feet"}  # Kim's Fig. 6c CoM split
 ROWS_TOL = 1e-9  # relative to the entries' scale: the same pinocchio calls, other float order
 STATES = 6  # random states per robot
 

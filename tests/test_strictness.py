@@ -117,6 +117,8 @@ def random_controller(robot_name: str, rng: np.random.Generator):
     robot = build_robot(description)
     model = RobotModel(robot.model, robot.contacts)
     names = [*TASK_TYPES, *CONSTRAINTS]
+    if all(c.kind != "point" for c in robot.contacts):  # rows only between two point feet
+        names = [n for n in names if n not in ("com_along_feet", "com_across_feet")]
     names = [names[i] for i in rng.permutation(len(names))][: rng.integers(4, len(names) + 1)]
     if "contact" not in names:
         names.append("contact")

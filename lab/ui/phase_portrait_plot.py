@@ -5,7 +5,8 @@ telemetry's `stepping`. Shown while `biped_step` runs.
 
 uPlot needs its x values sorted, and a phase portrait's positions are not: each chart is drawn
 as points over the positions sorted, one series for the path and one for the prediction (NaN
-where the other has a point), with no lines between them.
+where the other has a point), with no lines between them. With those NaN gaps uPlot cannot
+range the velocity axis itself (`plot_range.py`): the chart is given its y range.
 """
 
 import math
@@ -15,12 +16,14 @@ import viser
 import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
+from lab.ui.plot_range import y_range
 from lab.ui.plots import Container
 
 PATH_S = 2.0  # s of the CoM's path shown
 BUFFER_SAMPLES = 1024  # > PATH_S at 100 Hz telemetry
 AXES = (("forward", "x"), ("lateral", "y"))
 COLOURS = ("#d62728", "#1f77b4")  # path, prediction
+MIN_SPAN = 0.1  # m/s: the velocity axis spans at least this
 
 
 def portrait_points(path: np.ndarray, prediction: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -46,6 +49,7 @@ class PhasePortrait:
         self.path = RollingBuffer(2, PATH_S, BUFFER_SAMPLES)
         self.prediction = np.zeros((0, 2))
         self._handle: viser.GuiUplotHandle | None = None
+        self._y_range: tuple[float, float] | None = None
 
     def record(self, tel: dict) -> None:
         """Add one telemetry message's CoM state and keep its prediction."""
@@ -72,23 +76,32 @@ class PhasePortrait:
             return
         _, x, v = self.path.arrays()
         data = portrait_points(np.column_stack((x, v)), self.prediction)
+        shown = y_range(np.concatenate(data[1:]), self._y_range, MIN_SPAN)
+        scales: dict[str, uplot.Scale] = {
+            "x": {"time": False},
+            "y": {"auto": False, "range": shown},
+        }
         if self._handle is None:
             with self._folder:
                 self._handle = self._gui.add_uplot(
                     data,
                     _series(self.axis),
                     title=self.title,
-                    scales={"x": {"time": False}},
+                    scales=scales,
                     aspect=1.6,
                     legend={"show": True},
                 )
         else:
             self._handle.data = data
+            if shown != self._y_range:
+                self._handle.scales = scales  # the chart is not rebuilt, its zoom stays
+        self._y_range = shown
 
     def _remove(self) -> None:
         if self._handle is not None:
             self._handle.remove()
             self._handle = None
+            self._y_range = None
 
 
 def _series(axis: int) -> tuple[uplot.Series, ...]:

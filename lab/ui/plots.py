@@ -18,6 +18,7 @@ import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
 from lab.ui.plot_export import Shown, shown_csv, shown_png
+from lab.ui.plot_range import y_range
 from lab.ui.support import polygon_bounds
 
 WINDOWS_S = (10, 30, 60)  # the windows the panel offers; the first is the default
@@ -27,6 +28,7 @@ MAX_POINTS = 250  # points per series sent to the browser
 TOP_LEVELS = 3  # task errors are plotted for this many highest-priority levels
 ERROR_FLOOR = 1e-12  # a task error of 0 plots as 10⁻¹²
 Y_AXIS_PX = 64  # room for tick labels such as "12,500"
+GAP_SPAN = 0.1  # a chart with NaN gaps spans at least this fraction of its largest |value|
 Container = viser.GuiFolderHandle | viser.GuiTabHandle  # where the charts and their controls go
 PALETTE = (
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#17becf", "#8c564b", "#e377c2",
@@ -141,6 +143,7 @@ class Chart:
         self.buffer: RollingBuffer | None = None
         self.shown: tuple[np.ndarray, ...] = ()  # (t, series…) last drawn, full resolution
         self._handle: viser.GuiUplotHandle | None = None
+        self._sent_scales: dict[str, uplot.Scale] = {}
 
     def record(self, tel: dict) -> None:
         labels = self.spec.labels_of(tel)
@@ -164,15 +167,29 @@ class Chart:
         self.shown = data  # full resolution: what an export writes
         step = max(1, len(data[0]) // MAX_POINTS)
         data = tuple(np.ascontiguousarray(a[::step]) for a in data)
+        scales = self._scales(data)
         if self._handle is None:
             with self._container:
-                self._handle = self._add(data)
+                self._handle = self._add(data, scales)
         else:
             self._handle.data = data
+            if scales != self._sent_scales:
+                self._handle.scales = scales  # the chart is not rebuilt
+        self._sent_scales = scales
 
-    def _add(self, data: tuple[np.ndarray, ...]) -> viser.GuiUplotHandle:
+    def _scales(self, data: tuple[np.ndarray, ...]) -> dict[str, uplot.Scale]:
+        """uPlot's scales for `data`: its own y ranging, or with a NaN gap the y range computed
+        here (`plot_range.py`: uPlot's would be NaN and the chart empty)."""
         scales: dict[str, uplot.Scale] = {"x": {"time": False}}
-        if self.spec.min_span:
+        values = np.concatenate(data[1:])
+        if np.isnan(values).any():
+            finite = np.abs(values[np.isfinite(values)])
+            floor = GAP_SPAN * float(finite.max()) if finite.size else 1.0
+            shown = self._sent_scales.get("y", {}).get("range")
+            current = shown if isinstance(shown, tuple) else None
+            shown = y_range(values, current, max(2.0 * self.spec.min_span, floor, 1e-9))
+            scales["y"] = {"auto": False, "range": shown}
+        elif self.spec.min_span:
             span = self.spec.min_span  # uPlot soft range: widened to ±span unless data exceeds it
             scales["y"] = {
                 "range": {
@@ -180,6 +197,11 @@ class Chart:
                     "max": {"pad": 0.1, "soft": span, "mode": 1},
                 }
             }
+        return scales
+
+    def _add(
+        self, data: tuple[np.ndarray, ...], scales: dict[str, uplot.Scale]
+    ) -> viser.GuiUplotHandle:
         return self._gui.add_uplot(
             data,
             _series(self.labels, self.title),

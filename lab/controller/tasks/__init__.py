@@ -5,7 +5,7 @@ built with its `TaskGains` and returns `TaskRows` (A, b and its tracking error) 
 """
 
 from lab.controller.tasks.base import ALL_GAINS, Task, TaskGains, TaskRows
-from lab.controller.tasks.com import ComTask, ComXYTask
+from lab.controller.tasks.com import ComAcrossFeetTask, ComAlongFeetTask, ComTask, ComXYTask
 from lab.controller.tasks.contact import ContactTask
 from lab.controller.tasks.feet import SwingFeetTask
 from lab.controller.tasks.internal_force import InternalForceTask
@@ -50,6 +50,8 @@ TASK_TYPES: dict[str, type[Task]] = {
         SwingSoleTask,
         SwingLegTask,
         InternalWrenchTask,
+        ComAlongFeetTask,
+        ComAcrossFeetTask,
     )
 }
 
