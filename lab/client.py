@@ -148,13 +148,17 @@ class LabClient:
         return self._newest("state")
 
     def wait_telemetry(
-        self, predicate: Callable[[dict], bool] = lambda _: True, timeout: float = 5.0
+        self,
+        predicate: Callable[[dict], bool] = lambda _: True,
+        timeout: float = 5.0,
+        since_last_read: bool = False,
     ) -> dict:
         """The first telemetry message for which `predicate` holds: the newest one received
-        before the call, then every one after it (a brief event is not missed however late this
+        before the call (with `since_last_read`, every one received since the last read, at most
+        BACKLOG's), then every one after it (a brief event is not missed however late this
         thread runs); raise TimeoutError with the last message."""
         end = time.monotonic() + timeout
-        messages = self._fresh("telemetry", newest_only=True)
+        messages = self._fresh("telemetry", newest_only=not since_last_read)
         last = None
         while time.monotonic() < end:
             for message in messages:
