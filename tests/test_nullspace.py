@@ -11,6 +11,8 @@ Problems are the controller's own rows for ANYmal at random states. Stated expec
   the cascade's lexicographic optimum tracks the level below at least as well.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -18,13 +20,14 @@ from lab.controller.behaviours.balance import standing_references
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level, nullspace
 from lab.controller.hierarchy.cascade import solve_cascade
-from lab.controller.hierarchy.formulations import FORMULATIONS
+from lab.controller.hierarchy.formulations import FORMULATIONS, reparametrize
 from lab.controller.hierarchy.nullspace import (
     ActiveSetCapWarning,
     active_set_least_squares,
     hierarchical_least_squares,
     solve_nullspace,
 )
+from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack
 from lab.controller.tasks import TaskGains
@@ -255,3 +258,28 @@ def test_the_active_set_cap_stops_at_a_feasible_point_and_says_so(monkeypatch) -
     monkeypatch.setattr(nullspace, "MAX_PROJECTIONS", 1)
     with pytest.warns(ActiveSetCapWarning, match="cap of 1 hierarchy solves"):
         hierarchical_least_squares([limits, objective], 2)
+
+
+def test_a_contact_unloaded_to_zero_force_does_not_cycle_the_active_set() -> None:
+    """Talos under Herzog's Table 4 stack, `stance left`, at 1.30 s (saved from a run): the right
+    sole's force is being ramped to zero, so its normal, CoP and friction rows are pinned together
+    at zero force, linearly dependent. Releasing one of them changes nothing, and a step of ~1e-12
+    re-activated it: the search cycled (release, re-activate) to any cap. With blocking at the
+    release tolerance it ends, measured 757 hierarchy solves, at the lexicographic optimum: the
+    cascade's level residuals on the same tick."""
+    data = np.load(Path(__file__).parent / "data" / "talos_stance_unloading_problem.npz")
+    count = sum(name.startswith("level") and name.endswith("_A") for name in data.files)
+    levels = [Level(*(data[f"level{i}_{k}"] for k in "AbCd")) for i in range(count)]
+    terms = DynamicsTerms(data["M"], data["h"], data["Jc"], data["support"])
+    problem = HierarchyProblem(data["dynamics_A"], data["dynamics_b"], levels, terms)
+    change = reparametrize(problem, problem.formulation)
+    search = active_set_least_squares(
+        [change.eom] + [change.level(level) for level in levels], change.T.shape[1], cap=1000
+    )
+    assert not search.capped and search.feasible
+    x, x_cascade = change.T @ search.z + change.t, solve_cascade(problem).x
+    assert np.max(np.abs(problem.dynamics_A @ x - problem.dynamics_b)) <= 1e-6
+    for level in levels:
+        assert np.all(level.C @ x - level.d <= AGREE_TOL)
+        residual = np.linalg.norm(level.A @ x - level.b)
+        assert residual == pytest.approx(np.linalg.norm(level.A @ x_cascade - level.b), rel=1e-4)

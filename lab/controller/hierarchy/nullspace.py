@@ -54,6 +54,7 @@ from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, leve
 RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
 RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
 ACTIVATION_TOL = 1e-9  # an inequality violated by more than this is activated
+RATIO_TIE = 1e-12  # step lengths this close block together (ties, broken by Bland's rule)
 # Hierarchy solves per call, at most: against cycling and against ticks far over their budget.
 # tests/test_hutter.py (the Hutter 2014 replications) and tests/test_nullspace.py use at most
 # 120 (measured over their 16,799 calls; p99 54): the cap leaves their results as they were.
@@ -195,10 +196,18 @@ def _step(
             continue
         slack = level.d - level.C @ z
         rate = level.C @ dz
-        closing = np.flatnonzero(~on & (slack >= -ACTIVATION_TOL) & (rate * alpha > slack))
+        # Blocking only where the step would violate the row by more than ACTIVATION_TOL, the
+        # tolerance `_release_one` releases with: a row released at its bound (no change of the
+        # optimum, e.g. one of a vanishing contact's CoP, friction and normal rows, all pinned
+        # at zero force) is not re-activated by rounding in a step of ~1e-12.
+        closing = np.flatnonzero(
+            ~on & (slack >= -ACTIVATION_TOL) & (rate * alpha - slack > ACTIVATION_TOL)
+        )
         if len(closing):
-            j = closing[np.argmin(slack[closing] / rate[closing])]
-            alpha, blocking = max(0.0, slack[j] / rate[j]), (k, j)
+            ratio = np.maximum(slack[closing] / rate[closing], 0.0)
+            # Bland's rule on ties (Nocedal & Wright §13.5, §16.5): the smallest index.
+            j = closing[np.flatnonzero(ratio <= ratio.min() + RATIO_TIE)[0]]
+            alpha, blocking = float(ratio.min()), (k, j)
     if blocking is None:
         return target, None
     active[blocking[0]][blocking[1]] = True
