@@ -26,6 +26,8 @@ A row blocks only when the step would violate it by more than the tolerance a re
 ties broken by the smallest index (Bland's rule): rows pinned together and linearly dependent,
 such as a contact's normal, CoP and friction rows as its force goes to zero, otherwise cycled,
 released at no change of the optimum and re-activated by rounding in the next step.
+The search may start from any active rows (`problem.active_start`: the controller passes the last
+tick's) and still ends at the same optimum; from a close start in a few solves (a hot start).
 
 Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call, against
 cycling and against ticks far over their budget (docs/controller.md). At the cap the
