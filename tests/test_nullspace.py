@@ -11,6 +11,8 @@ Problems are the controller's own rows for ANYmal at random states. Stated expec
   the cascade's lexicographic optimum tracks the level below at least as well.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -18,13 +20,18 @@ from lab.controller.behaviours.balance import standing_references
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level, nullspace
 from lab.controller.hierarchy.cascade import solve_cascade
-from lab.controller.hierarchy.formulations import FORMULATIONS
+from lab.controller.hierarchy.formulations import (
+    FORMULATIONS,
+    Reparametrization,
+    reparametrize,
+)
 from lab.controller.hierarchy.nullspace import (
     ActiveSetCapWarning,
     active_set_least_squares,
     hierarchical_least_squares,
     solve_nullspace,
 )
+from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.model import RobotModel
 from lab.controller.stack import Stack
 from lab.controller.tasks import TaskGains
@@ -255,3 +262,49 @@ def test_the_active_set_cap_stops_at_a_feasible_point_and_says_so(monkeypatch) -
     monkeypatch.setattr(nullspace, "MAX_PROJECTIONS", 1)
     with pytest.warns(ActiveSetCapWarning, match="cap of 1 hierarchy solves"):
         hierarchical_least_squares([limits, objective], 2)
+
+
+def stance_unloading() -> tuple[HierarchyProblem, Reparametrization, list[Level]]:
+    """Talos at 1.30 s of `stance left` under Herzog's Table 4 stack (saved from a run): the
+    problem, its change to the [q̈, F] search's variables and that search's levels."""
+    data = np.load(Path(__file__).parent / "data" / "talos_stance_unloading_problem.npz")
+    count = sum(name.startswith("level") and name.endswith("_A") for name in data.files)
+    levels = [Level(*(data[f"level{i}_{k}"] for k in "AbCd")) for i in range(count)]
+    terms = DynamicsTerms(data["M"], data["h"], data["Jc"], data["support"])
+    problem = HierarchyProblem(data["dynamics_A"], data["dynamics_b"], levels, terms)
+    change = reparametrize(problem, problem.formulation)
+    search_levels = [change.eom] + [change.level(level) for level in levels]
+    return problem, change, search_levels
+
+
+def test_a_contact_unloaded_to_zero_force_does_not_cycle_the_active_set() -> None:
+    """Talos under Herzog's Table 4 stack, `stance left`, at 1.30 s (saved from a run): the right
+    sole's normal-force bound is ramping to zero, so its normal, CoP and friction rows bind
+    together near zero force, linearly dependent. Activating every violated row at once pinned 32
+    rows (13 torque limits the optimum leaves free) and the search then cycled between releasing a
+    row and re-activating it on a step of ~1e-12 (5000 solves at a cap of 5000); with the release
+    tolerance for blocking it ended after 757. Activating the most violated row at a time it ends
+    in 22 (bound here 40, the shipped cap 128) at the lexicographic optimum: the cascade's level
+    residuals on the same tick."""
+    problem, change, levels = stance_unloading()
+    search = active_set_least_squares(levels, change.T.shape[1], cap=40)
+    assert not search.capped and search.feasible
+    x, x_cascade = change.T @ search.z + change.t, solve_cascade(problem).x
+    assert np.max(np.abs(problem.dynamics_A @ x - problem.dynamics_b)) <= 1e-6
+    for level in problem.levels:
+        assert np.all(level.C @ x - level.d <= AGREE_TOL)
+        residual = np.linalg.norm(level.A @ x - level.b)
+        assert residual == pytest.approx(np.linalg.norm(level.A @ x_cascade - level.b), rel=1e-4)
+
+
+def test_a_search_started_from_its_optimal_active_rows_ends_there_at_once() -> None:
+    """As the controller starts each tick from the last tick's active rows: started from where
+    the cold search of the tick above stopped (4 rows), the same z in 1 + 4 solves (the solve,
+    then a release trial per row that stays active), not 22."""
+    _, change, levels = stance_unloading()
+    cold = active_set_least_squares(levels, change.T.shape[1])
+    warm = active_set_least_squares(levels, change.T.shape[1], start=cold.active)
+    active_rows = sum(int(on.sum()) for on in cold.active)
+    assert not warm.capped and warm.projections <= 1 + active_rows < cold.projections
+    np.testing.assert_allclose(warm.z, cold.z, atol=1e-9)
+    assert [list(on) for on in warm.active] == [list(on) for on in cold.active]

@@ -105,6 +105,8 @@ class WholeBodyController:
         self._errors: dict[str, np.ndarray] = {}  # each task's tracking error at the last tick
         self._sensing_stack: Stack | None = None  # the stack `reads_sensing` last answered for
         self._reads_sensing = False
+        # nullspace: where the last tick's active-set searches stopped, this tick's start
+        self._active_sets: tuple[list[np.ndarray], ...] = ()
         self.set_stack(config.stack)
         self.set_hierarchy(config.method, config.solver, config.formulation)
 
@@ -224,7 +226,9 @@ class WholeBodyController:
         """Torques at the state of the last RobotModel.update (a behaviour may update the
         references in between)."""
         problem = self.build_problem()
+        problem.active_start = self._active_sets
         solution = METHODS[self.config.method](problem, self.config.solver)
+        self._active_sets = solution.active_sets
         x, nv = solution.x, self.robot.nv
         return ControlOutput(
             self.robot.joint_torques(x), x[:nv], x[nv:], solution, self.task_errors()

@@ -14,12 +14,20 @@ that level's equalities, and the whole hierarchy is solved again. §3.2 stops th
 active set only grows: a row activated on the way stays pinned at its bound where the final
 solution would keep it inside, and both bounds of one joint can end up pinned at once
 (docs/controller.md has the cases that showed it). So this is a primal active set:
-§3.2's activation first (the violated rows of the highest violated level, until none is), then an
+§3.2's activation first (the most violated row of the highest violated level, one per solve,
+until none is: activating every violated row at once pinned rows that only the unconstrained
+first solution violated, each then released by trial solves), then an
 active row is released when the hierarchy solved without it keeps it inside its bound (its
 multiplier has the wrong sign; every level is a convex least squares, so an optimum without the
 row that satisfies it is the optimum with it), and z steps from where it is towards the optimum of
 the new active set only as far as no inactive row gets violated, the row that blocks it being
 activated (jumping to that optimum and activating all it violates can cycle between active sets).
+A row blocks only when the step would violate it by more than the tolerance a release allows,
+ties broken by the smallest index (Bland's rule): rows pinned together and linearly dependent,
+such as a contact's normal, CoP and friction rows as its force goes to zero, otherwise cycled,
+released at no change of the optimum and re-activated by rounding in the next step.
+The search may start from any active rows (`problem.active_start`: the controller passes the last
+tick's) and still ends at the same optimum; from a close start in a few solves (a hot start).
 
 Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call, against
 cycling and against ticks far over their budget (docs/controller.md). At the cap the
@@ -54,6 +62,7 @@ from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, leve
 RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
 RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
 ACTIVATION_TOL = 1e-9  # an inequality violated by more than this is activated
+RATIO_TIE = 1e-12  # step lengths this close block together (ties, broken by Bland's rule)
 # Hierarchy solves per call, at most: against cycling and against ticks far over their budget.
 # tests/test_hutter.py (the Hutter 2014 replications) and tests/test_nullspace.py use at most
 # 120 (measured over their 16,799 calls; p99 54): the cap leaves their results as they were.
@@ -73,6 +82,7 @@ class ActiveSetSolution:
     projections: int
     capped: bool
     feasible: bool
+    active: list[np.ndarray]  # the active rows of each level's C where the search stopped
 
 
 class _Budget:
@@ -90,15 +100,22 @@ class _Budget:
 def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> HierarchySolution:
     """x = [q̈, F] by iterative null-space projection, every level `projected`, `capped` when an
     active-set search stopped at its cap; `solver` is unused (no QP here)."""
+    starts = [*problem.active_start, None, None][:2]
     if problem.formulation == "sequential":
-        x, capped = _solve_sequential(problem)
+        x, searches = _solve_sequential(problem, starts)
     else:
         change = reparametrize(problem, problem.formulation)
         levels = [change.eom] + [change.level(level) for level in problem.levels]
-        search = _searched(levels, change.T.shape[1])
-        x, capped = change.T @ search.z + change.t, search.capped
+        search = _searched(levels, change.T.shape[1], starts[0])
+        x, searches = change.T @ search.z + change.t, (search,)
     statuses = (PROJECTED,) * len(problem.levels)
-    return HierarchySolution(x, statuses, level_residuals(problem.levels, x), capped=capped)
+    return HierarchySolution(
+        x,
+        statuses,
+        level_residuals(problem.levels, x),
+        capped=any(search.capped for search in searches),
+        active_sets=tuple(search.active for search in searches),
+    )
 
 
 def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
@@ -107,9 +124,11 @@ def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
     return _searched(levels, n).z
 
 
-def _searched(levels: Sequence[Level], n: int) -> ActiveSetSolution:
-    """The active-set search, warning (ActiveSetCapWarning) when the cap stopped it."""
-    solution = active_set_least_squares(levels, n)
+def _searched(
+    levels: Sequence[Level], n: int, start: Sequence[np.ndarray] | None = None
+) -> ActiveSetSolution:
+    """The active-set search from `start`, warning (ActiveSetCapWarning) when the cap stopped it."""
+    solution = active_set_least_squares(levels, n, start=start)
     if solution.capped:
         state = "feasible" if solution.feasible else "still violating an inequality"
         warnings.warn(
@@ -122,17 +141,23 @@ def _searched(levels: Sequence[Level], n: int) -> ActiveSetSolution:
 
 
 def active_set_least_squares(
-    levels: Sequence[Level], n: int, cap: int | None = None
+    levels: Sequence[Level],
+    n: int,
+    cap: int | None = None,
+    start: Sequence[np.ndarray] | None = None,
 ) -> ActiveSetSolution:
     """The active-set search of `hierarchical_least_squares`, at most `cap` hierarchy solves
-    (default MAX_PROJECTIONS)."""
+    (default MAX_PROJECTIONS), from the active rows `start` (e.g. the last tick's; ignored unless
+    they match the levels' rows) or none."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
+    if start is not None and [len(on) for on in start] == [len(on) for on in active]:
+        active = [np.array(on, dtype=bool) for on in start]
     budget = _Budget(MAX_PROJECTIONS if cap is None else cap)
     entry: list[tuple[np.ndarray, np.ndarray]] = []  # (z, Z) on entering each level
     z = _project(levels, active, n, entry, 0, budget)
     while (k := _activate_violated(levels, active, z)) is not None:  # §3.2
         if not budget.take():
-            return ActiveSetSolution(z, budget.used, capped=True, feasible=False)
+            return ActiveSetSolution(z, budget.used, capped=True, feasible=False, active=active)
         z = _project(levels, active, n, entry, k, budget)
     # z satisfies every inequality from here on: each step stops at the first row it would cross
     while (target := _release_one(levels, active, z, n, entry, budget)) is not None:
@@ -143,17 +168,18 @@ def active_set_least_squares(
             target = _project(levels, active, n, entry, k, budget)
         if budget.ran_out:
             break
-    return ActiveSetSolution(z, budget.used, capped=budget.ran_out, feasible=True)
+    return ActiveSetSolution(z, budget.used, capped=budget.ran_out, feasible=True, active=active)
 
 
 def _activate_violated(
     levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray
 ) -> int | None:
-    """Activate the violated rows of the highest-priority level that has any; its index."""
+    """Activate the most violated row of the highest-priority level that has any (the rule of
+    the dual active-set methods, Goldfarb & Idnani 1983); its level's index."""
     for k, (level, on) in enumerate(zip(levels, active, strict=True)):
-        violated = (level.C @ z - level.d > ACTIVATION_TOL) & ~on
-        if np.any(violated):
-            on |= violated
+        excess = np.where(on, 0.0, level.C @ z - level.d)
+        if np.any(excess > ACTIVATION_TOL):
+            on[np.argmax(excess)] = True
             return k
     return None
 
@@ -195,10 +221,18 @@ def _step(
             continue
         slack = level.d - level.C @ z
         rate = level.C @ dz
-        closing = np.flatnonzero(~on & (slack >= -ACTIVATION_TOL) & (rate * alpha > slack))
+        # Blocking only where the step would violate the row by more than ACTIVATION_TOL, the
+        # tolerance `_release_one` releases with: a row released at its bound (no change of the
+        # optimum, e.g. one of a vanishing contact's CoP, friction and normal rows, all pinned
+        # at zero force) is not re-activated by rounding in a step of ~1e-12.
+        closing = np.flatnonzero(
+            ~on & (slack >= -ACTIVATION_TOL) & (rate * alpha - slack > ACTIVATION_TOL)
+        )
         if len(closing):
-            j = closing[np.argmin(slack[closing] / rate[closing])]
-            alpha, blocking = max(0.0, slack[j] / rate[j]), (k, j)
+            ratio = np.maximum(slack[closing] / rate[closing], 0.0)
+            # Bland's rule on ties (Nocedal & Wright §13.5, §16.5): the smallest index.
+            j = closing[np.flatnonzero(ratio <= ratio.min() + RATIO_TIE)[0]]
+            alpha, blocking = float(ratio.min()), (k, j)
     if blocking is None:
         return target, None
     active[blocking[0]][blocking[1]] = True
@@ -234,8 +268,11 @@ def _project(
     return z
 
 
-def _solve_sequential(problem: HierarchyProblem) -> tuple[np.ndarray, bool]:
-    """Hutter Table 4: q̈ first, then τ (module docstring); x and whether a search was capped."""
+def _solve_sequential(
+    problem: HierarchyProblem, starts: Sequence[Sequence[np.ndarray] | None]
+) -> tuple[np.ndarray, tuple[ActiveSetSolution, ActiveSetSolution]]:
+    """Hutter Table 4: q̈ first, then τ (module docstring), each search from its start; x and
+    the two searches."""
     terms = problem.terms
     if terms is None:
         raise ValueError("formulation 'sequential' needs the model terms of the problem")
@@ -250,11 +287,11 @@ def _solve_sequential(problem: HierarchyProblem) -> tuple[np.ndarray, bool]:
         dynamic_levels.append(
             Level(level.A[~moving], level.b[~moving], level.C[~limiting], level.d[~limiting])
         )
-    motion = _searched(motion_levels, nv)  # step 1 (eq. 48)
+    motion = _searched(motion_levels, nv, starts[0])  # step 1 (eq. 48)
     qdd = motion.z
     change = torque_step(terms, qdd)
     levels = [change.eom] + [change.level(level) for level in dynamic_levels]
-    torque = _searched(levels, change.T.shape[1])  # step 2 (eqs. 49–51)
+    torque = _searched(levels, change.T.shape[1], starts[1])  # step 2 (eqs. 49–51)
     support = terms.Jc[np.flatnonzero(terms.support)]
     x = constrained_forward_dynamics(terms, torque.z, support @ qdd)
-    return x, motion.capped or torque.capped
+    return x, (motion, torque)

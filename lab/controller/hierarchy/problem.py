@@ -55,6 +55,10 @@ class HierarchyProblem:
     levels: list[Level] = field(default_factory=list)
     terms: DynamicsTerms | None = None
     formulation: str = "qdd_force"
+    # `nullspace`: the active rows to start each active-set search from (the last tick's
+    # `HierarchySolution.active_sets`); any start gives the same optimum, a close one in fewer
+    # solves. Ignored where the rows do not match.
+    active_start: tuple[list[np.ndarray], ...] = ()
 
     @property
     def nx(self) -> int:

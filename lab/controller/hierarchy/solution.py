@@ -29,8 +29,9 @@ class HierarchySolution:
     ‖A x − b‖ of each level's equality rows at x (in the rows' units, √weight included),
     `level_seconds` the time spent on each level (both kernels measure it),
     `qp_solves` how many QPs ran, `capped` whether the nullspace method's active-set search
-    stopped at its cap before its optimum, and `violations` the inequalities a method that does
-    not enforce them (wbosc, closed form) found violated at x, one line each.
+    stopped at its cap before its optimum, `active_sets` the active rows where each of its
+    searches stopped (to start the next tick's from), and `violations` the inequalities a method
+    that does not enforce them (wbosc, closed form) found violated at x, one line each.
     """
 
     x: np.ndarray
@@ -40,6 +41,7 @@ class HierarchySolution:
     level_seconds: tuple[float, ...] = ()
     capped: bool = False
     violations: tuple[str, ...] = ()
+    active_sets: tuple[list[np.ndarray], ...] = ()
 
     @property
     def fallback_levels(self) -> tuple[int, ...]:
