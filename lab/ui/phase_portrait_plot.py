@@ -6,7 +6,8 @@ telemetry's `stepping`. Shown while `biped_step` runs.
 uPlot needs its x values sorted, and a phase portrait's positions are not: each chart is drawn
 as points over the positions sorted, one series for the path and one for the prediction (NaN
 where the other has a point), with no lines between them. With those NaN gaps uPlot cannot
-range the velocity axis itself (`plot_range.py`): the chart is given its y range.
+range the velocity axis itself (`plot_range.py`): the chart is given its y range, and its x
+range the same way (uPlot's own spread a lateral path of 3 cm over 0.65 m).
 """
 
 import math
@@ -24,6 +25,7 @@ BUFFER_SAMPLES = 1024  # > PATH_S at 100 Hz telemetry
 AXES = (("forward", "x"), ("lateral", "y"))
 COLOURS = ("#d62728", "#1f77b4")  # path, prediction
 MIN_SPAN = 0.1  # m/s: the velocity axis spans at least this
+MIN_POSITION_SPAN = 0.05  # m: the position axis spans at least this
 
 
 def portrait_points(path: np.ndarray, prediction: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -50,6 +52,7 @@ class PhasePortrait:
         self.prediction = np.zeros((0, 2))
         self._handle: viser.GuiUplotHandle | None = None
         self._y_range: tuple[float, float] | None = None
+        self._x_range: tuple[float, float] | None = None
 
     def record(self, tel: dict) -> None:
         """Add one telemetry message's CoM state and keep its prediction."""
@@ -77,8 +80,9 @@ class PhasePortrait:
         _, x, v = self.path.arrays()
         data = portrait_points(np.column_stack((x, v)), self.prediction)
         shown = y_range(np.concatenate(data[1:]), self._y_range, MIN_SPAN)
+        shown_x = y_range(data[0], self._x_range, MIN_POSITION_SPAN)
         scales: dict[str, uplot.Scale] = {
-            "x": {"time": False},
+            "x": {"time": False, "auto": False, "range": shown_x},
             "y": {"auto": False, "range": shown},
         }
         if self._handle is None:
@@ -93,15 +97,15 @@ class PhasePortrait:
                 )
         else:
             self._handle.data = data
-            if shown != self._y_range:
+            if (shown, shown_x) != (self._y_range, self._x_range):
                 self._handle.scales = scales  # the chart is not rebuilt, its zoom stays
-        self._y_range = shown
+        self._y_range, self._x_range = shown, shown_x
 
     def _remove(self) -> None:
         if self._handle is not None:
             self._handle.remove()
             self._handle = None
-            self._y_range = None
+            self._y_range = self._x_range = None
 
 
 def _series(axis: int) -> tuple[uplot.Series, ...]:
