@@ -3,13 +3,14 @@
 The session runs in `SimLoop` exactly as in `lab serve --fast`, behind a transport that plays a
 random user instead of Zenoh: every ~COMMAND_INTERVAL_S of sim time it sends a valid command
 (velocity, gait, push, stack preset, hierarchy method, momentum mode, gains, scene, pause and
-resume), encodes everything the loop publishes as the server would, and watches telemetry. Times are
-sim time run so far (a reset restarts the session's clock, not the soak's). A fall is answered as
-a user would: `reset` after FALLEN_S (the robot stands up under the controller the random user
-left); if RESET_CHECK_S later it is still down, the default hierarchy method and scene and the
-page's "Default stack" (the `robot` command: the robot's default stack and gains); RESET_CHECK_S
-after that it must stand (else it is a fall it cannot reset from). The resident memory is
-sampled every MEMORY_SAMPLE_S of sim time; growth is measured from the end of the warm-up to the
+resume, the internal force's reference and source, and on a biped with flat soles a stance and
+its leg swing), encodes everything the loop publishes as the server would, and watches telemetry.
+Times are sim time run so far (a reset restarts the session's clock, not the soak's). A fall is
+answered as a user would: `reset` after FALLEN_S (the robot stands up under the controller the
+random user left); if RESET_CHECK_S later it is still down, the default hierarchy method and scene
+and the page's "Default stack" (the `robot` command: the robot's default stack and gains);
+RESET_CHECK_S after that it must stand (else it is a fall it cannot reset from). The resident memory
+is sampled every MEMORY_SAMPLE_S of sim time; growth is measured from the end of the warm-up to the
 end. docs/reliability.md has the numbers.
 """
 
@@ -24,7 +25,8 @@ import threading
 import time
 from dataclasses import asdict, dataclass, field
 
-from lab.protocol import LIMITS
+from lab.controller.tasks.internal_force import SENSED_SOURCES
+from lab.protocol import LIMITS, SWING_HZ_MAX
 from lab.server.loop import LoopConfig, SimLoop
 from lab.server.transport import Request, encode
 
@@ -48,7 +50,10 @@ VERB_WEIGHTS = {
     "gains": 1,
     "pause": 1,
     "scene": 0.1,
+    "internal_force": 0.5,
+    "stance": 0.5,  # drawn only for a robot with two flat soles (the others refuse it)
 }
+STANCE_SIDES = ("double", "left", "right")
 
 
 def _count(counts: dict[str, int], key: str) -> None:
@@ -102,9 +107,16 @@ class RandomUser:
     """The soak's transport: commands from a seeded random user, publications encoded and read."""
 
     def __init__(
-        self, info: dict, weight_n: float, standing_height: float, sim_seconds: float, seed: int
+        self,
+        info: dict,
+        weight_n: float,
+        standing_height: float,
+        sim_seconds: float,
+        seed: int,
+        flat_soles: bool = False,
     ) -> None:
         self.info = info
+        self.verbs = {v: w for v, w in VERB_WEIGHTS.items() if v != "stance" or flat_soles}
         self.weight_n = weight_n
         self.standing_height = standing_height
         self.end = sim_seconds
@@ -210,7 +222,7 @@ class RandomUser:
 
     def _random_commands(self) -> list[tuple[str, dict]]:
         r, info = self.random, self.info
-        verb = r.choices(list(VERB_WEIGHTS), weights=list(VERB_WEIGHTS.values()))[0]
+        verb = r.choices(list(self.verbs), weights=list(self.verbs.values()))[0]
         if verb == "velocity":
             limits = {k: r.uniform(-LIMITS[k], LIMITS[k]) / 2 for k in ("vx", "vy", "yaw_rate")}
             return [(verb, limits)]
@@ -225,6 +237,12 @@ class RandomUser:
             ]
         if verb == "pause":  # applied in one loop iteration: the sim time stops for one tick
             return [("pause", {}), ("resume", {})]
+        if verb == "internal_force":
+            reference = r.uniform(0.0, PUSH_MAX_FRACTION_OF_WEIGHT * self.weight_n)
+            return [(verb, {"reference": reference, "source": r.choice(SENSED_SOURCES)})]
+        if verb == "stance":
+            swing = r.choice((None, 0.0, r.uniform(0.0, SWING_HZ_MAX)))
+            return [(verb, {"side": r.choice(STANCE_SIDES), "swing": swing})]
         choices = {
             "gait": ("name", info["gaits"]),
             "stack": ("preset", info["stack_presets"]),
@@ -279,7 +297,9 @@ def soak(
 
     session = Session(SessionConfig(robot=robot))
     weight, height = session.model.mass * 9.81, float(session.robot.q_standing[2])
-    user = RandomUser(session.info(), weight, height, sim_seconds, seed)
+    contacts = session.model.contacts
+    flat_soles = len(contacts) == 2 and all(contact.kind == "flat" for contact in contacts)
+    user = RandomUser(session.info(), weight, height, sim_seconds, seed, flat_soles)
     user.progress = progress
     unknown = set(methods or ()) - set(user.info["methods"])
     if unknown:
