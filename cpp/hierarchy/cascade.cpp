@@ -16,7 +16,7 @@ namespace {
 // REGULARIZATION); a level that the solver wrongly calls infeasible is tried once more with the
 // larger one. Each proximal solve starts at the last one's optimum, until the level's A Z u
 // settles (cascade.py PROXIMAL_SOLVES, PROXIMAL_TOL): the term then vanishes.
-constexpr double kRegularization = 1e-8;
+constexpr double kRegularization = 1e-10;
 constexpr int kProximalSolves = 8;
 constexpr double kProximalTol = 1e-10;
 constexpr double kRetryRegularization = 1e-6;
