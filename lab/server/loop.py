@@ -115,7 +115,8 @@ class LogHistogram:
 
 class DeadlineStats:
     """Live statistics of the schedule: lateness of each tick start, work per iteration,
-    on-time ticks, overruns (work ended after the next deadline), skipped periods."""
+    on-time ticks, overruns (work ended after the next deadline), skipped periods, and which
+    late ticks were woken late (the tick before ended in time) rather than pushed by an overrun."""
 
     def __init__(self, period: float, realtime: bool, sched: str = "other") -> None:
         self.period = period
@@ -125,6 +126,8 @@ class DeadlineStats:
         self.on_time = 0
         self.overruns = 0
         self.skipped = 0
+        self.late_wakeups = 0
+        self._previous_overran = False
         self.lateness = LogHistogram()
         self.work = LogHistogram()
         self._percentiles: dict[str, dict[str, float]] = {}
@@ -132,7 +135,10 @@ class DeadlineStats:
 
     def record(self, lateness: float, work: float, overrun: bool) -> None:
         self.ticks += 1
-        self.on_time += lateness <= ON_TIME_TOLERANCE * self.period
+        on_time = lateness <= ON_TIME_TOLERANCE * self.period
+        self.on_time += on_time
+        self.late_wakeups += not on_time and not self._previous_overran
+        self._previous_overran = overrun
         self.overruns += overrun
         self.lateness.record(lateness)
         self.work.record(work)
@@ -160,6 +166,7 @@ class DeadlineStats:
             "on_time_fraction": self.on_time / self.ticks if self.ticks else 1.0,
             **self._percentiles,
             "overruns": self.overruns,
+            "late_wakeups": self.late_wakeups,
             "skipped": self.skipped,
         }
 
