@@ -34,7 +34,9 @@ def free_port() -> int:
 
 def start_server(args: argparse.Namespace, port: int, log) -> subprocess.Popen:
     cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(port), "--robot", args.robot]
-    cmd += ["--rate", str(args.rate)]
+    cmd += ["--rate", str(args.rate), "--sched", args.sched]
+    if args.spin_ms is not None:
+        cmd += ["--spin-ms", str(args.spin_ms)]
     if args.ui:
         cmd += ["--ui-port", str(free_port())]
     else:
@@ -127,7 +129,9 @@ def measure(
         "tick_rate_hz": round(ticks / elapsed, 1),
         "on_time_fraction": round(on_time / ticks, 6),
         "overruns": last["overruns"] - first["overruns"],
+        "late_wakeups": last["late_wakeups"] - first["late_wakeups"],
         "fifo": last["fifo"],
+        "sched": last["sched"],
         "since_start": {"lateness_us": last["lateness_us"], "tick_us": last["tick_us"]},
         "telemetry_hz_per_subscriber": [round(c / elapsed, 1) for c in received],
     }
@@ -141,6 +145,10 @@ def main() -> int:
     p.add_argument("--command-hz", type=float, default=50.0, help="commands per second")
     p.add_argument("--ui", action="store_true", help="also run the browser UI process")
     p.add_argument("--gait", help="walk in this gait (e.g. trot) instead of standing")
+    p.add_argument(
+        "--sched", default="auto", help="the server's --sched: auto, fifo or other (default: auto)"
+    )
+    p.add_argument("--spin-ms", type=float, help="the server's --spin-ms (default: its own)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
     port = free_port()
@@ -156,6 +164,7 @@ def main() -> int:
         result["rate_hz"] = args.rate
         result["ui"] = args.ui
         result["gait"] = args.gait
+        result["spin_ms"] = args.spin_ms
     if args.json:
         print(json.dumps(result))
         return 0
@@ -174,7 +183,8 @@ def main() -> int:
     since = result["since_start"]
     print(
         f"loop: {result['tick_rate_hz']} ticks/s, on-time {result['on_time_fraction']:.4%}, "
-        f"overruns {result['overruns']}, SCHED_FIFO {result['fifo']}; since start: lateness "
+        f"overruns {result['overruns']}, late wake-ups {result['late_wakeups']}, "
+        f"SCHED_{result['sched'].upper()}; since start: lateness "
         f"p50 {since['lateness_us']['p50']} us p99 {since['lateness_us']['p99']} us "
         f"max {since['lateness_us']['max']} us, tick p50 {since['tick_us']['p50']} us "
         f"p99 {since['tick_us']['p99']} us"

@@ -14,7 +14,9 @@ from lab.server.loop import (
     DEADMAN_RAMP_S,
     DEADMAN_TIMEOUT_S,
     EVENT_INTERVAL_S,
+    ON_TIME_TOLERANCE,
     STATS_INTERVAL_TICKS,
+    DeadlineStats,
     Deadman,
     EventThrottle,
     LogHistogram,
@@ -35,6 +37,18 @@ def test_deadman_holds_then_ramps_linearly_to_zero() -> None:
     end = deadman.update(10.0 + DEADMAN_TIMEOUT_S + DEADMAN_RAMP_S + 1e-3)
     assert end == VelocityCommand(0.0, 0.0, 0.0)
     assert deadman.update(20.0) is None  # stopped: nothing more to send
+
+
+def test_late_ticks_are_told_apart_by_whether_the_tick_before_overran() -> None:
+    """A late tick after a tick that ended in time is a late wake-up; after an overrun, not."""
+    stats = DeadlineStats(period=1e-3, realtime=True)
+    late = 2 * ON_TIME_TOLERANCE * 1e-3
+    ticks = [(0.0, False), (late, False), (0.0, True), (late, True), (late, False)]
+    for lateness, overrun in ticks:
+        stats.record(lateness, work=5e-4, overrun=overrun)
+    snapshot = stats.snapshot()
+    assert snapshot["on_time_fraction"] == pytest.approx(2 / 5)
+    assert snapshot["late_wakeups"] == 1 and snapshot["overruns"] == 2
 
 
 def test_deadman_refresh_restarts_the_timeout() -> None:

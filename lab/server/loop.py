@@ -34,7 +34,9 @@ FIFO_PRIORITY = 50
 SCHED_CHOICES = ("auto", "fifo", "other")
 # `auto` takes SCHED_FIFO only with this many CPUs to run on. On a 2-core machine a 1 kHz FIFO
 # loop left the UI process and a local browser so little that a click took up to 4 s to reach
-# the sim (issue 16); with 4 or more, one core for the loop leaves enough for the rest.
+# the sim (issue 16); with 4 or more, one core for the loop leaves enough for the rest. Round 8
+# measured FIFO on 2 cores again (docs/performance.md, "The 1 kHz loop: scheduling"): far more
+# ticks on time than SCHED_OTHER under load and no 4 s clicks, but short of 99.9 %: kept for now.
 AUTO_FIFO_MIN_CPUS = 4
 _PR_SET_TIMERSLACK = 29
 
@@ -115,7 +117,8 @@ class LogHistogram:
 
 class DeadlineStats:
     """Live statistics of the schedule: lateness of each tick start, work per iteration,
-    on-time ticks, overruns (work ended after the next deadline), skipped periods."""
+    on-time ticks, overruns (work ended after the next deadline), skipped periods, and which
+    late ticks were woken late (the tick before ended in time) rather than pushed by an overrun."""
 
     def __init__(self, period: float, realtime: bool, sched: str = "other") -> None:
         self.period = period
@@ -125,6 +128,8 @@ class DeadlineStats:
         self.on_time = 0
         self.overruns = 0
         self.skipped = 0
+        self.late_wakeups = 0
+        self._previous_overran = False
         self.lateness = LogHistogram()
         self.work = LogHistogram()
         self._percentiles: dict[str, dict[str, float]] = {}
@@ -132,7 +137,10 @@ class DeadlineStats:
 
     def record(self, lateness: float, work: float, overrun: bool) -> None:
         self.ticks += 1
-        self.on_time += lateness <= ON_TIME_TOLERANCE * self.period
+        on_time = lateness <= ON_TIME_TOLERANCE * self.period
+        self.on_time += on_time
+        self.late_wakeups += not on_time and not self._previous_overran
+        self._previous_overran = overrun
         self.overruns += overrun
         self.lateness.record(lateness)
         self.work.record(work)
@@ -160,6 +168,7 @@ class DeadlineStats:
             "on_time_fraction": self.on_time / self.ticks if self.ticks else 1.0,
             **self._percentiles,
             "overruns": self.overruns,
+            "late_wakeups": self.late_wakeups,
             "skipped": self.skipped,
         }
 

@@ -82,6 +82,13 @@ def build_parser() -> argparse.ArgumentParser:
         f"(default) is fifo with {AUTO_FIFO_MIN_CPUS} or more CPUs, else other (a FIFO loop on "
         "fewer starves the UI and a local browser)",
     )
+    p.add_argument(
+        "--spin-ms",
+        type=float,
+        default=LoopConfig.spin_s * 1e3,
+        help="ms before each deadline the loop yields instead of sleeping "
+        f"(default: {LoopConfig.spin_s * 1e3:g})",
+    )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
     p.add_argument("--headless", action="store_true", help="do not start the browser UI")
@@ -93,6 +100,9 @@ def serve_main(argv: list[str]) -> int:
     args = build_parser().parse_args(argv)
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
+        return 2
+    if not 0 <= args.spin_ms < 1e3 / args.rate:
+        print("lab serve: --spin-ms must be >= 0 and shorter than the period", file=sys.stderr)
         return 2
     lab_id = args.lab_id or default_lab_id(args.robot)
     try:
@@ -150,6 +160,7 @@ def serve_main(argv: list[str]) -> int:
             rate_hz=args.rate,
             fast=args.fast,
             sched=args.sched,
+            spin_s=args.spin_ms * 1e-3,
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
