@@ -37,10 +37,9 @@ The same problem on both sides:
   comparison uses the wrench G f and reports which rows bind on each side. Every task weight
   is 1000× the robot's on both sides for Talos (`WEIGHT_SCALE`): the same optimum, with the
   regularizations' share of it 1000× smaller (it falls as 1/scale: 1.3e-5 → 1.3e-8 on F).
-- The CoM rows: the lab's lack the drift J̇_com v (its model update reads data.acom after
-  pinocchio's computeAllTerms, which leaves it at zero), TSID's have it. The check gives TSID a
-  CoM reference acceleration equal to that drift, so that it solves the lab's problem, and also
-  prints the difference against TSID's own rows.
+- The CoM rows: both sides have the drift J̇_com v. (This bench found that the lab's did not:
+  its model update read data.acom after pinocchio's computeAllTerms, which leaves it at zero;
+  fixed on 2026-12-02 in both kernels.)
 - Timed per tick on both sides from Python, cycling through the states: TSID's three
   setReference, computeProblemData, solve and getActuatorForces; ours the references, the
   NativeController's update and solve (τ included), and the kernel's own time inside that.
@@ -418,22 +417,13 @@ class TsidProblem:
         self.states = [self._state(s) for s in spec["states"]]
 
     def _state(self, s: dict) -> tuple:
-        """(q, v, CoM samples (TSID's own, the lab's problem), base sample, posture sample) of
-        one recorded state. The lab's CoM rows lack the drift J̇_com v (its model update reads
-        data.acom after computeAllTerms, which leaves it at zero; TSID calls centerOfMass(q, v,
-        0) for it): a reference acceleration equal to that drift cancels it in TSID's rows."""
+        """(q, v, CoM sample, base sample, posture sample) of one recorded state."""
         tsid, pin = self.tsid, self.pin
         q, v = np.array(s["q"]), np.array(s["v"])
-        model = self.robot.model()
-        data = model.createData()
-        pin.centerOfMass(model, data, q, v, np.zeros(model.nv))
-        coms = []
-        for acceleration in (np.zeros(3), data.acom[0].copy()):
-            com = tsid.TrajectorySample(3)
-            com.value(np.array(s["com"]))
-            com.derivative(np.array(s["com_velocity"]))
-            com.second_derivative(acceleration)
-            coms.append(com)
+        com = tsid.TrajectorySample(3)
+        com.value(np.array(s["com"]))
+        com.derivative(np.array(s["com_velocity"]))
+        com.second_derivative(np.zeros(3))
         base = tsid.TrajectorySample(12, 6)
         base.value(tsid.SE3ToVector(pin.SE3(np.array(s["base_rotation"]), np.zeros(3))))
         base.derivative(np.r_[np.zeros(3), s["base_angular_velocity"]])
@@ -442,13 +432,12 @@ class TsidProblem:
         posture.value(np.array(s["posture"]))
         posture.derivative(np.zeros(self.na))
         posture.second_derivative(np.zeros(self.na))
-        return q, v, coms, base, posture
+        return q, v, com, base, posture
 
-    def tick(self, i: int, lab_problem: bool = True) -> object:
-        """One tick at state i: references, problem data, solve; returns the solution.
-        `lab_problem`: the CoM rows as the lab's (see `_state`), else TSID's own."""
-        q, v, coms, base, posture = self.states[i]
-        self.com.setReference(coms[lab_problem])
+    def tick(self, i: int) -> object:
+        """One tick at state i: references, problem data, solve; returns the solution."""
+        q, v, com, base, posture = self.states[i]
+        self.com.setReference(com)
         self.base.setReference(base)
         self.posture.setReference(posture)
         hqp = self.formulation.computeProblemData(0.0, q, v)
@@ -456,10 +445,10 @@ class TsidProblem:
         self.formulation.getActuatorForces(solution)
         return solution
 
-    def answer(self, i: int, lab_problem: bool) -> dict:
+    def answer(self, i: int) -> dict:
         """q̈, F in the lab's layout (point: world force; sole: wrench G f in the sole frame), τ,
         and how many of TSID's friction rows bind."""
-        solution = self.tick(i, lab_problem)
+        solution = self.tick(i)
         if solution.status != 0:
             return {"error": f"TSID's QP failed at state {i} (status {solution.status})"}
         forces, binding = [], 0
@@ -503,7 +492,7 @@ def worker() -> int:
             problem = problems[request["robot"]] = TsidProblem(spec, request["solver"])
             reply: object = {"model_error": problem.model_error}
         elif verb == "answer":
-            reply = problems[request["robot"]].answer(request["state"], request["lab_problem"])
+            reply = problems[request["robot"]].answer(request["state"])
         else:  # time
             reply = problems[request["robot"]].time(request["ticks"])
         print(json.dumps(reply), flush=True)
@@ -567,19 +556,15 @@ def bench_robot(worker_: Worker, robot: str, args: argparse.Namespace, tmp: Path
             f"{setup['model_error']:.1e})"
         )
     worst = {"qdd": 0.0, "forces": 0.0, "tau": 0.0}
-    raw = dict(worst)  # against TSID's own CoM rows (with the drift the lab leaves out)
     binding = []
     for i, (q, v, refs) in enumerate(states):
         ours = our_answer(controller, q, v, refs)
-        answers = []
-        for lab_problem, worst_ in ((True, worst), (False, raw)):
-            theirs = worker_.ask(verb="answer", robot=robot, state=i, lab_problem=lab_problem)
-            if "error" in theirs:
-                raise SystemExit(f"bench_tsid: {robot}: {theirs['error']}")
-            for key, error in compare(ours, theirs).items():
-                worst_[key] = max(worst_[key], error)
-            answers.append(theirs)
-        binding.append((ours["binding"], answers[0]["binding"]))
+        theirs = worker_.ask(verb="answer", robot=robot, state=i)
+        if "error" in theirs:
+            raise SystemExit(f"bench_tsid: {robot}: {theirs['error']}")
+        for key, error in compare(ours, theirs).items():
+            worst[key] = max(worst[key], error)
+        binding.append((ours["binding"], theirs["binding"]))
     ours_us, inside_us, tsid_us = [], [], []
     for _ in range(args.blocks):  # alternate, so the load falls on both alike
         tsid_us.append(np.array(worker_.ask(verb="time", robot=robot, ticks=args.ticks)))
@@ -590,7 +575,6 @@ def bench_robot(worker_: Worker, robot: str, args: argparse.Namespace, tmp: Path
         "robot": robot,
         "states": len(states),
         "worst": worst,
-        "raw": raw,
         "binding": binding,
         "ours": np.concatenate(ours_us),
         "inside": np.concatenate(inside_us),
@@ -647,11 +631,6 @@ def main(argv: list[str] | None = None) -> int:
             f"states: q̈ {worst['qdd']:.1e}  F {worst['forces']:.1e}  τ {worst['tau']:.1e} "
             f"({'within' if agree else 'OUTSIDE'} {AGREEMENT:.0e}·(1+|x|))   binding rows "
             f"ours/TSID per state: {row['binding']}"
-        )
-        raw = row["raw"]
-        print(
-            f"{row['robot']:7} against TSID's own CoM rows (with J̇_com v): q̈ {raw['qdd']:.1e}  "
-            f"F {raw['forces']:.1e}  τ {raw['tau']:.1e}"
         )
     return 1 if failed else 0
 
