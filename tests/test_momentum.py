@@ -153,10 +153,35 @@ def test_talos_balances_a_herzog_push_under_table_2(mode: str) -> None:
 def test_the_momentum_law_is_chosen_live_and_a_bad_one_changes_nothing() -> None:
     session = Session(SessionConfig(robot="talos"))
     assert session.info()["momentum_modes"] == ["pd", "lqr", "lqr_talos"]
-    assert session.handle("momentum", {"mode": "pd"}) == {"ok": True, "momentum": {"mode": "pd"}}
+    reply = session.handle("momentum", {"mode": "pd"})
+    assert reply == {"ok": True, "momentum": {"mode": "pd", "gain": None}}  # not in the stack
     reply = session.handle("momentum", {"mode": "pid"})
     assert not reply["ok"] and "pid" in reply["error"] and "lqr" in reply["error"]
     assert session.telemetry()["momentum_control"] == {"mode": "pd"}
+
+
+def test_the_gain_shown_is_the_one_the_task_applies() -> None:
+    """`info` and the `momentum` reply carry K_h at the current contacts (the UI shows it):
+    PD's diagonal blocks are m·kp, m·kd (eq. 22); LQR's is what the task applies once a tick has
+    run; none while the stack has no momentum task."""
+    session = Session(SessionConfig(robot="talos"))
+    assert session.info()["momentum"]["gain"] is None  # the default stack has no momentum task
+    assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
+    mass = session.model.mass
+    task = session.controller.tasks["momentum"]
+    pd = session.handle("momentum", {"mode": "pd"})["momentum"]["gain"]
+    expected = np.zeros((6, 9))
+    expected[:3, :3] = mass * task.gains.kp * np.eye(3)  # eq. 22: ṗ = −m kp Δc − kd Δp
+    expected[:3, 3:6] = task.gains.kd * np.eye(3)
+    expected[3:, 6:] = task.gains.kd * np.eye(3)
+    np.testing.assert_allclose(pd, expected, rtol=1e-3)
+    lqr = session.handle("momentum", {"mode": "lqr"})["momentum"]["gain"]
+    for _ in range(3):
+        session.tick()
+    applied = task.gain(session.model, session.controller.references)
+    np.testing.assert_allclose(lqr, applied, rtol=1e-3, atol=1e-9)
+    assert session.info()["momentum"] == {"mode": "lqr", "gain": lqr}
+    assert not np.allclose(lqr, pd, rtol=0.1)  # the two laws differ, so the check above can fail
 
 
 def test_a_sole_holds_no_more_yaw_torque_than_its_torsional_friction() -> None:

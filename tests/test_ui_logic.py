@@ -12,6 +12,7 @@ from lab.description import ROBOT_NAMES, load_description
 from lab.protocol import VelocityCommand
 from lab.robot import build_robot
 from lab.ui import stack_edit as se
+from lab.ui.balance_controls import GAIN_ERRORS, GAIN_RATES, gain_markdown
 from lab.ui.camera import followed, recentred
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
@@ -552,3 +553,14 @@ def test_the_plots_forget_a_lab_left_behind(viser_server) -> None:
         plots.record(message(t, 80.0))
     plots.draw()
     assert qp.shown[0].tolist() == [7.0, 7.01] and qp.shown[1].tolist() == [80.0, 80.0]
+
+
+def test_the_momentum_gain_is_shown_as_a_table_row_per_error() -> None:
+    gain = [[0.0] * len(GAIN_ERRORS) for _ in GAIN_RATES]
+    gain[0][0], gain[1][3], gain[4][0] = 1270.0, 7.46, 1e-4  # ṗx←cx, ṗy←px, k̇y←cx (negligible)
+    lines = gain_markdown(gain).splitlines()
+    assert len(lines) == 2 + len(GAIN_ERRORS)  # header, rule, a row per error
+    cells = [[c.strip() for c in line.split("|")[1:-1]] for line in lines[2:]]
+    assert cells[0] == ["cx", "1270", "·", "·", "·", "·", "·"]
+    assert cells[3] == ["px", "·", "7.46", "·", "·", "·", "·"]
+    assert "no `momentum` task" in gain_markdown(None)

@@ -302,6 +302,13 @@ class WholeBodyController:
         """The momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
         return self.tasks["momentum"].mode
 
+    def momentum_gain(self) -> np.ndarray | None:
+        """K_h (6 × 9) the momentum task applies at the current contact configuration (Herzog eq.
+        22 or 24), None while the task is not in the stack."""
+        if "momentum" not in self.config.stack.names():
+            return None
+        return self.tasks["momentum"].target_gain(self.robot, self.references)
+
     def set_momentum_mode(self, mode: str) -> None:
         """Switch the momentum task's feedback law; raises ValueError naming the modes."""
         self.tasks["momentum"].set_mode(mode)

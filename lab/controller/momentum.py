@@ -127,11 +127,17 @@ class GainSchedule:
     _key: bytes = b""
     _ticks: int = 0
 
-    def gain(self, key: bytes, design: Callable[[], np.ndarray]) -> np.ndarray:
-        """This tick's K_h for configuration `key`; `design()` computes it the first time."""
+    def target(self, key: bytes, design: Callable[[], np.ndarray]) -> np.ndarray:
+        """K_h of configuration `key`, the one the interpolation ends at; `design()` computes it
+        the first time."""
         target = self._gains.get(key)
         if target is None:
             target = self._gains[key] = design()
+        return target
+
+    def gain(self, key: bytes, design: Callable[[], np.ndarray]) -> np.ndarray:
+        """This tick's K_h for configuration `key`; `design()` computes it the first time."""
+        target = self.target(key, design)
         if key != self._key:
             self._previous = self._current if self._current is not None else target
             self._key, self._ticks = key, 0

@@ -34,6 +34,7 @@ from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
     internal_force_report,
+    momentum_gain_report,
     momentum_report,
     state_message,
     task_gains_report,
@@ -434,7 +435,8 @@ class Session:
                 return {"internal_force": internal_force_report(self.controller)}
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
-                return {"momentum": momentum_report(self.controller)}
+                gain = momentum_gain_report(self.controller)
+                return {"momentum": {**momentum_report(self.controller), "gain": gain}}
             case cmd.StanceCommand(side=side, swing=swing):
                 return self._stance(side, swing)
         return {}
@@ -503,7 +505,10 @@ class Session:
             "robot": self.config.robot,
             "scene": self.config.scene,
             "gait": self.behaviour.name,
-            "momentum": momentum_report(self.controller),
+            "momentum": {
+                **momentum_report(self.controller),
+                "gain": momentum_gain_report(self.controller),
+            },
             "hierarchy": hierarchy_report(self.controller),
             "kernel": self.controller.config.kernel,
             "stack": self.controller.config.stack.as_lists(),

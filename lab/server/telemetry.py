@@ -123,6 +123,15 @@ def momentum_report(controller: NativeController) -> dict:
     return {"mode": controller.momentum_mode()}
 
 
+def momentum_gain_report(controller: NativeController) -> list[list[float]] | None:
+    """The momentum task's K_h at the current contact configuration, rows ḣ (linear, angular),
+    columns [Δc; Δh_lin; Δh_ang], to 4 significant digits; None while the task is not in the
+    stack. For `info` and the `momentum` reply, not telemetry (an LQR design is a Riccati solve
+    the first time a configuration is seen)."""
+    gain = controller.momentum_gain()
+    return None if gain is None else [[float(f"{k:.4g}") for k in row] for row in gain]
+
+
 def gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
     """kp, kd and weight of a task, None for those it does not read."""
     return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}

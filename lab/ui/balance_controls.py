@@ -1,6 +1,7 @@
 """The panel's "Balance" folder (Herzog 2016): the momentum law (PD or LQR) and the stance
 (both soles, or one lifted), for a biped with flat feet. Both send their command and show the
-reply; the server refuses them for other robots, naming why.
+reply (a momentum law's gain matrix K_h at the current contacts); the server refuses them for
+other robots, naming why.
 """
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
+import numpy as np
 import viser
 
 MOMENTUM_LABELS = {"PD": "pd", "LQR": "lqr", "LQR Talos": "lqr_talos"}
@@ -25,6 +27,34 @@ class CommandHost(Protocol):
         """Send a command for `client` (None when it does not hold control)."""
 
 
+GAIN_RATES = ("ṗx", "ṗy", "ṗz", "k̇x", "k̇y", "k̇z")  # rates of linear, angular momentum
+GAIN_ERRORS = ("cx", "cy", "cz", "px", "py", "pz", "kx", "ky", "kz")  # Δc, Δh_lin, Δh_ang
+NEGLIGIBLE = 1e-3  # of the largest gain: shown as "·"
+
+
+def _gain_text(k: float, largest: float) -> str:
+    if abs(k) < NEGLIGIBLE * largest:
+        return "·"
+    return f"{k:.0f}" if abs(k) >= 100 else f"{k:.3g}"
+
+
+def gain_markdown(gain: list[list[float]] | None) -> str:
+    """K_h (ḣ_des = −K_h s, Herzog eqs. 22, 24) as a markdown table that fits the panel: a row
+    per error (the CoG and the momentum errors), a column per momentum rate, gains below
+    NEGLIGIBLE of the largest as "·"; a line saying why when there is none."""
+    if gain is None:
+        return "K_h: no `momentum` task in the stack (Herzog's presets have it)"
+    K = np.asarray(gain, dtype=float)
+    largest = float(np.abs(K).max()) if K.size else 0.0
+    header = "| K_h | " + " | ".join(GAIN_RATES) + " |"
+    rule = "|" + " --- |" * (len(GAIN_RATES) + 1)
+    rows = [
+        f"| {name} | " + " | ".join(_gain_text(k, largest) for k in column) + " |"
+        for name, column in zip(GAIN_ERRORS, K.T, strict=True)
+    ]
+    return "\n".join([header, rule, *rows])
+
+
 def add_balance_controls(app: CommandHost, client: viser.ClientHandle, order: int) -> list:
     """Add the folder to `client`'s panel; returns its controls (greyed out while read-only)."""
     gui = client.gui
@@ -38,6 +68,8 @@ def add_balance_controls(app: CommandHost, client: viser.ClientHandle, order: in
         reply = app.send(client, verb, payload)
         if reply is not None and reply.get("ok"):
             note.content = f"{verb}: {next(iter(payload.values()))}"
+            if verb == "momentum":
+                note.content += "\n\n" + gain_markdown(reply["momentum"].get("gain"))
 
     momentum.on_click(
         app.guard(lambda e: send("momentum", {"mode": MOMENTUM_LABELS[e.target.value]}))

@@ -48,11 +48,18 @@ class MomentumTask(Task):
         if self.mode == "pd":
             return pd_gain(robot.mass, self.gains.kp, self.gains.kd)
         active = refs.contact_active
+        return self.schedule.gain(active.tobytes(), lambda: self._design(robot, active))
 
-        def design() -> np.ndarray:
-            return lqr_design(robot, active, self.cost).momentum_gain
+    def target_gain(self, robot: RobotModel, refs: References) -> np.ndarray:
+        """K_h (6 × 9) of the current contact configuration, without a tick: what `gain` gives
+        once a contact switch's interpolation is over (the UI shows it)."""
+        if self.mode == "pd":
+            return pd_gain(robot.mass, self.gains.kp, self.gains.kd)
+        active = refs.contact_active
+        return self.schedule.target(active.tobytes(), lambda: self._design(robot, active))
 
-        return self.schedule.gain(active.tobytes(), design)
+    def _design(self, robot: RobotModel, active: np.ndarray) -> np.ndarray:
+        return lqr_design(robot, active, self.cost).momentum_gain
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         h = robot.centroidal_momentum()
