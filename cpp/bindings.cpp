@@ -110,6 +110,13 @@ class ReferenceReader {
     nb::object empty = nb::module_::import_("numpy").attr("zeros")(0);
     empty_ = nb::cast<Doubles>(empty);
     empty_owner_ = empty;
+    // The names as interned Python strings: a lookup by C string builds the str every time.
+    const auto interned = [](const char* name) {
+      return nb::steal(PyUnicode_InternFromString(name));
+    };
+    for (std::size_t i = 0; i < kArrayFields; ++i) names_[i] = interned(kNames[i]);
+    active_name_ = interned("contact_active");
+    height_name_ = interned("base_height");
   }
 
   void read(lab::Kernel& k, nb::handle refs) {
@@ -124,14 +131,14 @@ class ReferenceReader {
         seen_[i] = nb::object();
         continue;
       }
-      nb::object value = refs.attr(kNames[i]);
+      nb::object value = refs.attr(names_[i]);
       if (seen_[i].is_valid() && value.is(seen_[i])) continue;  // the same array as last tick
       arrays_[i] = import<Doubles>(value, kNames[i], seen_[i]);
     }
-    nb::object active = refs.attr("contact_active");
+    nb::object active = refs.attr(active_name_);
     if (!(active_seen_.is_valid() && active.is(active_seen_)))
       active_ = import<Flags>(active, "contact_active", active_seen_);
-    const double base_height = nb::cast<double>(refs.attr("base_height"));
+    const double base_height = nb::cast<double>(refs.attr(height_name_));
     assign_references(k, arrays_, base_height, active_);
   }
 
@@ -160,6 +167,8 @@ class ReferenceReader {
   bool walking_ = false;
   Doubles empty_;
   nb::object empty_owner_;
+  std::array<nb::object, kArrayFields> names_;
+  nb::object active_name_, height_name_;
 };
 
 nb::dict problem_dict(const lab::HierarchyProblem& problem) {
@@ -256,25 +265,6 @@ ReferenceReader& reference_reader(lab::Kernel& k) {
   return *static_cast<ReferenceReader*>(k.binding_state.get());
 }
 
-/// (ok, message, statuses, residuals, qp_solves, errors, level_seconds) as plain Python objects.
-nb::tuple solution_tuple(const lab::Kernel& kernel, const lab::HierarchySolution& solution) {
-  const auto as_tuple = [](const auto& values, auto&& item) {
-    nb::tuple out = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(values.size())));
-    for (std::size_t i = 0; i < values.size(); ++i)
-      PyTuple_SET_ITEM(out.ptr(), static_cast<Py_ssize_t>(i), item(values[i]));
-    return out;
-  };
-  const auto status = [](lab::LevelStatus s) {
-    return PyUnicode_InternFromString(lab::level_status_name(s));
-  };
-  nb::dict errors;
-  kernel.visit_task_errors(
-      [&](const std::string& name, double error) { errors[name.c_str()] = error; });
-  return nb::make_tuple(solution.ok, solution.message, as_tuple(solution.levels, status),
-                        as_tuple(solution.residuals, PyFloat_FromDouble), solution.qp_solves,
-                        errors, as_tuple(solution.level_seconds, PyFloat_FromDouble));
-}
-
 nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
   const auto& solution = result.solution;
   nb::list statuses;
@@ -285,6 +275,39 @@ nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
                         Eigen::VectorXd(result.forces), solution.ok, solution.message, statuses,
                         solution.residuals, solution.qp_solves, errors, solution.level_seconds);
 }
+
+/// What a native tick reports besides τ and x, copied out of the kernel so that it stays that
+/// tick's after the next one: NativeOutput (native.py) builds its HierarchySolution and task
+/// errors from it only when they are read (telemetry reads them at 100 Hz, the loop runs at 1 kHz).
+struct TickOutcome {
+  bool ok = false;
+  std::string message;
+  std::vector<lab::LevelStatus> levels;
+  std::vector<double> residuals, level_seconds;
+  int qp_solves = 0;
+  std::vector<std::pair<std::string, double>> task_errors;
+
+  TickOutcome(const lab::Kernel& kernel, const lab::HierarchySolution& solution)
+      : ok(solution.ok),
+        message(solution.message),
+        levels(solution.levels),
+        residuals(solution.residuals),
+        level_seconds(solution.level_seconds),
+        qp_solves(solution.qp_solves) {
+    kernel.visit_task_errors(
+        [&](const std::string& name, double error) { task_errors.emplace_back(name, error); });
+  }
+};
+
+template <typename Values, typename Item>
+nb::tuple tuple_of(const Values& values, Item&& item) {
+  nb::tuple out = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(values.size())));
+  for (std::size_t i = 0; i < values.size(); ++i)
+    PyTuple_SET_ITEM(out.ptr(), static_cast<Py_ssize_t>(i), item(values[i]));
+  return out;
+}
+
+using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 }  // namespace
 
@@ -310,6 +333,41 @@ NB_MODULE(_kernel, m) {
   lab::bind_hierarchy(m);
 #endif
   lab::bind_behaviours(m);
+
+  nb::class_<TickOutcome>(m, "TickOutcome",
+                          "What a tick_into reported besides τ and x (a copy: it stays the "
+                          "tick's own).")
+      .def_ro("ok", &TickOutcome::ok)
+      .def_ro("message", &TickOutcome::message)
+      .def_ro("qp_solves", &TickOutcome::qp_solves)
+      .def_prop_ro("levels",
+                   [](const TickOutcome& o) {
+                     return tuple_of(o.levels, [](lab::LevelStatus s) {
+                       return PyUnicode_InternFromString(lab::level_status_name(s));
+                     });
+                   })
+      .def_prop_ro("residuals",
+                   [](const TickOutcome& o) { return tuple_of(o.residuals, PyFloat_FromDouble); })
+      .def_prop_ro(
+          "level_seconds",
+          [](const TickOutcome& o) { return tuple_of(o.level_seconds, PyFloat_FromDouble); })
+      .def_prop_ro(
+          "fallback_levels",
+          [](const TickOutcome& o) {
+            std::vector<long> kept;
+            for (std::size_t i = 0; i < o.levels.size(); ++i)
+              if (o.levels[i] == lab::LevelStatus::kept_above) kept.push_back(static_cast<long>(i));
+            return tuple_of(kept, PyLong_FromLong);
+          },
+          "Indices of the levels whose QP failed (they kept the solution of the levels above).")
+      .def_prop_ro(
+          "task_errors",
+          [](const TickOutcome& o) {
+            nb::dict errors;
+            for (const auto& [name, error] : o.task_errors) errors[name.c_str()] = error;
+            return errors;
+          },
+          "Norm of each stacked task's tracking error, by name.");
 
   nb::class_<lab::Kernel>(m, "Kernel")
       .def(
@@ -405,28 +463,38 @@ NB_MODULE(_kernel, m) {
           },
           "Rows, method and torques at the state of the last update; the same tuple as tick.")
       .def(
-          "solve_into",
-          [](lab::Kernel& k, nb::handle refs, OutVector tau, OutVector x) {
-            reference_reader(k).read(k, refs);
+          "tick_into",
+          [](lab::Kernel& k, nb::handle refs, OutVector tau, OutVector x, std::optional<InVector> q,
+             std::optional<InVector> v) {
             const auto& robot = k.robot();
             if (tau.size() != static_cast<std::size_t>(robot.na) ||
                 x.size() != static_cast<std::size_t>(robot.nx))
-              throw std::invalid_argument("solve_into: tau needs na entries and x nx");
+              throw std::invalid_argument("tick_into: tau needs na entries and x nx");
+            if (q.has_value() != v.has_value())
+              throw std::invalid_argument("tick_into: give both q and v, or neither");
+            // References first: bad ones raise before the update changes anything.
+            reference_reader(k).read(k, refs);
+            if (q)
+              k.update(Eigen::Map<const Eigen::VectorXd>(q->data(), q->shape(0)),
+                       Eigen::Map<const Eigen::VectorXd>(v->data(), v->shape(0)));
             // The GIL stays held: releasing it for a solve of tens of µs lets another thread
             // take it, and the loop's tick then waits for it to come back.
-            const lab::TickResult* result = &k.solve();
-            const auto& solution = result->solution;
-            if (solution.ok) {
-              Eigen::Map<Eigen::VectorXd>(tau.data(), robot.na) = result->tau;
-              Eigen::Map<Eigen::VectorXd>(x.data(), robot.nx) = solution.x;
+            const lab::TickResult& result = k.solve();
+            TickOutcome outcome(k, result.solution);
+            if (outcome.ok && !result.tau.allFinite()) {
+              outcome.ok = false;
+              outcome.message = "non-finite torques";
             }
-            return solution_tuple(k, solution);
+            if (outcome.ok) {
+              Eigen::Map<Eigen::VectorXd>(tau.data(), robot.na) = result.tau;
+              Eigen::Map<Eigen::VectorXd>(x.data(), robot.nx) = result.solution.x;
+            }
+            return outcome;
           },
-          "refs"_a, "tau"_a, "x"_a,
-          "One crossing per tick: read the References object `refs`, solve at the state of the "
-          "last update, write τ and x = [q̈, F] into the given float64 arrays (when ok) and "
-          "return (ok, message, level statuses, level residuals, qp solves, task errors, level "
-          "seconds).")
+          "refs"_a, "tau"_a, "x"_a, "q"_a = nb::none(), "v"_a = nb::none(),
+          "One crossing per tick: read the References object `refs`, update the model at (q, v) "
+          "when given (else solve at the last update's state), solve, write τ and x = [q̈, F] "
+          "into the given float64 arrays (when ok: finite τ) and return the TickOutcome.")
       .def_prop_ro(
           "seconds",
           [](const lab::Kernel& k) {

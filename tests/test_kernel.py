@@ -260,10 +260,11 @@ def test_bad_input_raises_a_clear_error_and_changes_nothing() -> None:
     assert A.shape == (robot.model.nv - 6, kernel.nx) and np.all(np.isfinite(b))
 
 
-def test_solve_into_reads_the_references_object_changed_in_place_or_replaced() -> None:
+def test_tick_into_reads_the_references_object_changed_in_place_or_replaced() -> None:
     """NativeController's one crossing per tick: the kernel reads the References object itself,
     sees an array the behaviour changed in place or replaced, and writes the τ and x the tuple
-    API returns for the same references; bad references raise and change nothing."""
+    API returns for the same references (with the model update in the same call or before it);
+    bad references raise and change nothing, not even the model's state."""
     controller, robot = controller_for("anymal")
     model = controller.robot
     kernel = kernel_of(controller)
@@ -284,22 +285,29 @@ def test_solve_into_reads_the_references_object_changed_in_place_or_replaced() -
             elif change == "replaced":
                 refs.com = refs.com - 0.03
                 refs.base_height += 0.01
-            ok, message, levels, residuals, _, errors, _ = kernel.solve_into(refs, tau, x)
+            state = (q, v) if change == "in place" else (None, None)  # the update in the call
+            outcome = kernel.tick_into(refs, tau, x, *state)
             send_references(kernel, refs)
             want_tau, want_qdd, want_forces, want_ok, *_ = kernel.solve()
             what = f"{type(refs).__name__} {change}"
-            assert ok and want_ok, f"{what}: {message}"
+            assert outcome.ok and want_ok, f"{what}: {outcome.message}"
             np.testing.assert_array_equal(tau, want_tau, err_msg=what)
             np.testing.assert_array_equal(x, np.r_[want_qdd, want_forces], err_msg=what)
+            levels, residuals = outcome.levels, outcome.residuals
             assert isinstance(levels, tuple) and len(levels) == len(residuals), what
-            assert set(errors) <= set(controller.config.stack.names()), what
+            assert outcome.fallback_levels == (), what
+            assert set(outcome.task_errors) <= set(controller.config.stack.names()), what
+    assert kernel.tick_into(walking, tau, x).ok
+    before = tau.copy()
     bad = copy.deepcopy(walking)
     bad.posture = np.zeros(3)
-    before = tau.copy()
     with pytest.raises(ValueError, match="posture has 3 entries"):
-        kernel.solve_into(bad, tau, x)
+        kernel.tick_into(bad, tau, x, *random_state(robot, rng))
     np.testing.assert_array_equal(tau, before)
-    assert kernel.solve_into(walking, tau, x)[0]
+    with pytest.raises(ValueError, match="both q and v"):
+        kernel.tick_into(walking, tau, x, q)
+    assert kernel.tick_into(walking, tau, x).ok
+    np.testing.assert_array_equal(tau, before)  # the state is still (q, v)
 
 
 def test_a_stack_the_kernel_lacks_runs_on_python_and_says_so() -> None:

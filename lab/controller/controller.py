@@ -68,6 +68,15 @@ class ControlOutput:
     solution: HierarchySolution
     task_errors: dict[str, float]
 
+    @property
+    def fallback_levels(self) -> tuple[int, ...]:
+        """The solution's fallback levels (HierarchySolution.fallback_levels)."""
+        return self.solution.fallback_levels
+
+    def torques_finite(self) -> bool:
+        """Whether every torque is finite (NaN and inf propagate into the dot product)."""
+        return math.isfinite(self.tau.dot(self.tau))
+
 
 class WholeBodyController:
     """The whole-body controller of one robot: the tasks of TASK_TYPES and the constraints,

@@ -79,6 +79,38 @@ def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
     )
 
 
+class NativeOutput(ControlOutput):
+    """A native tick's ControlOutput: τ, q̈ and F are arrays of its own; the hierarchy solution
+    and the task errors are built from the kernel's report of that tick (`_kernel.TickOutcome`,
+    a copy) when first read: telemetry reads them at 100 Hz, the loop ticks at 1 kHz."""
+
+    def __init__(self, tau: np.ndarray, x: np.ndarray, nv: int, outcome: "_kernel.TickOutcome"):
+        self.tau, self.qdd, self.forces = tau, x[:nv], x[nv:]
+        self._x, self._outcome = x, outcome
+        self._solution: HierarchySolution | None = None
+
+    @property
+    def solution(self) -> HierarchySolution:  # type: ignore[override]
+        if self._solution is None:
+            o = self._outcome
+            self._solution = HierarchySolution(
+                self._x, o.levels, o.residuals, o.qp_solves, o.level_seconds
+            )
+        return self._solution
+
+    @property
+    def task_errors(self) -> dict[str, float]:  # type: ignore[override]
+        return self._outcome.task_errors
+
+    @property
+    def fallback_levels(self) -> tuple[int, ...]:
+        return self._outcome.fallback_levels
+
+    def torques_finite(self) -> bool:
+        """True: the kernel fails a tick whose τ is not finite."""
+        return True
+
+
 class NativeController(WholeBodyController):
     """A WholeBodyController with a `kernel` choice; `kernel_ran` says which ran last."""
 
@@ -95,7 +127,7 @@ class NativeController(WholeBodyController):
         self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
-        self._native_errors: dict[str, float] = {}
+        self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
         if _kernel is not None:
             self._native = kernel_for(self)
             self._native.mirror_model(robot.arrays())
@@ -158,7 +190,13 @@ class NativeController(WholeBodyController):
 
     # ----------------------------------------------------------------------------- the tick
     def _runs_native(self) -> bool:
-        return self.config.kernel == "native" and not self.kernel_note
+        config = self.config  # kernel_note's conditions, without building its message
+        return (
+            config.kernel == "native"
+            and not NOT_BUILT
+            and config.method in NATIVE_METHODS
+            and not self._unsupported
+        )
 
     def update(self, q: np.ndarray, v: np.ndarray) -> None:
         """Read the state (q, v) with the model update of the kernel that runs next: the native
@@ -175,25 +213,34 @@ class NativeController(WholeBodyController):
         if not self._runs_native():
             self.kernel_ran = "python"
             return super().solve()
+        if self.robot.updated_by != "native":  # the kernel's own state is the Python update's
+            return self._native_tick(self.robot.q, self.robot.v)
+        return self._native_tick(None, None)
+
+    def compute(self, q: np.ndarray, v: np.ndarray) -> ControlOutput:
+        """Torques for state (q, v): on the native kernel the model update (which fills the
+        Python model's arrays too) and the solve are one crossing; raises QPFailure when the
+        hierarchy has no solution."""
+        if not self._runs_native():
+            return super().compute(q, v)
+        return self._native_tick(q, v)
+
+    def _native_tick(self, q: np.ndarray | None, v: np.ndarray | None) -> "NativeOutput":
+        """One crossing: references in, the model update at (q, v) if given, the solve, τ and x
+        into the preallocated arrays; the rest stays in the kernel's outcome until read."""
         native = self._native
         self._sync_limits()
         if self._native_method != self.config.method:  # a Python str: no crossing to compare
             native.set_method(self.config.method)
             self._native_method = self.config.method
-        # The kernel's own state is current when the last update went through it.
-        if self.robot.updated_by != "native":
-            native.update(self.robot.q, self.robot.v)
-        # One crossing: references in, τ and x into the preallocated arrays, the rest out.
-        ok, message, levels, residuals, solves, errors, seconds = native.solve_into(
-            self.references, self._tau, self._x
-        )
+        outcome = native.tick_into(self.references, self._tau, self._x, q, v)
+        if q is not None:
+            self.robot.filled_elsewhere()
         self.kernel_ran = "native"
-        self._native_errors = errors
-        if not ok:
-            raise QPFailure(f"native {self.config.method}: {message}")
-        x, nv = self._x.copy(), self.robot.nv
-        solution = HierarchySolution(x, levels, residuals, solves, seconds)
-        return ControlOutput(self._tau.copy(), x[:nv], x[nv:], solution, dict(errors))
+        self._outcome = outcome
+        if not outcome.ok:
+            raise QPFailure(f"native {self.config.method}: {outcome.message}")
+        return NativeOutput(self._tau.copy(), self._x.copy(), self.robot.nv, outcome)
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
@@ -230,5 +277,5 @@ class NativeController(WholeBodyController):
     def task_errors(self) -> dict[str, float]:
         """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
         if self.kernel_ran == "native":
-            return dict(self._native_errors)
+            return self._outcome.task_errors
         return super().task_errors()

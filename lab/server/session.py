@@ -17,7 +17,7 @@ import pinocchio as pin
 from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.behaviours.stance import Stance
 from lab.controller.constraints import ContactLimits
-from lab.controller.controller import ControllerConfig
+from lab.controller.controller import ControllerConfig, ControlOutput
 from lab.controller.hierarchy import METHODS, HierarchySolution
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.model import BASE_DOF, RobotModel
@@ -173,7 +173,7 @@ class Session:
         self.ticks = 0
         self.qp_failures = 0
         self.qp_ok = True
-        self.solution: HierarchySolution | None = None  # the last tick's, None after a fallback
+        self._output: ControlOutput | None = None  # the last tick's, None after a fallback
         self._unreported = {kind: 0 for kind in ("solver_failure", "solver_fallback")}
         self._last_report = dict.fromkeys(self._unreported, -FAILURE_EVENT_PERIOD)
         self.control_us = 0.0
@@ -257,21 +257,28 @@ class Session:
     def _control(self) -> None:
         """This tick's torques and planned contact forces: the controller's, or fallback ones."""
         q, v = self.plant.state()
-        touching = self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
+        controller, behaviour = self.controller, self.behaviour
+        # An idle behaviour's update changes nothing (Balance off a foot line): the model update
+        # and the solve are then one call (one crossing on the native kernel), no touch sensing.
+        idle = getattr(behaviour, "idle", False) and not controller.reads_sensing
+        touching = None if idle else self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         start = time.perf_counter()
         with self._capture as caught:
             try:
-                self.controller.update(q, v)
-                if self.controller.reads_sensing:  # measured only for a task that reads it
-                    self.controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
-                self.behaviour.update(self.time, self.model, self.velocity, touching)
-                out = self.controller.solve()
-                if not math.isfinite(out.tau.dot(out.tau)):  # NaN and inf propagate into it
+                if idle:
+                    out = controller.compute(q, v)
+                else:
+                    controller.update(q, v)
+                    if controller.reads_sensing:  # measured only for a task that reads it
+                        controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
+                    behaviour.update(self.time, self.model, self.velocity, touching)
+                    out = controller.solve()
+                if not out.torques_finite():
                     raise FloatingPointError("non-finite torques")
                 self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
-                self.solution = out.solution
-                if out.solution.fallback_levels:
-                    levels = list(out.solution.fallback_levels)  # 0-based, as telemetry's tasks
+                self._output = out
+                if out.fallback_levels:
+                    levels = list(out.fallback_levels)  # 0-based, as telemetry's tasks
                     self._report(
                         "solver_fallback",
                         f"the QP of stack level {levels} failed (counting from 0): the level "
@@ -280,7 +287,7 @@ class Session:
                     )
             except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
                 self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
-                self.qp_ok, self.solution = False, None
+                self.qp_ok, self._output = False, None
                 self.qp_failures += 1
                 self._report("solver_failure", f"{type(error).__name__}: {error}; fallback torques")
         self.control_us = (time.perf_counter() - start) * 1e6
@@ -288,6 +295,11 @@ class Session:
             kind = caught_warning.category.__name__
             count = self._warnings[kind].ticks + 1 if kind in self._warnings else 1
             self._warnings[kind] = ControllerWarning(str(caught_warning.message), self.time, count)
+
+    @property
+    def solution(self) -> HierarchySolution | None:
+        """The last tick's hierarchy solution (built when read), None after a fallback."""
+        return None if self._output is None else self._output.solution
 
     def _recover(self, divergence: SimulationDiverged) -> None:
         """After a divergence: the robot standing again at the same sim time (the clock never runs
@@ -346,6 +358,8 @@ class Session:
         )
 
     def _expire_pushes(self) -> None:
+        if not self.pushes:
+            return
         expired = [name for name, p in self.pushes.items() if self.time >= p.ends_at]
         if not expired:
             return

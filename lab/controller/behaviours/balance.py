@@ -80,6 +80,12 @@ class Balance(NoOptions):
         self._inertia = composite_inertia(standing) if self._on_line else np.zeros((3, 3))
         self.line_gains = LineBalanceGains()
 
+    @property
+    def idle(self) -> bool:
+        """Whether update() changes nothing (behaviours/base.py): standing off a foot line, and
+        not a subclass (Stance) with an update of its own."""
+        return not self._on_line and type(self).update is Balance.update
+
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:

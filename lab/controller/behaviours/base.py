@@ -10,7 +10,9 @@ from lab.controller.references import References
 
 class Behaviour(Protocol):
     """Owns the references the tasks track and the contact schedule; built by a
-    `BehaviourFactory(robot_model, q_standing)` from the robot's current state."""
+    `BehaviourFactory(robot_model, q_standing)` from the robot's current state. A behaviour
+    whose `update` changes nothing may say so with an attribute `idle = True` (Balance off a
+    foot line): the session then skips the call and the touch sensing it would read."""
 
     name: str
     references: References
