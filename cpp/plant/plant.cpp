@@ -67,14 +67,15 @@ class PlantStep {
       throw std::invalid_argument("PlantStep: the robot needs a free base (7 q, 6 v)");
   }
 
-  /// plant.py `check`'s test: 0 when the state is valid, else 1 (MuJoCo flagged a bad
-  /// position, velocity or acceleration since the last reset, or qpos or qvel is not finite
-  /// or beyond mjMAXVAL); the Python side then names the cause.
-  int check() const {
+  /// plant.py `check`'s test: the sim time when the state is valid, else -1 (MuJoCo flagged a
+  /// bad position, velocity or acceleration since the last reset, or qpos or qvel is not
+  /// finite or beyond mjMAXVAL); the Python side then names the cause. The time comes along
+  /// because reading MjData.time from Python costs more than this whole call.
+  double check() const {
     for (int kind : kBadStateWarnings)
-      if (d_->warning[kind].number) return 1;
+      if (d_->warning[kind].number) return -1.0;
     mjtNum sum = mju_dot(d_->qpos, d_->qpos, m_->nq) + mju_dot(d_->qvel, d_->qvel, m_->nv);
-    return sum < kMaxStateSquared ? 0 : 1;  // NaN fails the comparison
+    return sum < kMaxStateSquared ? d_->time : -1.0;  // NaN fails the comparison
   }
 
   /// plant.py `state`: (q, v) in pinocchio conventions, new arrays.
@@ -101,8 +102,9 @@ class PlantStep {
     mju_copy(d_->ctrl, tau.data(), m_->nu);
   }
 
-  /// mj_step, then `check`'s test (0: valid). The GIL stays held, as in the kernel's solve.
-  int step() {
+  /// mj_step, then `check`'s test (the new sim time, -1: not valid). The GIL stays held, as in
+  /// the kernel's solve.
+  double step() {
     mj_step(m_, d_);
     return check();
   }
@@ -161,11 +163,12 @@ NB_MODULE(_plant, m) {
            "n_feet"_a,
            "On the plant's MjModel and MjData: qpos and qvel indices of pinocchio's q and v, "
            "per geom whether it is terrain (1) and which foot it is (or -1), the foot count.")
-      .def("check", &PlantStep::check, "0 if the state is valid (MujocoPlant.check's test).")
+      .def("check", &PlantStep::check,
+           "The sim time if the state is valid, else -1 (MujocoPlant.check's test).")
       .def("state", &PlantStep::state, "(q, v) in pinocchio conventions, new arrays.")
       .def("set_torques", &PlantStep::set_torques, "tau"_a,
            "Joint torques (N m, pinocchio order) into ctrl; ValueError unless na finite ones.")
-      .def("step", &PlantStep::step, "mj_step, then check(): 0 if the new state is valid.")
+      .def("step", &PlantStep::step, "mj_step, then check(): the new sim time, -1 if not valid.")
       .def("foot_normal_forces", &PlantStep::foot_normal_forces,
            "Per foot, its largest normal force on the terrain at the last step (N).")
       .def("non_foot_ground_contact", &PlantStep::non_foot_ground_contact,
