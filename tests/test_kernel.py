@@ -324,6 +324,44 @@ def test_a_stack_the_kernel_lacks_runs_on_python_and_says_so() -> None:
     assert "nullspace" in controller.kernel_note or NOT_BUILT
 
 
+def test_compute_in_one_crossing_equals_update_then_solve_and_each_output_keeps_its_tick() -> None:
+    """NativeController.compute (model update and solve in one crossing) gives the τ and x of
+    update() then solve(), fills the Python model as update() does, and each output's solution
+    and task errors (built when first read) stay those of its own tick after later ticks."""
+    description = load_description("anymal")
+    robot = build_robot(description)
+    outputs, models = [], []
+    for fused in (True, False):
+        model = RobotModel(robot.model, robot.contacts)
+        config = ControllerConfig(Stack.of(description.stack), dict(description.gains))
+        controller = NativeController(
+            model, standing_references(model, robot.q_standing), config, robot.torque_limits
+        )
+        rng = np.random.default_rng(3)
+        ticks = []
+        for _ in range(3):
+            q, v = random_state(robot, rng)
+            if fused:
+                ticks.append(controller.compute(q, v))
+            else:
+                controller.update(q, v)
+                ticks.append(controller.solve())
+            assert controller.kernel_ran == "native"
+        outputs.append(ticks)
+        models.append(model)
+    for fused, unfused in zip(*outputs, strict=True):
+        np.testing.assert_array_equal(fused.tau, unfused.tau)
+        np.testing.assert_array_equal(fused.solution.x, np.r_[unfused.qdd, unfused.forces])
+        assert fused.solution.residuals == unfused.solution.residuals
+        assert fused.task_errors == unfused.task_errors and fused.task_errors
+        assert fused.fallback_levels == () and fused.torques_finite()
+    for name in ("q", "M", "h", "Jc", "com", "contact_positions"):
+        np.testing.assert_array_equal(getattr(models[0], name), getattr(models[1], name))
+    assert models[0].updated_by == "native"
+    first, last = outputs[0][0], outputs[0][-1]
+    assert first.solution.residuals != last.solution.residuals  # read after two more ticks
+
+
 def test_a_session_runs_native_by_default_and_switches_live() -> None:
     session = Session(SessionConfig(robot="anymal"))
     for _ in range(20):
