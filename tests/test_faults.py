@@ -164,16 +164,23 @@ def test_a_solver_exception_falls_back_counts_and_carries_on() -> None:
     controller takes over again and the robot still stands."""
     with live_server() as server:
         controller = server.session.controller
-        solve = controller.solve
         calls = {"left": 50}
 
-        def raising() -> object:
-            calls["left"] -= 1
-            if calls["left"] < 0:
-                return solve()
-            raise RuntimeError("injected solver exception")
+        def raising(method: Callable) -> Callable:
+            def call(*args: object) -> object:
+                calls["left"] -= 1
+                if calls["left"] < 0:
+                    return method(*args)
+                raise RuntimeError("injected solver exception")
 
-        server.session.inject(lambda session: setattr(controller, "solve", raising))
+            return call
+
+        def inject(session: object) -> None:
+            # A standing tick calls compute (update and solve in one), others solve.
+            controller.solve = raising(controller.solve)
+            controller.compute = raising(controller.compute)
+
+        server.session.inject(inject)
         failure = server.event("solver_failure")
         assert "injected solver exception" in failure["message"]
         wait_for(lambda: calls["left"] < 0, WAIT_S, "the injected exceptions to run out")
