@@ -454,6 +454,10 @@ NB_MODULE(_kernel, m) {
       .def("set_momentum_gain", &lab::Kernel::set_momentum_gain, "gain"_a,
            "The momentum task's K_h (6 x 9) from lab/controller/momentum.py; raises ValueError "
            "for another size or a non-finite entry.")
+      .def("set_internal_force", &lab::Kernel::set_internal_force, "command"_a, "error"_a,
+           "The internal-force task's F_int,cmd and error per pair of point feet in support "
+           "(InternalForceTask.feedback); raises ValueError for a non-finite entry or sizes that "
+           "do not match.")
       .def(
           "mirror_model",
           [](lab::Kernel& k, const nb::dict& arrays) {

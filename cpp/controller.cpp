@@ -135,6 +135,11 @@ void Kernel::set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain) {
   lab::set_momentum_gain(*tasks_.at("momentum"), gain);
 }
 
+void Kernel::set_internal_force(const Eigen::Ref<const Eigen::VectorXd>& command,
+                                const Eigen::Ref<const Eigen::VectorXd>& error) {
+  lab::set_internal_force(*tasks_.at("internal_force"), command, error);
+}
+
 void Kernel::check_references() const {
   const auto n = static_cast<Eigen::Index>(robot_.contacts.size());
   check_size(refs_.posture.size(), {robot_.na}, "posture");

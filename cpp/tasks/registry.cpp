@@ -12,6 +12,7 @@ TaskRegistry make_tasks() {
   add_feet_tasks(tasks);
   add_momentum_tasks(tasks);
   add_sole_tasks(tasks);
+  add_internal_force_tasks(tasks);
   return tasks;
 }
 

@@ -105,6 +105,7 @@ class NativeController(WholeBodyController):
         self._native: _kernel.Kernel | None = None
         self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
         self._has_momentum = False  # whether the stack has the momentum task
+        self._has_internal_force = False  # and the internal-force task
         self._momentum_pd: tuple | None = None  # (kp, kd) of the PD K_h the kernel holds
         self._momentum_lqr: np.ndarray | None = None  # the scheduled K_h the kernel holds
         super().__init__(robot, references, config, torque_limits)
@@ -149,6 +150,7 @@ class NativeController(WholeBodyController):
             self._native.set_stack(stack.as_lists())
             self._unsupported = ""
             self._has_momentum = "momentum" in stack.names()
+            self._has_internal_force = "internal_force" in stack.names()
         except KeyError as error:  # a task written in Python only: the Python kernel runs it
             self._unsupported = error.args[0]
 
@@ -200,6 +202,9 @@ class NativeController(WholeBodyController):
             native.update(self.robot.q, self.robot.v)
         if self._has_momentum:
             self._sync_momentum_gain()
+        if self._has_internal_force:  # its sensed feedback (Kim eq. 12), new every tick
+            _, command, error = self.tasks["internal_force"].feedback(self.robot, self.references)
+            native.set_internal_force(command, error)
         # One crossing: references in, τ and x into the preallocated arrays, the rest out.
         ok, message, levels, residuals, solves, errors, seconds = native.solve_into(
             self.references, self._tau, self._x
