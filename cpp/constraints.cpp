@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "tasks/base.hpp"
 
@@ -56,6 +57,17 @@ class FrictionConstraint : public Constraint {
   ContactLimits limits;
 };
 
+/// Each flat foot in support and the column of its wrench's first entry in x (constraints.py
+/// _soles_in_support).
+using Soles = std::vector<std::pair<const ContactSpec*, Eigen::Index>>;
+
+void soles_in_support(const RobotModel& robot, const References& refs, Soles& soles) {
+  soles.clear();  // no allocation once it has grown
+  for (std::size_t i = 0; i < robot.contacts.size(); ++i)
+    if (robot.contacts[i].kind == ContactKind::flat && refs.contact_active[i])
+      soles.emplace_back(&robot.contacts[i], robot.nv + robot.force_starts[i]);
+}
+
 /// Centre of pressure inside the sole rectangle, for flat feet (Herzog §4.1):
 /// |τ_x| <= W f_z and |τ_y| <= L f_z with the wrench in the sole frame, W and L scaled by
 /// `scale` (cop_inner keeps a margin at the edges: InnerCopConstraint).
@@ -64,17 +76,12 @@ class CopConstraint : public Constraint {
   explicit CopConstraint(double scale = 1.0) : scale(scale) {}
 
   void compute(const RobotModel& robot, const References& refs) override {
-    Eigen::Index n = 0;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i)
-      if (robot.contacts[i].kind == ContactKind::flat && refs.contact_active[i]) n += 4;
-    reset(robot, n);
+    soles_in_support(robot, refs, soles_);
+    reset(robot, 4 * static_cast<Eigen::Index>(soles_.size()));
     Eigen::Index row = 0;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
-      const auto& contact = robot.contacts[i];
-      if (contact.kind != ContactKind::flat || !refs.contact_active[i]) continue;
-      const Eigen::Index col = robot.nv + robot.force_starts[i];
-      const std::pair<int, double> axes[2] = {{3, scale * contact.half_width},
-                                              {4, scale * contact.half_length}};
+    for (const auto& [contact, col] : soles_) {
+      const std::pair<int, double> axes[2] = {{3, scale * contact->half_width},
+                                              {4, scale * contact->half_length}};
       for (int k = 0; k < 2; ++k) {
         const auto [torque_axis, half] = axes[k];
         C(row + 2 * k, col + torque_axis) = 1.0;
@@ -87,6 +94,9 @@ class CopConstraint : public Constraint {
   }
 
   double scale;
+
+ private:
+  Soles soles_;
 };
 
 /// The fraction of each half size of a sole that cop_inner keeps free (INNER_COP_MARGIN).
@@ -99,16 +109,11 @@ class SoleTorsionConstraint : public Constraint {
   explicit SoleTorsionConstraint(const ContactLimits& limits) : limits(limits) {}
 
   void compute(const RobotModel& robot, const References& refs) override {
-    Eigen::Index n = 0;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i)
-      if (robot.contacts[i].kind == ContactKind::flat && refs.contact_active[i]) n += 2;
-    reset(robot, n);
+    soles_in_support(robot, refs, soles_);
+    reset(robot, 2 * static_cast<Eigen::Index>(soles_.size()));
     Eigen::Index row = 0;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
-      const auto& contact = robot.contacts[i];
-      if (contact.kind != ContactKind::flat || !refs.contact_active[i]) continue;
-      const Eigen::Index col = robot.nv + robot.force_starts[i];
-      const double radius = std::sqrt(0.5) * std::min(contact.half_length, contact.half_width);
+    for (const auto& [contact, col] : soles_) {
+      const double radius = std::sqrt(0.5) * std::min(contact->half_length, contact->half_width);
       C(row, col + 5) = 1.0;
       C(row, col + 2) = -limits.friction * radius;
       C(row + 1, col + 5) = -1.0;
@@ -118,6 +123,9 @@ class SoleTorsionConstraint : public Constraint {
   }
 
   ContactLimits limits;
+
+ private:
+  Soles soles_;
 };
 
 /// |τ| <= τ_max through τ = M_a q̈ + h_a − J_aᵀ F (Herzog eqs. 14, 16).
