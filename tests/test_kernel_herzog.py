@@ -9,6 +9,7 @@ LQR gains interpolate, with K_h crossing into the kernel only while it changes.
 
 import copy
 import functools
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -38,29 +39,51 @@ RIGHT = 1  # Talos's contacts: the left sole, then the right one
 
 
 @functools.cache
-def talos():
-    """Talos's description and robot, built once."""
-    description = load_description("talos")
+def robot_of(name: str) -> tuple:
+    """A robot's description and robot, built once."""
+    description = load_description(name)
     return description, build_robot(description)
 
 
-def controller_of(kind: type, preset: str, method: str, mode: str) -> WholeBodyController:
-    """A controller of class `kind` for Talos under stack preset `preset` (its gains), hierarchy
-    `method` and momentum law `mode`, on its own model at the standing posture."""
-    description, robot = talos()
-    stack = load_stack_preset(preset)
+def talos() -> tuple:
+    """Talos's description and robot."""
+    return robot_of("talos")
+
+
+def stack_controller(
+    kind: type, name: str, levels: list, gains: dict, method: str, references: Callable
+) -> WholeBodyController:
+    """A controller of class `kind` for robot `name` on its own model at the standing posture:
+    stack `levels`, the robot's gains with `gains` (task → kp, kd, weight) over them, hierarchy
+    `method`, the references `references(model, q_standing)`."""
+    description, robot = robot_of(name)
     model = RobotModel(robot.model, robot.contacts)
     model.update(robot.q_standing, np.zeros(robot.model.nv))
     config = ControllerConfig(
-        Stack.of(stack.levels),
+        Stack.of(levels),
         dict(description.gains),
         method,
         limits=ContactLimits(friction=description.friction),
     )
-    refs = Stance(model, robot.q_standing).references
+    refs = references(model, robot.q_standing)
     controller = kind(model, refs, config, robot.torque_limits)
-    for task, gains in stack.gains.items():
-        controller.set_gains(task, **gains)
+    for task, values in gains.items():
+        controller.set_gains(task, **values)
+    return controller
+
+
+def stance_references_at(model: RobotModel, q_standing: np.ndarray) -> SoleReferences:
+    """The stance behaviour's references, the model at its standing posture."""
+    return Stance(model, q_standing).references
+
+
+def controller_of(kind: type, preset: str, method: str, mode: str) -> WholeBodyController:
+    """A controller of class `kind` for Talos under stack preset `preset` (its gains), hierarchy
+    `method` and momentum law `mode`, the stance behaviour's references."""
+    stack = load_stack_preset(preset)
+    controller = stack_controller(
+        kind, "talos", stack.levels, stack.gains, method, stance_references_at
+    )
     controller.set_momentum_mode(mode)
     return controller
 
@@ -71,7 +94,7 @@ def stance_references() -> SoleReferences:
     _, robot = talos()
     model = RobotModel(robot.model, robot.contacts)
     model.update(robot.q_standing, np.zeros(robot.model.nv))
-    return Stance(model, robot.q_standing).references
+    return stance_references_at(model, robot.q_standing)
 
 
 def sole_references(stance: str) -> SoleReferences:

@@ -12,16 +12,11 @@ import numpy as np
 import pytest
 
 from lab.controller.behaviours.balance import standing_references
-from lab.controller.constraints import ContactLimits
-from lab.controller.controller import ControllerConfig, WholeBodyController
-from lab.controller.model import RobotModel
+from lab.controller.controller import WholeBodyController
 from lab.controller.native import NOT_BUILT, NativeController, native_available
-from lab.controller.stack import Stack
-from lab.description import load_description
-from lab.robot import build_robot
 from lab.server.scenario import load_scenario
 from tests.test_controller import disturbed_state
-from tests.test_kernel_herzog import assert_ticks_agree
+from tests.test_kernel_herzog import assert_ticks_agree, robot_of, stack_controller
 
 pytest.importorskip("lab._kernel", reason="the native kernel is not built (./dev builds it)")
 pytestmark = pytest.mark.skipif(not native_available(), reason=NOT_BUILT or "built")
@@ -31,22 +26,10 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 def bolt_controller(kind: type, method: str, source: str) -> WholeBodyController:
     """A controller of class `kind` for Bolt under the stack and gains of the sideways wedge
     scenario, the internal force sensed from `source` towards 0.6 N of tension."""
-    description = load_description("bolt")
-    robot = build_robot(description)
     scenario = load_scenario(SCENARIOS / "kim_wedges_impedance_side.toml").config
-    model = RobotModel(robot.model, robot.contacts)
-    model.update(robot.q_standing, np.zeros(robot.model.nv))
-    config = ControllerConfig(
-        Stack.of(scenario.stack),
-        dict(description.gains),
-        method,
-        limits=ContactLimits(friction=description.friction),
+    controller = stack_controller(
+        kind, "bolt", scenario.stack, scenario.gains, method, standing_references
     )
-    controller = kind(
-        model, standing_references(model, robot.q_standing), config, robot.torque_limits
-    )
-    for task, gains in scenario.gains.items():
-        controller.set_gains(task, **gains)
     task = controller.internal_force
     task.set_source(source)
     task.reference = 0.6
@@ -60,7 +43,7 @@ def test_the_foot_line_stack_with_internal_force_feedback_agrees(method: str, so
     reference), the others with the feet's measured forces and the applied torques."""
     python = bolt_controller(WholeBodyController, method, source)
     native = bolt_controller(NativeController, method, source)
-    robot = build_robot(load_description("bolt"))
+    _, robot = robot_of("bolt")
     rng = np.random.default_rng(9)
     weight = python.robot.mass * 9.81
     for i in range(4):
