@@ -24,6 +24,7 @@ from lab.controller.stack import Stack
 from lab.controller.tasks.sole import SoleReferences
 from lab.description import load_description
 from lab.robot import build_robot
+from lab.server.session import Session, SessionConfig
 from lab.stack_presets import load_stack_preset
 from tests.test_controller import disturbed_state
 from tests.test_kernel import ROWS_TOL, WEIGHTED_COST_TOL, assert_rows_equal, momentum_gain
@@ -280,3 +281,26 @@ def test_a_contact_switch_during_the_lqr_gain_interpolation_agrees(method: str) 
     assert crossings[12:] == [1] * 10 + [0, 0]
     gain = python.tasks["momentum"].schedule.current
     np.testing.assert_array_equal(native.tasks["momentum"].schedule.current, gain)
+
+
+@pytest.mark.parametrize(
+    ("robot", "commands"),
+    [
+        ("talos", [("stack", {"preset": "herzog_table2"}), ("momentum", {"mode": "lqr"})]),
+        ("talos", [("stance", {"side": "left"})]),  # brings herzog_table4
+        ("bolt", []),  # the default stack, with internal_force
+    ],
+)
+def test_herzog_and_kim_stacks_run_on_the_native_kernel_by_default(
+    robot: str, commands: list[tuple[str, dict]]
+) -> None:
+    """A session on Herzog's presets, the stance behaviour's stack or Bolt's default stack runs
+    native (no Python-only task type left) without a note."""
+    session = Session(SessionConfig(robot=robot))
+    for verb, payload in commands:
+        assert session.handle(verb, payload)["ok"]
+    for _ in range(20):
+        session.tick()
+    telemetry = session.telemetry()
+    assert (telemetry["kernel"], telemetry["kernel_note"]) == ("native", "")
+    assert session.qp_failures == 0

@@ -96,6 +96,7 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
   // by pairs of opposite rows and weigh ~1e-7 against the contacts' 1e4, and DAQP then declared
   // some feasible reduced QPs infeasible that it solves in this form (as the Python kernel does).
   if (!out.ok) {
+    if (lightest >= kWellConditionedWeight) out.qp_solves = 2;  // the reduced QP, then this one
     H.setZero(nx, nx);
     H.diagonal().setConstant(kRegularization * lightest);
     g.setZero(nx);
