@@ -304,3 +304,40 @@ def test_herzog_and_kim_stacks_run_on_the_native_kernel_by_default(
     telemetry = session.telemetry()
     assert (telemetry["kernel"], telemetry["kernel_note"]) == ("native", "")
     assert session.qp_failures == 0
+
+
+def test_bad_gains_commands_and_sole_references_raise_clear_errors_and_change_nothing() -> None:
+    _, robot = talos()
+    python = controller_of(WholeBodyController, "herzog_table4", "cascade", "pd")
+    kernel = controller_of(NativeController, "herzog_table4", "cascade", "pd")._native
+    model = python.robot
+    kernel.update(robot.q_standing, np.zeros(robot.model.nv))
+    refs = sole_references("single")
+    send_references(kernel, refs)
+    with pytest.raises(RuntimeError, match="momentum: no K_h was set"):
+        kernel.rows("momentum")
+    python.tasks["momentum"].rows(model, refs)
+    kernel.set_momentum_gain(momentum_gain(python))
+    before = kernel.rows("momentum")
+    with pytest.raises(ValueError, match="K_h needs 6 x 9 entries, got 3 x 3"):
+        kernel.set_momentum_gain(np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="K_h has non-finite entries"):
+        kernel.set_momentum_gain(np.full((6, 9), np.nan))
+    assert_rows_equal(kernel.rows("momentum"), before, "after the rejected gains")
+    with pytest.raises(ValueError, match="internal_force: the command and error must be finite"):
+        kernel.set_internal_force(np.array([np.nan]), np.zeros(0))
+    with pytest.raises(ValueError, match="as many entries as the command"):
+        kernel.set_internal_force(np.zeros(1), np.zeros(2))
+    bad = copy.deepcopy(refs)
+    bad.sole_position = np.zeros((1, 3))
+    with pytest.raises(ValueError, match="sole_position has 3 entries"):
+        send_references(kernel, bad)
+    bad = copy.deepcopy(refs)
+    bad.leg_swinging[RIGHT] = True
+    bad.leg_velocity = np.zeros(2)
+    tau, x = np.zeros(model.na), np.zeros(model.nx)
+    with pytest.raises(ValueError, match="leg_velocity has 2 entries"):
+        kernel.solve_into(bad, tau, x)
+    assert not tau.any()
+    kernel.set_stack(python.config.stack.as_lists())
+    assert kernel.solve_into(refs, tau, x)[0]  # the kernel works after every rejected call
