@@ -110,6 +110,16 @@ def test_lqr_gains_are_optimal_for_the_linearized_momentum_dynamics() -> None:
     assert closed_loop_cost(worse, s0, cost)[0] > value * (1 + 1e-4)
 
 
+def test_no_lqr_gain_without_a_contact_is_a_clear_linalg_error() -> None:
+    """With no contact in support there is no input to design with: a LinAlgError (which the
+    session reports as a solver failure and answers with fallback torques), not a crash."""
+    controller, robot = controller_for("talos")
+    model = controller.robot
+    model.update(robot.q_standing, np.zeros(model.nv))
+    with pytest.raises(np.linalg.LinAlgError, match="without a contact in support"):
+        lqr_design(model, np.zeros(2, dtype=bool), LqrCost())
+
+
 def test_gains_are_designed_once_per_contact_configuration_and_blended_at_a_switch() -> None:
     designs: list[str] = []
     schedule = GainSchedule(transition_ticks=10)
