@@ -106,7 +106,9 @@ def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> Hierarch
     else:
         change = reparametrize(problem, problem.formulation)
         levels = [change.eom] + [change.level(level) for level in problem.levels]
-        search = _searched(levels, change.T.shape[1], starts[0])
+        # z is x itself under qdd_force: the last tick's x is a point to start from
+        point = problem.x_start if problem.formulation == "qdd_force" else None
+        search = _searched(levels, change.T.shape[1], starts[0], point)
         x, searches = change.T @ search.z + change.t, (search,)
     statuses = (PROJECTED,) * len(problem.levels)
     return HierarchySolution(
@@ -125,10 +127,14 @@ def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
 
 
 def _searched(
-    levels: Sequence[Level], n: int, start: Sequence[np.ndarray] | None = None
+    levels: Sequence[Level],
+    n: int,
+    start: Sequence[np.ndarray] | None = None,
+    point: np.ndarray | None = None,
 ) -> ActiveSetSolution:
-    """The active-set search from `start`, warning (ActiveSetCapWarning) when the cap stopped it."""
-    solution = active_set_least_squares(levels, n, start=start)
+    """The active-set search from `start` (and `point`), warning (ActiveSetCapWarning) when the
+    cap stopped it."""
+    solution = active_set_least_squares(levels, n, start=start, point=point)
     if solution.capped:
         state = "feasible" if solution.feasible else "still violating an inequality"
         warnings.warn(
@@ -145,16 +151,22 @@ def active_set_least_squares(
     n: int,
     cap: int | None = None,
     start: Sequence[np.ndarray] | None = None,
+    point: np.ndarray | None = None,
 ) -> ActiveSetSolution:
     """The active-set search of `hierarchical_least_squares`, at most `cap` hierarchy solves
     (default MAX_PROJECTIONS), from the active rows `start` (e.g. the last tick's; ignored unless
-    they match the levels' rows) or none."""
+    they match the levels' rows) or none, and, where those rows' solution violates a row, from
+    `point` (e.g. the last tick's z; `_walked_from`)."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
     if start is not None and [len(on) for on in start] == [len(on) for on in active]:
         active = [np.array(on, dtype=bool) for on in start]
     budget = _Budget(MAX_PROJECTIONS if cap is None else cap)
     entry: list[tuple[np.ndarray, np.ndarray]] = []  # (z, Z) on entering each level
     z = _project(levels, active, n, entry, 0, budget)
+    if point is not None and len(point) == n and _violates(levels, active, z):
+        z = _walked_from(levels, active, n, entry, budget, point)
+        if budget.ran_out:
+            return ActiveSetSolution(z, budget.used, capped=True, feasible=True, active=active)
     while (k := _activate_violated(levels, active, z)) is not None:  # §3.2
         if not budget.take():
             return ActiveSetSolution(z, budget.used, capped=True, feasible=False, active=active)
@@ -169,6 +181,39 @@ def active_set_least_squares(
         if budget.ran_out:
             break
     return ActiveSetSolution(z, budget.used, capped=budget.ran_out, feasible=True, active=active)
+
+
+def _violates(levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray) -> bool:
+    """Whether z violates an inactive row by more than ACTIVATION_TOL."""
+    return any(
+        np.any((level.C @ z - level.d)[~on] > ACTIVATION_TOL)
+        for level, on in zip(levels, active, strict=True)
+    )
+
+
+def _walked_from(
+    levels: Sequence[Level],
+    active: Sequence[np.ndarray],
+    n: int,
+    entry: list[tuple[np.ndarray, np.ndarray]],
+    budget: _Budget,
+    point: np.ndarray,
+) -> np.ndarray:
+    """A primal start: pin the rows `point` violates, then walk from `point` towards the
+    solution of the active rows, activating each row that blocks the way (`_step`), to a z that
+    satisfies every inequality (as far as the budget allows). Ticks apart the optimum moves a
+    little while the active rows may jump: §3.2's activation from the solution of the last
+    tick's rows then pinned ~30 rows (Talos's torque limits) that hundreds of trial releases
+    undid; from the last tick's z only the rows crossed on the way are pinned."""
+    for level, on in zip(levels, active, strict=True):
+        on |= level.C @ point - level.d > ACTIVATION_TOL
+    target = _project(levels, active, n, entry, 0, budget)
+    z = point
+    while True:
+        z, k = _step(levels, active, z, target)
+        if k is None or not budget.take():
+            return z
+        target = _project(levels, active, n, entry, k, budget)
 
 
 def _activate_violated(
