@@ -28,6 +28,8 @@ such as a contact's normal, CoP and friction rows as its force goes to zero, oth
 released at no change of the optimum and re-activated by rounding in the next step.
 The search may start from any active rows (`problem.active_start`: the controller passes the last
 tick's) and still ends at the same optimum; from a close start in a few solves (a hot start).
+Where the start rows' solution violates a row, it walks from a point instead (`problem.x_start`,
+the last tick's x, under `qdd_force`), pinning the rows that point violates and those it crosses.
 
 Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call, against
 cycling and against ticks far over their budget (docs/controller.md). At the cap the
@@ -156,7 +158,7 @@ def active_set_least_squares(
     """The active-set search of `hierarchical_least_squares`, at most `cap` hierarchy solves
     (default MAX_PROJECTIONS), from the active rows `start` (e.g. the last tick's; ignored unless
     they match the levels' rows) or none, and, where those rows' solution violates a row, from
-    `point` (e.g. the last tick's z; `_walked_from`)."""
+    `point` (e.g. the last tick's z), walking from it to a z that satisfies every row."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
     if start is not None and [len(on) for on in start] == [len(on) for on in active]:
         active = [np.array(on, dtype=bool) for on in start]
@@ -164,7 +166,14 @@ def active_set_least_squares(
     entry: list[tuple[np.ndarray, np.ndarray]] = []  # (z, Z) on entering each level
     z = _project(levels, active, n, entry, 0, budget)
     if point is not None and len(point) == n and _violates(levels, active, z):
-        z = _walked_from(levels, active, n, entry, budget, point)
+        # A primal start: ticks apart the optimum moves a little while its active rows may jump,
+        # and §3.2's activation from the start rows' solution then pinned ~30 rows (Talos's
+        # torque limits) that hundreds of trial releases undid. From the last tick's point only
+        # the rows it violates and those crossed on the way to the solution get pinned.
+        for level, on in zip(levels, active, strict=True):
+            on |= level.C @ point - level.d > ACTIVATION_TOL
+        target = _project(levels, active, n, entry, 0, budget)
+        z = _walked(levels, active, n, entry, budget, point, target)
         if budget.ran_out:
             return ActiveSetSolution(z, budget.used, capped=True, feasible=True, active=active)
     while (k := _activate_violated(levels, active, z)) is not None:  # §3.2
@@ -173,11 +182,7 @@ def active_set_least_squares(
         z = _project(levels, active, n, entry, k, budget)
     # z satisfies every inequality from here on: each step stops at the first row it would cross
     while (target := _release_one(levels, active, z, n, entry, budget)) is not None:
-        while True:  # from the feasible z towards the optimum of the new active set
-            z, k = _step(levels, active, z, target)
-            if k is None or not budget.take():
-                break
-            target = _project(levels, active, n, entry, k, budget)
+        z = _walked(levels, active, n, entry, budget, z, target)
         if budget.ran_out:
             break
     return ActiveSetSolution(z, budget.used, capped=budget.ran_out, feasible=True, active=active)
@@ -191,24 +196,18 @@ def _violates(levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarr
     )
 
 
-def _walked_from(
+def _walked(
     levels: Sequence[Level],
     active: Sequence[np.ndarray],
     n: int,
     entry: list[tuple[np.ndarray, np.ndarray]],
     budget: _Budget,
-    point: np.ndarray,
+    z: np.ndarray,
+    target: np.ndarray,
 ) -> np.ndarray:
-    """A primal start: pin the rows `point` violates, then walk from `point` towards the
-    solution of the active rows, activating each row that blocks the way (`_step`), to a z that
-    satisfies every inequality (as far as the budget allows). Ticks apart the optimum moves a
-    little while the active rows may jump: §3.2's activation from the solution of the last
-    tick's rows then pinned ~30 rows (Talos's torque limits) that hundreds of trial releases
-    undid; from the last tick's z only the rows crossed on the way are pinned."""
-    for level, on in zip(levels, active, strict=True):
-        on |= level.C @ point - level.d > ACTIVATION_TOL
-    target = _project(levels, active, n, entry, 0, budget)
-    z = point
+    """From z towards `target` (the solution of the active rows), re-solved each time a row
+    blocks the way and is activated (`_step`), to the optimum of the active rows where no row
+    blocks; where the budget ran out, the point reached."""
     while True:
         z, k = _step(levels, active, z, target)
         if k is None or not budget.take():
