@@ -146,6 +146,17 @@ class GainSchedule:
         self._current = (1.0 - alpha) * self._previous + alpha * target
         return self._current
 
+    def settled(self, key: bytes) -> bool:
+        """Whether `gain(key)` would return `current` unchanged (the configuration has not
+        switched and no interpolation runs): a caller holding that gain may skip the call."""
+        done = self._ticks >= self.transition_ticks
+        return self._current is not None and key == self._key and done
+
+    @property
+    def current(self) -> np.ndarray | None:
+        """The K_h the last `gain` returned (None before the first, or after `clear`)."""
+        return self._current
+
     def clear(self) -> None:
         """Forget every configuration's gain (the cost or the robot changed)."""
         self._gains.clear()
