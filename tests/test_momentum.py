@@ -295,17 +295,14 @@ def test_lqr_holds_the_cog_closer_than_pd_on_the_same_push() -> None:
 
 
 def sole_tilt_under_the_ui_push(internal_wrench: bool) -> tuple[float, float]:
-    """Talos under Table 2 (`lqr_talos`), with or without the soles' internal wrench priced as
-    `herzog_squat_cop` does, pushed at the pelvis from the front by the UI's default push: the
-    largest tilt of a sole (rad) and horizontal CoG excursion (m) over the 0.6 s from the push."""
+    """Talos under Table 2 (`lqr_talos`), with or without the soles' internal wrench priced (the
+    `herzog_table2_flat_soles` preset), pushed at the pelvis from the front by the UI's default
+    push: the largest tilt of a sole (rad) and horizontal CoG excursion (m) over the 0.6 s from
+    the push."""
     session = Session(SessionConfig(robot="talos"))
-    assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
+    preset = "herzog_table2_flat_soles" if internal_wrench else "herzog_table2"
+    assert session.handle("stack", {"preset": preset})["ok"]
     assert session.handle("momentum", {"mode": "lqr_talos"})["ok"]
-    if internal_wrench:
-        scenario = load_scenario(SCENARIOS / "herzog_squat_cop.toml")
-        for event in scenario.events:
-            if event.verb in ("stack", "gains"):
-                assert session.handle(event.verb, event.payload)["ok"]
     for _ in range(200):
         session.tick()
     start = session.model.com[:2].copy()
