@@ -84,6 +84,25 @@ void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_hei
   k.check_references();
 }
 
+/// The array fields of SoleReferences (tasks/sole.py) but leg_swinging, in this order
+/// (ReferenceReader::kSoleNames).
+constexpr std::size_t kSoleFields = 5;
+using SoleArrays = std::array<Doubles, kSoleFields>;
+
+/// Copy the sole references into the kernel (empty arrays: not SoleReferences); their sizes are
+/// checked with the other fields' (assign_references, and every solve).
+void assign_sole_references(lab::Kernel& k, const SoleArrays& a, const Flags& leg_swinging) {
+  const auto& [sole_position, sole_rotation, leg_position, leg_velocity, leg_acceleration] = a;
+  lab::References& refs = k.references();
+  copy_flat(refs.sole_position, sole_position);
+  copy_flat(refs.sole_rotation, sole_rotation);
+  refs.leg_swinging = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
+      leg_swinging.data(), static_cast<Eigen::Index>(leg_swinging.size()));
+  copy_flat(refs.leg_position, leg_position);
+  copy_flat(refs.leg_velocity, leg_velocity);
+  copy_flat(refs.leg_acceleration, leg_acceleration);
+}
+
 /// Reads a References (or WalkReferences) object's fields straight from Python each tick: an
 /// array seen on the last tick is read through the buffer already imported (so a behaviour's
 /// in-place change shows), one the behaviour replaced is imported anew. A plain References has
@@ -105,9 +124,12 @@ class ReferenceReader {
                                                        "posture_velocity",
                                                        "posture_weight"};
   static constexpr std::size_t kWalkingFrom = 7;  // foot_position on: WalkReferences only
+  static constexpr const char* kSoleNames[kSoleFields] = {
+      "sole_position", "sole_rotation", "leg_position", "leg_velocity", "leg_acceleration"};
 
   ReferenceReader() {
-    nb::object empty = nb::module_::import_("numpy").attr("zeros")(0);
+    nb::module_ numpy = nb::module_::import_("numpy");
+    nb::object empty = numpy.attr("zeros")(0);
     empty_ = nb::cast<Doubles>(empty);
     empty_owner_ = empty;
     // The names as interned Python strings: a lookup by C string builds the str every time.
@@ -117,6 +139,9 @@ class ReferenceReader {
     for (std::size_t i = 0; i < kArrayFields; ++i) names_[i] = interned(kNames[i]);
     active_name_ = interned("contact_active");
     height_name_ = interned("base_height");
+    nb::object no_flags = numpy.attr("zeros")(0, "dtype"_a = numpy.attr("bool_"));
+    no_flags_ = nb::cast<Flags>(no_flags);
+    no_flags_owner_ = no_flags;
   }
 
   void read(lab::Kernel& k, nb::handle refs) {
@@ -124,7 +149,9 @@ class ReferenceReader {
     if (!type.is(type_)) {  // a new References class: does it have the walking fields?
       type_ = nb::borrow(type);
       walking_ = nb::hasattr(refs, "foot_position");
+      sole_ = nb::hasattr(refs, "sole_position");
     }
+    read_sole(k, refs);  // before the rest, whose assignment checks every field's size
     for (std::size_t i = 0; i < kArrayFields; ++i) {
       if (i >= kWalkingFrom && !walking_) {
         arrays_[i] = empty_;
@@ -143,6 +170,30 @@ class ReferenceReader {
   }
 
  private:
+  /// The SoleReferences fields (empty for other references).
+  void read_sole(lab::Kernel& k, nb::handle refs) {
+    if (!sole_) {
+      const lab::References& now = k.references();
+      if (!now.sole_position.size() && !now.sole_rotation.size() && !now.leg_swinging.size() &&
+          !now.leg_position.size() && !now.leg_velocity.size() && !now.leg_acceleration.size())
+        return;  // already empty: nothing to copy on the tick of a robot without soles
+      sole_arrays_.fill(empty_);
+      for (auto& seen : sole_seen_) seen = nb::object();
+      leg_swinging_ = no_flags_;
+      leg_swinging_seen_ = nb::object();
+    } else {
+      for (std::size_t i = 0; i < kSoleFields; ++i) {
+        nb::object value = refs.attr(kSoleNames[i]);
+        if (sole_seen_[i].is_valid() && value.is(sole_seen_[i])) continue;
+        sole_arrays_[i] = import<Doubles>(value, kSoleNames[i], sole_seen_[i]);
+      }
+      nb::object swinging = refs.attr("leg_swinging");
+      if (!(leg_swinging_seen_.is_valid() && swinging.is(leg_swinging_seen_)))
+        leg_swinging_ = import<Flags>(swinging, "leg_swinging", leg_swinging_seen_);
+    }
+    assign_sole_references(k, sole_arrays_, leg_swinging_);
+  }
+
   /// `value` as an array; `seen` keeps it when it was taken without a copy (later ticks then
   /// read it in place), and is cleared otherwise (a converted copy is made again each tick).
   template <typename Array>
@@ -165,10 +216,17 @@ class ReferenceReader {
   nb::object active_seen_;
   nb::object type_;
   bool walking_ = false;
+  bool sole_ = false;
+  SoleArrays sole_arrays_;
+  std::array<nb::object, kSoleFields> sole_seen_;
+  Flags leg_swinging_;
+  nb::object leg_swinging_seen_;
   Doubles empty_;
   nb::object empty_owner_;
   std::array<nb::object, kArrayFields> names_;
   nb::object active_name_, height_name_;
+  Flags no_flags_;
+  nb::object no_flags_owner_;
 };
 
 nb::dict problem_dict(const lab::HierarchyProblem& problem) {
@@ -438,6 +496,26 @@ NB_MODULE(_kernel, m) {
           "surface_normal"_a, "force_weight"_a, "posture_velocity"_a, "posture_weight"_a,
           "The fields of References / WalkReferences (empty arrays for the walking fields a "
           "behaviour does not set); raises ValueError naming a field of the wrong size.")
+      .def(
+          "set_sole_references",
+          [](lab::Kernel& k, const Doubles& sole_position, const Doubles& sole_rotation,
+             const Flags& leg_swinging, const Doubles& leg_position, const Doubles& leg_velocity,
+             const Doubles& leg_acceleration) {
+            assign_sole_references(
+                k, {sole_position, sole_rotation, leg_position, leg_velocity, leg_acceleration},
+                leg_swinging);
+          },
+          "sole_position"_a, "sole_rotation"_a, "leg_swinging"_a, "leg_position"_a,
+          "leg_velocity"_a, "leg_acceleration"_a,
+          "The fields of SoleReferences (empty arrays for other references), before "
+          "set_references, which checks every field's size.")
+      .def("set_momentum_gain", &lab::Kernel::set_momentum_gain, "gain"_a,
+           "The momentum task's K_h (6 x 9) from lab/controller/momentum.py; raises ValueError "
+           "for another size or a non-finite entry.")
+      .def("set_internal_force", &lab::Kernel::set_internal_force, "command"_a, "error"_a,
+           "The internal-force task's F_int,cmd and error per pair of point feet in support "
+           "(InternalForceTask.feedback); raises ValueError for a non-finite entry or sizes that "
+           "do not match.")
       .def(
           "mirror_model",
           [](lab::Kernel& k, const nb::dict& arrays) {

@@ -1,8 +1,10 @@
-// Inequality rows C x <= d (lab/controller/constraints.py): friction, cop, torque_limits,
-// joint_limits.
+// Inequality rows C x <= d (lab/controller/constraints.py): friction, cop, cop_inner,
+// sole_torsion, torque_limits, joint_limits.
 #include "constraints.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "tasks/base.hpp"
 
@@ -55,21 +57,31 @@ class FrictionConstraint : public Constraint {
   ContactLimits limits;
 };
 
+/// Each flat foot in support and the column of its wrench's first entry in x (constraints.py
+/// _soles_in_support).
+using Soles = std::vector<std::pair<const ContactSpec*, Eigen::Index>>;
+
+void soles_in_support(const RobotModel& robot, const References& refs, Soles& soles) {
+  soles.clear();  // no allocation once it has grown
+  for (std::size_t i = 0; i < robot.contacts.size(); ++i)
+    if (robot.contacts[i].kind == ContactKind::flat && refs.contact_active[i])
+      soles.emplace_back(&robot.contacts[i], robot.nv + robot.force_starts[i]);
+}
+
 /// Centre of pressure inside the sole rectangle, for flat feet (Herzog §4.1):
-/// |τ_x| <= W f_z and |τ_y| <= L f_z with the wrench in the sole frame.
+/// |τ_x| <= W f_z and |τ_y| <= L f_z with the wrench in the sole frame, W and L scaled by
+/// `scale` (cop_inner keeps a margin at the edges: InnerCopConstraint).
 class CopConstraint : public Constraint {
  public:
+  explicit CopConstraint(double scale = 1.0) : scale(scale) {}
+
   void compute(const RobotModel& robot, const References& refs) override {
-    Eigen::Index n = 0;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i)
-      if (robot.contacts[i].kind == ContactKind::flat && refs.contact_active[i]) n += 4;
-    reset(robot, n);
+    soles_in_support(robot, refs, soles_);
+    reset(robot, 4 * static_cast<Eigen::Index>(soles_.size()));
     Eigen::Index row = 0;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
-      const auto& contact = robot.contacts[i];
-      if (contact.kind != ContactKind::flat || !refs.contact_active[i]) continue;
-      const Eigen::Index col = robot.nv + robot.force_starts[i];
-      const std::pair<int, double> axes[2] = {{3, contact.half_width}, {4, contact.half_length}};
+    for (const auto& [contact, col] : soles_) {
+      const std::pair<int, double> axes[2] = {{3, scale * contact->half_width},
+                                              {4, scale * contact->half_length}};
       for (int k = 0; k < 2; ++k) {
         const auto [torque_axis, half] = axes[k];
         C(row + 2 * k, col + torque_axis) = 1.0;
@@ -80,6 +92,40 @@ class CopConstraint : public Constraint {
       row += 4;
     }
   }
+
+  double scale;
+
+ private:
+  Soles soles_;
+};
+
+/// The fraction of each half size of a sole that cop_inner keeps free (INNER_COP_MARGIN).
+constexpr double kInnerCopMargin = 0.15;
+
+/// Torsional friction of a flat sole in support: |τ_z| <= μ r f_z, r = (√2/2) min(L, W), sole
+/// frame (SoleTorsionConstraint).
+class SoleTorsionConstraint : public Constraint {
+ public:
+  explicit SoleTorsionConstraint(const ContactLimits& limits) : limits(limits) {}
+
+  void compute(const RobotModel& robot, const References& refs) override {
+    soles_in_support(robot, refs, soles_);
+    reset(robot, 2 * static_cast<Eigen::Index>(soles_.size()));
+    Eigen::Index row = 0;
+    for (const auto& [contact, col] : soles_) {
+      const double radius = std::sqrt(0.5) * std::min(contact->half_length, contact->half_width);
+      C(row, col + 5) = 1.0;
+      C(row, col + 2) = -limits.friction * radius;
+      C(row + 1, col + 5) = -1.0;
+      C(row + 1, col + 2) = -limits.friction * radius;
+      row += 2;
+    }
+  }
+
+  ContactLimits limits;
+
+ private:
+  Soles soles_;
 };
 
 /// |τ| <= τ_max through τ = M_a q̈ + h_a − J_aᵀ F (Herzog eqs. 14, 16).
@@ -135,13 +181,18 @@ ConstraintRegistry make_constraints(const RobotModel& robot, const ContactLimits
   for (const auto& contact : robot.contacts)
     if (contact.kind == ContactKind::flat) {
       constraints["cop"] = std::make_unique<CopConstraint>();
+      constraints["cop_inner"] = std::make_unique<CopConstraint>(1.0 - kInnerCopMargin);
+      constraints["sole_torsion"] = std::make_unique<SoleTorsionConstraint>(limits);
       break;
     }
   return constraints;
 }
 
-void set_contact_limits(Constraint& friction, const ContactLimits& limits) {
-  dynamic_cast<FrictionConstraint&>(friction).limits = limits;
+void set_contact_limits(Constraint& constraint, const ContactLimits& limits) {
+  if (auto* torsion = dynamic_cast<SoleTorsionConstraint*>(&constraint))
+    torsion->limits = limits;
+  else
+    dynamic_cast<FrictionConstraint&>(constraint).limits = limits;
 }
 
 void set_torque_limits(Constraint& torque_limits, const Eigen::VectorXd& limits) {

@@ -1,5 +1,5 @@
-// Inequality rows C x <= d (mirrors lab/controller/constraints.py): friction, cop,
-// torque_limits, joint_limits.
+// Inequality rows C x <= d (mirrors lab/controller/constraints.py): friction, cop, cop_inner,
+// sole_torsion, torque_limits, joint_limits.
 #pragma once
 
 #include <map>
@@ -33,13 +33,15 @@ struct ContactLimits {
 
 using ConstraintRegistry = std::map<std::string, std::unique_ptr<Constraint>>;
 
-/// The constraints of a robot: friction, torque_limits, joint_limits, and cop with flat feet.
+/// The constraints of a robot: friction, torque_limits, joint_limits, and with flat feet cop,
+/// cop_inner and sole_torsion.
 ConstraintRegistry make_constraints(const RobotModel& robot, const ContactLimits& limits,
                                     const Eigen::VectorXd& torque_limits,
                                     const Eigen::VectorXd& lower, const Eigen::VectorXd& upper);
 
 // Setters of the constraints' parameters (constraints.cpp); names as in the registry.
-void set_contact_limits(Constraint& friction, const ContactLimits& limits);
+/// Of friction or sole_torsion (both read the contact limits, as in constraints.py).
+void set_contact_limits(Constraint& constraint, const ContactLimits& limits);
 void set_torque_limits(Constraint& torque_limits, const Eigen::VectorXd& limits);
 void set_joint_limits(Constraint& joint_limits, const Eigen::VectorXd& lower,
                       const Eigen::VectorXd& upper);

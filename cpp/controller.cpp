@@ -116,6 +116,8 @@ Constraint& Kernel::constraint(const std::string& name) { return *constraints_.a
 
 void Kernel::set_contact_limits(const ContactLimits& limits) {
   lab::set_contact_limits(constraint("friction"), limits);
+  if (auto torsion = constraints_.find("sole_torsion"); torsion != constraints_.end())
+    lab::set_contact_limits(*torsion->second, limits);
 }
 
 void Kernel::set_torque_limits(const Eigen::VectorXd& limits) {
@@ -129,6 +131,15 @@ void Kernel::set_joint_limits(const Eigen::VectorXd& lower, const Eigen::VectorX
   lab::set_joint_limits(constraint("joint_limits"), lower, upper);
 }
 
+void Kernel::set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain) {
+  lab::set_momentum_gain(*tasks_.at("momentum"), gain);
+}
+
+void Kernel::set_internal_force(const Eigen::Ref<const Eigen::VectorXd>& command,
+                                const Eigen::Ref<const Eigen::VectorXd>& error) {
+  lab::set_internal_force(*tasks_.at("internal_force"), command, error);
+}
+
 void Kernel::check_references() const {
   const auto n = static_cast<Eigen::Index>(robot_.contacts.size());
   check_size(refs_.posture.size(), {robot_.na}, "posture");
@@ -140,6 +151,14 @@ void Kernel::check_references() const {
     check_size(refs_.foot_acceleration.size(), {3 * n}, "foot_acceleration");
   }
   check_size(refs_.force_weight.size(), {0, n}, "force_weight");
+  check_size(refs_.sole_position.size(), {0, 3 * n}, "sole_position");
+  if (refs_.sole_position.size()) check_size(refs_.sole_rotation.size(), {9 * n}, "sole_rotation");
+  check_size(refs_.leg_swinging.size(), {0, n}, "leg_swinging");
+  if (refs_.leg_swinging.size() && (refs_.leg_swinging && !refs_.contact_active).any()) {
+    check_size(refs_.leg_position.size(), {robot_.na}, "leg_position");
+    check_size(refs_.leg_velocity.size(), {robot_.na}, "leg_velocity");
+    check_size(refs_.leg_acceleration.size(), {robot_.na}, "leg_acceleration");
+  }
 }
 
 void Kernel::update(const Eigen::Ref<const Eigen::VectorXd>& q,

@@ -51,6 +51,11 @@ class Kernel {
   void set_contact_limits(const ContactLimits& limits);
   void set_torque_limits(const Eigen::VectorXd& limits);
   void set_joint_limits(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper);
+  /// The momentum task's K_h (6 × 9), designed on the Python side (lab/controller/momentum.py).
+  void set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain);
+  /// The internal-force task's command and error, from the Python task's sensed feedback.
+  void set_internal_force(const Eigen::Ref<const Eigen::VectorXd>& command,
+                          const Eigen::Ref<const Eigen::VectorXd>& error);
 
   /// The references of the next ticks; check_references() before using them.
   References& references() { return refs_; }

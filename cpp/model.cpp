@@ -1,6 +1,7 @@
 #include "model.hpp"
 
 #include <pinocchio/algorithm/center-of-mass.hpp>
+#include <pinocchio/algorithm/centroidal.hpp>
 #include <pinocchio/algorithm/compute-all-terms.hpp>
 #include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/joint-configuration.hpp>
@@ -82,6 +83,7 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
                         const Eigen::Ref<const Eigen::VectorXd>& v_) {
   q = q_;
   v = v_;
+  centroidal_drift_current_ = false;
   // M, nle, joint Jacobians, CoM with its Jacobian, the centroidal map, and the drift
   // accelerations (qdd = 0) of every joint, which give J̇v below.
   const pinocchio::Model& model = *this->model;
@@ -124,6 +126,16 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
           pinocchio::getFrameClassicalAcceleration(model, data, fid, frame).toVector();
     }
   }
+}
+
+const Eigen::Matrix<double, 6, 1>& RobotModel::centroidal_drift() const {
+  if (!centroidal_drift_current_) {
+    // computeAllTerms left each body's drift acceleration (q̈ = 0, no gravity) in data.a: the
+    // momentum rate these give is Ȧ_G v (computeCentroidalMapTimeVariation's dAg v).
+    centroidal_drift_ = pinocchio::computeCentroidalMomentumTimeVariation(*model, *data).toVector();
+    centroidal_drift_current_ = true;
+  }
+  return centroidal_drift_;
 }
 
 void RobotModel::joint_torques(const Eigen::Ref<const Eigen::VectorXd>& x,

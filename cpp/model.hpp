@@ -53,6 +53,12 @@ class RobotModel {
   void force_rows_of(const Eigen::Array<bool, Eigen::Dynamic, 1>& flags,
                      Eigen::Array<bool, Eigen::Dynamic, 1>& rows) const;
 
+  /// Ȧ_G v, the rate of change of the centroidal momentum at q̈ = 0 (Herzog eq. 20), world axes,
+  /// [linear; angular] about the CoM: pinocchio's, from the drift accelerations of the last
+  /// update, on the first call after it (only the momentum task needs it; it rewrites the
+  /// per-body momenta in `data`, which nothing reads after the update).
+  const Eigen::Matrix<double, 6, 1>& centroidal_drift() const;
+
   /// Names of the model's frames, in pinocchio order.
   std::vector<std::string> frame_names() const;
   /// Each joint's body inertia as pinocchio's 10 dynamic parameters (one row per joint).
@@ -81,6 +87,8 @@ class RobotModel {
 
  private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> frame_jacobian_;  // scratch
+  mutable Eigen::Matrix<double, 6, 1> centroidal_drift_;
+  mutable bool centroidal_drift_current_ = false;
 };
 
 }  // namespace lab

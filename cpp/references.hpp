@@ -1,7 +1,8 @@
-// What the behaviour asks of the tasks this tick (mirrors lab/controller/references.py and
-// walk_references.py). The behaviour owns them in Python; Kernel.set_references copies them in.
-// A walking field left empty means what the Python side does for a plain References: flat ground,
-// no swing trajectories, no force interpolation, zero posture velocity, full postural weight.
+// What the behaviour asks of the tasks this tick (mirrors lab/controller/references.py,
+// walk_references.py and tasks/sole.py's SoleReferences). The behaviour owns them in Python;
+// Kernel.set_references copies them in. A walking field left empty means what the Python side does
+// for a plain References: flat ground, no swing trajectories, no force interpolation, zero posture
+// velocity, full postural weight.
 #pragma once
 
 #include <Eigen/Dense>
@@ -27,6 +28,16 @@ struct References {
   Eigen::VectorXd force_weight;      // per contact; NaN: not changing
   Eigen::VectorXd posture_velocity;  // per actuated joint
   Eigen::VectorXd posture_weight;    // per contact's leg
+
+  // SoleReferences (tasks/sole.py), or empty: each sole's pose target (world position (n, 3) and
+  // rotation (n, 3, 3), row-major flat), the legs swinging in joint space and their trajectory
+  // (actuated joints, pinocchio order).
+  Eigen::VectorXd sole_position;
+  Eigen::VectorXd sole_rotation;
+  Eigen::Array<bool, Eigen::Dynamic, 1> leg_swinging;
+  Eigen::VectorXd leg_position;
+  Eigen::VectorXd leg_velocity;
+  Eigen::VectorXd leg_acceleration;
 };
 
 }  // namespace lab

@@ -18,6 +18,7 @@ from lab.controller.behaviours.balance import standing_references
 from lab.controller.behaviours.leg_posture import LegPostureReference
 from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.model import RobotModel
+from lab.controller.momentum import pd_gain
 from lab.controller.native import (
     NOT_BUILT,
     NativeController,
@@ -38,19 +39,6 @@ _kernel = pytest.importorskip(
     "lab._kernel", reason="the native kernel is not built (./dev builds it)"
 )
 
-# Tasks and constraints written in Python first (issue 12: a stack naming one runs on the Python
-# kernel): Herzog's momentum task, swing sole and leg, flat-sole constraints and the soles'
-# internal wrench; Kim's internal force.
-PYTHON_ONLY = {
-    "momentum",
-    "swing_sole",
-    "swing_leg",
-    "cop_inner",
-    "sole_torsion",
-    "internal_wrench",
-    "internal_force",
-}
-PYTHON_ONLY |= {"com_along_feet", "com_across_feet"}  # Kim's Fig. 6c CoM split
 ROWS_TOL = 1e-9  # relative to the entries' scale: the same pinocchio calls, other float order
 STATES = 6  # random states per robot
 
@@ -59,9 +47,28 @@ def kernel_of(controller: WholeBodyController) -> "_kernel.Kernel":
     """A kernel with the controller's model, limits and gains."""
     kernel = kernel_for(controller)
     for name, task in controller.tasks.items():
-        if name not in PYTHON_ONLY:
-            kernel.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
+        kernel.set_gains(name, task.gains.kp, task.gains.kd, task.gains.weight)
     return kernel
+
+
+def momentum_gain(controller: WholeBodyController) -> np.ndarray:
+    """The K_h the Python momentum task used at its last rows, for the kernel (as NativeController
+    hands it over)."""
+    task = controller.tasks["momentum"]
+    if task.mode == "pd":
+        return pd_gain(controller.robot.mass, task.gains.kp, task.gains.kd)
+    return task.schedule.current
+
+
+def send_python_feedback(controller: WholeBodyController, kernel) -> None:
+    """What NativeController hands the kernel from the Python tasks, for the stack's tasks: the
+    momentum task's K_h of the last rows and the internal force's command and error."""
+    names = controller.config.stack.names()
+    if "momentum" in names:
+        kernel.set_momentum_gain(momentum_gain(controller))
+    if "internal_force" in names:
+        task = controller.tasks["internal_force"]
+        kernel.set_internal_force(*task.feedback(controller.robot, controller.references)[1:])
 
 
 def random_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -110,8 +117,7 @@ def random_gains(controller: WholeBodyController, kernel, rng: np.random.Generat
         kp, kd = rng.uniform(1.0, 400.0, 2)
         weight = 1.0 if rng.random() < 0.5 else float(rng.uniform(1e-3, 10.0))
         controller.set_gains(name, kp, kd, weight)
-        if name not in PYTHON_ONLY:
-            kernel.set_gains(name, kp, kd, weight)
+        kernel.set_gains(name, kp, kd, weight)
 
 
 def assert_rows_equal(native: tuple, python: tuple, what: str) -> None:
@@ -171,7 +177,10 @@ def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
     controller, robot = controller_for(name)
     kernel = kernel_of(controller)
     model = controller.robot
-    assert sorted(kernel.known_names()) == sorted(set(controller.known_names) - PYTHON_ONLY)
+    assert sorted(kernel.known_names()) == sorted(controller.known_names)
+    # The PD law: an LQR design needs contacts that can hold the momentum (one point foot
+    # cannot); test_kernel_herzog.py has the LQR laws on Talos.
+    controller.set_momentum_mode("pd")
     rng = np.random.default_rng(12)
     for i in range(STATES):
         q, v = random_state(robot, rng)
@@ -181,24 +190,25 @@ def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
         send_references(kernel, refs)
         random_gains(controller, kernel, rng)
         for task_name, task in controller.tasks.items():
-            if task_name in PYTHON_ONLY:
-                continue
-            python = task.rows(model, refs)[:2]  # A, b
+            python = task.rows(model, refs)  # A, b, error
+            if task_name == "momentum":
+                kernel.set_momentum_gain(momentum_gain(controller))
+            if task_name == "internal_force":  # its command, as NativeController hands it over
+                kernel.set_internal_force(python.b, python.error)
             native = kernel.rows(task_name)
-            assert_rows_equal(native, python, f"{name} state {i}: task {task_name}")
+            assert_rows_equal(native, python[:2], f"{name} state {i}: task {task_name}")
         for constraint_name, constraint in controller.constraints.items():
-            if constraint_name in PYTHON_ONLY:
-                continue
             python = constraint.rows(model, refs)
             native = kernel.rows(constraint_name)
             assert_rows_equal(native, python, f"{name} state {i}: {constraint_name}")
 
 
-def stacks_of(name: str) -> list[tuple[str, list[list[str]]]]:
-    """The robot's default stack and every preset the native kernel has every task of."""
+def stacks_of(name: str, known: tuple[str, ...]) -> list[tuple[str, list[list[str]]]]:
+    """The robot's default stack and every preset whose names are all `known` on the robot (the
+    soles' constraints need flat feet)."""
     default = [list(level) for level in load_description(name).stack]
     stacks = [("default", default)] + [(p, load_stack_preset(p).levels) for p in PRESET_NAMES]
-    return [(s, levels) for s, levels in stacks if PYTHON_ONLY.isdisjoint(Stack.of(levels).names())]
+    return [(s, levels) for s, levels in stacks if set(Stack.of(levels).names()) <= set(known)]
 
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
@@ -207,7 +217,7 @@ def test_the_hierarchy_problem_of_every_stack_agrees(name: str) -> None:
     kernel = kernel_of(controller)
     model = controller.robot
     rng = np.random.default_rng(5)
-    for stack_name, levels in stacks_of(name):
+    for stack_name, levels in stacks_of(name, controller.known_names):
         controller.set_stack(Stack.of(levels))
         kernel.set_stack(levels)
         for i in range(2):
@@ -218,6 +228,7 @@ def test_the_hierarchy_problem_of_every_stack_agrees(name: str) -> None:
             send_references(kernel, controller.references)
             random_gains(controller, kernel, rng)
             python = controller.build_problem()
+            send_python_feedback(controller, kernel)
             native = kernel.problem()
             what = f"{name} {stack_name} state {i}"
             assert_rows_equal(
@@ -552,7 +563,8 @@ def weighted_cost(problem, x: np.ndarray) -> float:
 @pytest.mark.parametrize("method", ["cascade", "weighted"])
 def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
     states = recorded_states(name)
-    for stack_name, levels in stacks_of(name):
+    known = controller_for(name)[0].known_names
+    for stack_name, levels in stacks_of(name, known):
         controller, _ = controller_for(name)
         kernel = kernel_of(controller)
         controller.set_stack(Stack.of(levels))
@@ -565,6 +577,7 @@ def test_the_whole_tick_agrees_with_python(name: str, method: str) -> None:
             controller.robot.update(q, v)
             send_references(kernel, refs)
             python = controller.solve()
+            send_python_feedback(controller, kernel)
             tau, qdd, forces, ok, message, statuses, _, _, errors, seconds = kernel.tick(q, v)
             assert ok, f"{what}: {message}"
             assert len(seconds) == len(statuses) and all(s >= 0.0 for s in seconds), what
@@ -602,14 +615,3 @@ def test_a_scenario_picks_its_kernel(tmp_path) -> None:
     assert run_scenario(load_scenario(path))["kernel"] == "python"
     path.write_text('robot = "solo12"\nduration = 0.05\n')
     assert run_scenario(load_scenario(path))["kernel"] == "native"
-
-
-def test_a_stack_with_a_python_only_task_runs_on_the_python_kernel_and_says_so() -> None:
-    session = Session(SessionConfig(robot="talos", kernel="native"))
-    assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
-    for _ in range(20):
-        session.tick()
-    telemetry = session.telemetry()
-    assert telemetry["kernel"] == "python"  # the note names the first Python-only name
-    assert any(f"'{name}'" in telemetry["kernel_note"] for name in PYTHON_ONLY)
-    assert session.qp_failures == 0

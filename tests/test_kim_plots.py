@@ -14,7 +14,7 @@ from lab.ui.internal_force_plot import (
     internal_force_values,
 )
 from lab.ui.phase_portrait_plot import add_phase_portrait_plot, portrait_points
-from lab.ui.plot_range import y_range
+from lab.ui.plot_range import axis_range
 
 
 def test_portrait_points_are_sorted_by_position_each_velocity_where_it_belongs() -> None:
@@ -30,15 +30,15 @@ def test_the_y_range_spans_the_finite_values_and_holds_until_they_leave_or_shrin
     """uPlot cannot range a series with NaN gaps (plot_range.py): the range comes from the
     finite values, padded, at least min_span wide, and is kept while they fit and fill it."""
     values = np.array([math.nan, -0.12, 0.3, math.nan])
-    low, high = y_range(values, None, 0.1)
+    low, high = axis_range(values, None, 0.1)
     assert low < -0.12 and high > 0.3 and high - low < 2.4 * 0.42 + 1e-9
-    assert y_range(np.array([0.0, 0.25]), (low, high), 0.1) == (low, high)  # fits and fills
-    wider = y_range(np.array([0.0, 0.9]), (low, high), 0.1)
+    assert axis_range(np.array([0.0, 0.25]), (low, high), 0.1) == (low, high)  # fits and fills
+    wider = axis_range(np.array([0.0, 0.9]), (low, high), 0.1)
     assert wider[1] > 0.9
-    assert y_range(np.array([0.0, 0.01]), wider, 0.1)[1] < 0.2  # shrinks with the data
-    low, high = y_range(np.array([0.5, 0.5]), None, 0.1)  # all equal: min_span wide around them
+    assert axis_range(np.array([0.0, 0.01]), wider, 0.1)[1] < 0.2  # shrinks with the data
+    low, high = axis_range(np.array([0.5, 0.5]), None, 0.1)  # all equal: min_span wide around them
     assert low < 0.45 and high > 0.55
-    assert y_range(np.full(3, math.nan), None, 0.1) == (-0.05, 0.05)
+    assert axis_range(np.full(3, math.nan), None, 0.1) == (-0.05, 0.05)
 
 
 def test_stepping_bolts_telemetry_feeds_both_plots() -> None:

@@ -110,6 +110,16 @@ def test_lqr_gains_are_optimal_for_the_linearized_momentum_dynamics() -> None:
     assert closed_loop_cost(worse, s0, cost)[0] > value * (1 + 1e-4)
 
 
+def test_no_lqr_gain_without_a_contact_is_a_clear_linalg_error() -> None:
+    """With no contact in support there is no input to design with: a LinAlgError (which the
+    session reports as a solver failure and answers with fallback torques), not a crash."""
+    controller, robot = controller_for("talos")
+    model = controller.robot
+    model.update(robot.q_standing, np.zeros(model.nv))
+    with pytest.raises(np.linalg.LinAlgError, match="without a contact in support"):
+        lqr_design(model, np.zeros(2, dtype=bool), LqrCost())
+
+
 def test_gains_are_designed_once_per_contact_configuration_and_blended_at_a_switch() -> None:
     designs: list[str] = []
     schedule = GainSchedule(transition_ticks=10)
@@ -282,3 +292,39 @@ def test_lqr_holds_the_cog_closer_than_pd_on_the_same_push() -> None:
     lqr, _ = push_at_the_pelvis("lqr_talos", *push, 500)
     assert 1e-3 < pd < 0.02
     assert lqr < 0.8 * pd
+
+
+def sole_tilt_under_the_ui_push(internal_wrench: bool) -> tuple[float, float]:
+    """Talos under Table 2 (`lqr_talos`), with or without the soles' internal wrench priced (the
+    `herzog_table2_flat_soles` preset), pushed at the pelvis from the front by the UI's default
+    push: the largest tilt of a sole (rad) and horizontal CoG excursion (m) over the 0.6 s from
+    the push."""
+    session = Session(SessionConfig(robot="talos"))
+    preset = "herzog_table2_flat_soles" if internal_wrench else "herzog_table2"
+    assert session.handle("stack", {"preset": preset})["ok"]
+    assert session.handle("momentum", {"mode": "lqr_talos"})["ok"]
+    for _ in range(200):
+        session.tick()
+    start = session.model.com[:2].copy()
+    push = {"body": session.robot.base_link, "force": [150.0, 0.0, 0.0], "duration": 0.2}
+    assert session.handle("push", push)["ok"]
+    tilt = excursion = 0.0
+    for _ in range(600):
+        session.tick()
+        upright = session.model.contact_rotations[:, 2, 2]
+        tilt = max(tilt, float(np.max(np.arccos(np.clip(upright, -1.0, 1.0)))))
+        excursion = max(excursion, float(np.linalg.norm(session.model.com[:2] - start)))
+    assert not session.fell and session.qp_failures == 0
+    return tilt, excursion
+
+
+def test_pricing_the_soles_internal_wrench_keeps_them_flat_under_the_ui_push() -> None:
+    """The UI's default push (150 N for 0.2 s) from the front binds the planned CoPs at the toe
+    bound; the soles' internal wrench then runs to the corners of its bounds and the soles roll
+    onto their edges (measured 0.063 rad under `lqr_talos`), unless `internal_wrench` prices it
+    (0.004 rad, the CoG 1.45 cm off against 1.69). Asserted: priced, under 0.01 rad and 2.5 cm;
+    not priced, over 0.02 rad (docs/replications.md, "Flat soles and the long push")."""
+    flat, flat_excursion = sole_tilt_under_the_ui_push(internal_wrench=True)
+    rocking, _ = sole_tilt_under_the_ui_push(internal_wrench=False)
+    assert flat < 0.01 and flat_excursion < 0.025
+    assert rocking > 0.02

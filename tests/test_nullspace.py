@@ -308,3 +308,21 @@ def test_a_search_started_from_its_optimal_active_rows_ends_there_at_once() -> N
     assert not warm.capped and warm.projections <= 1 + active_rows < cold.projections
     np.testing.assert_allclose(warm.z, cold.z, atol=1e-9)
     assert [list(on) for on in warm.active] == [list(on) for on in cold.active]
+
+
+def test_a_search_walked_from_a_point_ends_at_the_same_optimum() -> None:
+    """As the controller starts each tick from the last tick's x too: where the solution of the
+    start rows (here none) violates a row, the search pins the rows the point violates and walks
+    from the point to the optimum. From the optimum itself it ends there in fewer solves than the
+    cold search (which activates a row per solve first); from a point far off (every force and
+    acceleration off by up to 100), at the same optimum."""
+    _, change, levels = stance_unloading()
+    n = change.T.shape[1]
+    cold = active_set_least_squares(levels, n)
+    near = active_set_least_squares(levels, n, point=cold.z)
+    assert not near.capped and near.projections < cold.projections
+    np.testing.assert_allclose(near.z, cold.z, atol=1e-9)
+    far_point = cold.z + np.random.default_rng(0).uniform(-100.0, 100.0, n)
+    far = active_set_least_squares(levels, n, cap=1000, point=far_point)
+    assert not far.capped and far.feasible
+    np.testing.assert_allclose(far.z, cold.z, atol=1e-6)

@@ -331,14 +331,18 @@ def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
 def test_the_balance_buttons_send_the_momentum_law_and_a_refused_stance_says_why(
     page, lab: LabClient
 ) -> None:
-    """PD, LQR and LQR Talos reach the server; `On left` on ANYmal (point feet) is refused, and
-    the page says why."""
+    """The folder shows the current law from the page's load on, before a law is picked; PD, LQR
+    and LQR Talos reach the server; `On left` on ANYmal (point feet) is refused, and the page
+    says why."""
+    shown = f"Momentum law: {lab.command('info')['momentum']['mode']}"
+    page.get_by_text(shown).first.wait_for(timeout=PAGE_TIMEOUT_MS)
     for label, mode in (("PD", "pd"), ("LQR", "lqr"), ("LQR Talos", "lqr_talos")):
         press(page, label)
         end = time.monotonic() + UI_ACTION_TIMEOUT_S
         while lab.command("info")["momentum"]["mode"] != mode and time.monotonic() < end:
             time.sleep(0.1)
         assert lab.command("info")["momentum"]["mode"] == mode
+    page.get_by_text("Momentum law: lqr_talos").first.wait_for(timeout=PAGE_TIMEOUT_MS)
     press(page, "On left")
     page.get_by_text("not a biped with flat soles").first.wait_for(timeout=PAGE_TIMEOUT_MS)
     assert lab.command("info")["gait"] == "stand"

@@ -12,7 +12,7 @@ from lab.description import ROBOT_NAMES, load_description
 from lab.protocol import VelocityCommand
 from lab.robot import build_robot
 from lab.ui import stack_edit as se
-from lab.ui.balance_controls import GAIN_ERRORS, GAIN_RATES, gain_markdown
+from lab.ui.balance_controls import GAIN_ERRORS, GAIN_RATES, BalanceControls, gain_markdown
 from lab.ui.camera import followed, recentred
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
@@ -564,3 +564,32 @@ def test_the_momentum_gain_is_shown_as_a_table_row_per_error() -> None:
     assert cells[0] == ["cx", "1270", "·", "·", "·", "·", "·"]
     assert cells[3] == ["px", "·", "7.46", "·", "·", "·", "·"]
     assert "no `momentum` task" in gain_markdown(None)
+
+
+class _NoCommands:
+    """A lab app for a folder that is only shown `info` (no button is pressed)."""
+
+    def guard(self, callback):
+        return callback
+
+    def send(self, client, verb: str, payload: dict) -> None:
+        raise AssertionError(f"{verb} sent: nothing was pressed")
+
+
+def test_the_balance_folder_shows_the_current_laws_gain_from_info(viser_server) -> None:
+    """The page shows K_h as it loads (from `info`), not only once a law is picked: Talos under
+    Table 2 (PD: ṗx ← cx is m·kp) and then under a stack without the momentum task."""
+    from lab.server.session import Session, SessionConfig
+
+    session = Session(SessionConfig(robot="talos"))
+    assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
+    assert session.handle("momentum", {"mode": "pd"})["ok"]
+    folder = BalanceControls(_NoCommands(), viser_server.gui, order=99)
+    folder.show_info(session.info())
+    lines = folder.gain.content.splitlines()
+    assert lines[0] == "Momentum law: pd" and lines[2].startswith("| K_h |")
+    kp = session.controller.tasks["momentum"].gains.kp
+    assert lines[4].split("|")[2].strip() == f"{session.model.mass * kp:.0f}"  # row cx, col ṗx
+    assert session.handle("robot", {"name": "talos"})["ok"]  # its default stack
+    folder.show_info(session.info())
+    assert "no `momentum` task" in folder.gain.content

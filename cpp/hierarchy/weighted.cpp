@@ -89,9 +89,14 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
   out.levels.assign(problem.levels.size(), LevelStatus::qp);
   out.qp_solves = 1;
   QpReport report;
-  if (lightest >= kWellConditionedWeight) {
+  if (lightest >= kWellConditionedWeight)
     out.ok = solve_reduced(problem, kRegularization * lightest, C, d, out.x, report);
-  } else {  // the QP as the Python kernel poses it: H, g over x and the Newton-Euler rows
+  // The QP as the Python kernel poses it: H, g over x and the Newton-Euler rows. Also where the
+  // reduced QP found no u: with a lifted sole (herzog_table4) its six force rows are held at zero
+  // by pairs of opposite rows and weigh ~1e-7 against the contacts' 1e4, and DAQP then declared
+  // some feasible reduced QPs infeasible that it solves in this form (as the Python kernel does).
+  if (!out.ok) {
+    if (lightest >= kWellConditionedWeight) out.qp_solves = 2;  // the reduced QP, then this one
     H.setZero(nx, nx);
     H.diagonal().setConstant(kRegularization * lightest);
     g.setZero(nx);

@@ -1,5 +1,5 @@
 // Load-distribution objectives of Hutter 2014 §4–5.1 (lab/controller/tasks/objectives.py):
-// forces, torques, force_normal, force_interpolation.
+// forces, torques, force_normal, force_interpolation, internal_wrench.
 #include <cmath>
 
 #include "tasks/base.hpp"
@@ -96,6 +96,35 @@ class ForceInterpolationTask : public Task {
   }
 };
 
+/// The support wrenches' internal part → 0: (I − G⁺G) F = 0 with G = J_uᵀ over the forces of
+/// the feet in support (G F is the wrench the base feels; its null space is what the feet exert
+/// on each other).
+class InternalWrenchTask : public Task {
+ public:
+  void compute(const RobotModel& robot, const References& refs) override {
+    contact_rows(robot, refs.contact_active, columns_);
+    const auto k = static_cast<Eigen::Index>(columns_.size());
+    reset(robot, k);
+    if (k == 0) return;
+    base_.resize(BASE_DOF, k);
+    for (Eigen::Index c = 0; c < k; ++c)
+      base_.col(c) = robot.Jc.row(columns_[c]).head<BASE_DOF>().transpose();
+    // numpy.linalg.pinv: G⁺G = V_r V_rᵀ over the singular values above 1e-15 of the largest.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(base_, Eigen::ComputeThinV);
+    const auto& sigma = svd.singularValues();
+    Eigen::Index rank = 0;
+    while (rank < sigma.size() && sigma[rank] > 1e-15 * sigma[0]) ++rank;
+    const auto V = svd.matrixV().leftCols(rank);
+    projector_.noalias() = -V * V.transpose();
+    projector_.diagonal().array() += 1.0;
+    for (Eigen::Index c = 0; c < k; ++c) A.col(robot.nv + columns_[c]) = projector_.col(c);
+  }
+
+ private:
+  std::vector<Eigen::Index> columns_;  // rows of F of the feet in support
+  Eigen::MatrixXd base_, projector_;   // G (6 × k) and I − G⁺G
+};
+
 }  // namespace
 
 void add_objective_tasks(TaskRegistry& tasks) {
@@ -103,6 +132,7 @@ void add_objective_tasks(TaskRegistry& tasks) {
   tasks["torques"] = std::make_unique<TorqueTask>();
   tasks["force_normal"] = std::make_unique<ForceNormalTask>();
   tasks["force_interpolation"] = std::make_unique<ForceInterpolationTask>();
+  tasks["internal_wrench"] = std::make_unique<InternalWrenchTask>();
 }
 
 }  // namespace lab

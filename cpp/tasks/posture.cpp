@@ -1,7 +1,22 @@
 // Posture tasks (lab/controller/tasks/posture.py): posture (Raiola eq. 9) and moving_posture.
+#include "tasks/posture.hpp"
+
 #include "tasks/feet.hpp"
 
 namespace lab {
+
+std::vector<std::vector<Eigen::Index>> leg_joints(const RobotModel& robot) {
+  std::vector<std::vector<Eigen::Index>> legs;
+  for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
+    const auto rows = robot.Jc.middleRows(robot.force_starts[i], robot.contacts[i].force_dim());
+    std::vector<Eigen::Index> leg;
+    for (Eigen::Index j = 0; j < robot.na; ++j)
+      if ((rows.col(BASE_DOF + j).array().abs() > 1e-9).any()) leg.push_back(j);
+    legs.push_back(std::move(leg));
+  }
+  return legs;
+}
+
 namespace {
 
 /// Joint accelerations q̈_j = kp (q_ref − q_j) − kd q̇_j (Raiola eq. 9).
@@ -51,19 +66,6 @@ class MovingPostureTask : public Task {
   }
 
  private:
-  /// Actuated-joint indices of each contact's leg: the joints that move the contact point.
-  static std::vector<std::vector<Eigen::Index>> leg_joints(const RobotModel& robot) {
-    std::vector<std::vector<Eigen::Index>> legs;
-    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
-      const auto rows = robot.Jc.middleRows(robot.force_starts[i], robot.contacts[i].force_dim());
-      std::vector<Eigen::Index> leg;
-      for (Eigen::Index j = 0; j < robot.na; ++j)
-        if ((rows.col(BASE_DOF + j).array().abs() > 1e-9).any()) leg.push_back(j);
-      legs.push_back(std::move(leg));
-    }
-    return legs;
-  }
-
   std::vector<std::vector<Eigen::Index>> legs_;
   Eigen::VectorXd weight_;  // of each actuated joint this tick
 };

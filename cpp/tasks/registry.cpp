@@ -10,6 +10,9 @@ TaskRegistry make_tasks() {
   add_posture_tasks(tasks);
   add_objective_tasks(tasks);
   add_feet_tasks(tasks);
+  add_momentum_tasks(tasks);
+  add_sole_tasks(tasks);
+  add_internal_force_tasks(tasks);
   return tasks;
 }
 

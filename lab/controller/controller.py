@@ -116,6 +116,7 @@ class WholeBodyController:
         self._reads_sensing = False
         # nullspace: where the last tick's active-set searches stopped, this tick's start
         self._active_sets: tuple[list[np.ndarray], ...] = ()
+        self._last_x: np.ndarray | None = None
         self.set_stack(config.stack)
         self.set_hierarchy(config.method, config.solver, config.formulation)
 
@@ -235,9 +236,9 @@ class WholeBodyController:
         """Torques at the state of the last RobotModel.update (a behaviour may update the
         references in between)."""
         problem = self.build_problem()
-        problem.active_start = self._active_sets
+        problem.active_start, problem.x_start = self._active_sets, self._last_x
         solution = METHODS[self.config.method](problem, self.config.solver)
-        self._active_sets = solution.active_sets
+        self._active_sets, self._last_x = solution.active_sets, solution.x
         x, nv = solution.x, self.robot.nv
         return ControlOutput(
             self.robot.joint_torques(x), x[:nv], x[nv:], solution, self.task_errors()

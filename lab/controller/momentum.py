@@ -95,16 +95,25 @@ class LqrDesign:
 
 def lqr_design(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> LqrDesign:
     """The infinite-horizon LQR of eq. 21 linearized at the current state (the contact
-    configuration `active` and its pose), for the cost of eq. 26."""
+    configuration `active` and its pose), for the cost of eq. 26. Raises LinAlgError, naming
+    the contacts, where no gain exists (no contact in support, or no stabilizing solution)."""
     G = contact_map(robot, active)
     columns = np.flatnonzero(np.any(G != 0.0, axis=0))
+    if columns.size == 0:
+        raise np.linalg.LinAlgError("no LQR momentum gain without a contact in support")
     B = np.zeros((9, len(columns)))
     B[3:] = G[:, columns]
     A = np.zeros((9, 9))
     A[:3, 3:6] = np.eye(3) / robot.mass
     A[6:, :3] = pin.skew(-robot.mass * robot.gravity)  # [F₀]×: ∂ḣ_ang/∂c
     R = np.diag(_force_costs(robot, active, cost))
-    P = scipy.linalg.solve_continuous_are(A, B, np.diag(cost.Q), R)
+    try:
+        P = scipy.linalg.solve_continuous_are(A, B, np.diag(cost.Q), R)
+    except (np.linalg.LinAlgError, ValueError) as error:
+        supported = [c.name for c, on in zip(robot.contacts, active, strict=True) if on]
+        raise np.linalg.LinAlgError(
+            f"no stabilizing LQR momentum gain on the contacts {supported}: {error}"
+        ) from error
     K = np.linalg.solve(R, B.T @ P)
     return LqrDesign(A, B, P, K, B[3:] @ K - A[3:])
 
@@ -144,6 +153,17 @@ class GainSchedule:
         self._ticks = min(self._ticks + 1, self.transition_ticks)
         alpha = self._ticks / self.transition_ticks
         self._current = (1.0 - alpha) * self._previous + alpha * target
+        return self._current
+
+    def settled(self, key: bytes) -> bool:
+        """Whether `gain(key)` would return `current` unchanged (the configuration has not
+        switched and no interpolation runs): a caller holding that gain may skip the call."""
+        done = self._ticks >= self.transition_ticks
+        return self._current is not None and key == self._key and done
+
+    @property
+    def current(self) -> np.ndarray | None:
+        """The K_h the last `gain` returned (None before the first, or after `clear`)."""
         return self._current
 
     def clear(self) -> None:

@@ -33,6 +33,8 @@ KERNELS = ("native", "python")
 NATIVE_METHODS = ("cascade", "weighted")
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
+_NO_FLAGS = np.zeros(0, dtype=bool)
+_NO_FLAGS.flags.writeable = False
 
 
 def native_available() -> bool:
@@ -58,7 +60,16 @@ def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
 
 
 def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
-    """Copy the fields of `refs` (References or WalkReferences) into the kernel."""
+    """Copy the fields of `refs` (References, WalkReferences or SoleReferences) into the
+    kernel."""
+    kernel.set_sole_references(
+        getattr(refs, "sole_position", _EMPTY),
+        getattr(refs, "sole_rotation", _EMPTY),
+        getattr(refs, "leg_swinging", _NO_FLAGS),
+        getattr(refs, "leg_position", _EMPTY),
+        getattr(refs, "leg_velocity", _EMPTY),
+        getattr(refs, "leg_acceleration", _EMPTY),
+    )
     kernel.set_references(
         refs.com,
         refs.posture,
@@ -125,6 +136,10 @@ class NativeController(WholeBodyController):
             raise KeyError(f"unknown kernel {config.kernel!r} (kernels: {', '.join(KERNELS)})")
         self._native: _kernel.Kernel | None = None
         self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
+        self._has_momentum = False  # whether the stack has the momentum task
+        self._has_internal_force = False  # and the internal-force task
+        self._momentum_pd: tuple | None = None  # (kp, kd) of the PD K_h the kernel holds
+        self._momentum_lqr: np.ndarray | None = None  # the scheduled K_h the kernel holds
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
@@ -166,6 +181,8 @@ class NativeController(WholeBodyController):
         try:
             self._native.set_stack(stack.as_lists())
             self._unsupported = ""
+            self._has_momentum = "momentum" in stack.names()
+            self._has_internal_force = "internal_force" in stack.names()
         except KeyError as error:  # a task written in Python only: the Python kernel runs it
             self._unsupported = error.args[0]
 
@@ -233,6 +250,18 @@ class NativeController(WholeBodyController):
         if self._native_method != self.config.method:  # a Python str: no crossing to compare
             native.set_method(self.config.method)
             self._native_method = self.config.method
+        if self._has_momentum or self._has_internal_force:
+            if q is not None:  # their Python parts read the model at this tick's state first
+                native.update(q, v)
+                self.robot.filled_elsewhere()
+                q = v = None
+            if self._has_momentum:
+                self._sync_momentum_gain()
+            if self._has_internal_force:  # its sensed feedback (Kim eq. 12), new every tick
+                _, command, error = self.tasks["internal_force"].feedback(
+                    self.robot, self.references
+                )
+                native.set_internal_force(command, error)
         outcome = native.tick_into(self.references, self._tau, self._x, q, v)
         if q is not None:
             self.robot.filled_elsewhere()
@@ -241,6 +270,29 @@ class NativeController(WholeBodyController):
         if not outcome.ok:
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
         return NativeOutput(self._tau.copy(), self._x.copy(), self.robot.nv, outcome)
+
+    def _sync_momentum_gain(self) -> None:
+        """Hand the kernel the momentum task's K_h when it changes: the design (PD, LQR) and
+        the interpolation across a contact switch stay in Python (momentum.py) and advance
+        tick by tick as on the Python kernel; an unchanged K_h does not cross."""
+        task, refs = self.tasks["momentum"], self.references
+        if task.mode == "pd":
+            pd = (task.gains.kp, task.gains.kd)
+            if pd != self._momentum_pd:
+                self._native.set_momentum_gain(task.gain(self.robot, refs))
+                self._momentum_pd, self._momentum_lqr = pd, None
+            return
+        schedule = task.schedule
+        held = self._momentum_lqr
+        if (
+            held is not None
+            and held is schedule.current
+            and schedule.settled(refs.contact_active.tobytes())
+        ):
+            return
+        gain = task.gain(self.robot, refs)
+        self._native.set_momentum_gain(gain)
+        self._momentum_pd, self._momentum_lqr = None, gain
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario

@@ -1,7 +1,7 @@
 """The panel's "Balance" folder (Herzog 2016): the momentum law (PD or LQR) and the stance
 (both soles, or one lifted), for a biped with flat feet. Both send their command and show the
-reply (a momentum law's gain matrix K_h at the current contacts); the server refuses them for
-other robots, naming why.
+reply; the server refuses them for other robots, naming why. The current law's gain matrix K_h at
+the current contacts is shown from the page's load on (from `info`) and after each law chosen.
 """
 
 from __future__ import annotations
@@ -55,25 +55,45 @@ def gain_markdown(gain: list[list[float]] | None) -> str:
     return "\n".join([header, rule, *rows])
 
 
-def add_balance_controls(app: CommandHost, client: viser.ClientHandle, order: int) -> list:
-    """Add the folder to `client`'s panel; returns its controls (greyed out while read-only)."""
-    gui = client.gui
-    with gui.add_folder("Balance (Herzog 2016)", order=order):
-        momentum = gui.add_button_group("Momentum", tuple(MOMENTUM_LABELS))
-        stance = gui.add_button_group("Stance", tuple(STANCE_LABELS))
-        swing = gui.add_button_group("Leg swing", tuple(SWING_LABELS))
-        note = gui.add_markdown("")
+class BalanceControls:
+    """The folder's controls and its K_h table, which shows the current law's gain from every
+    `info` (so from the page's load on) and from each `momentum` reply."""
 
-    def send(verb: str, payload: dict) -> None:
-        reply = app.send(client, verb, payload)
+    def __init__(self, app: CommandHost, gui: viser.GuiApi, order: int) -> None:
+        with gui.add_folder("Balance (Herzog 2016)", order=order):
+            momentum = gui.add_button_group("Momentum", tuple(MOMENTUM_LABELS))
+            stance = gui.add_button_group("Stance", tuple(STANCE_LABELS))
+            swing = gui.add_button_group("Leg swing", tuple(SWING_LABELS))
+            self.note = gui.add_markdown("")  # the last command's reply
+            self.gain = gui.add_markdown("")  # K_h of the current law
+        self.app = app
+        self.controls: list = [momentum, stance, swing]
+        momentum.on_click(
+            app.guard(
+                lambda e: self._send(e, "momentum", {"mode": MOMENTUM_LABELS[e.target.value]})
+            )
+        )
+        stance.on_click(
+            app.guard(lambda e: self._send(e, "stance", {"side": STANCE_LABELS[e.target.value]}))
+        )
+        swing.on_click(
+            app.guard(lambda e: self._send(e, "stance", {"swing": SWING_LABELS[e.target.value]}))
+        )
+
+    def show_info(self, info: dict) -> None:
+        """Show the law and K_h that `info` acknowledges."""
+        self._show_gain(info["momentum"])
+
+    def _show_gain(self, momentum: dict) -> None:
+        self.gain.content = f"Momentum law: {momentum['mode']}\n\n" + gain_markdown(
+            momentum.get("gain")
+        )
+
+    def _send(self, event: viser.GuiEvent, verb: str, payload: dict) -> None:
+        if event.client is None:
+            return
+        reply = self.app.send(event.client, verb, payload)
         if reply is not None and reply.get("ok"):
-            note.content = f"{verb}: {next(iter(payload.values()))}"
+            self.note.content = f"{verb}: {next(iter(payload.values()))}"
             if verb == "momentum":
-                note.content += "\n\n" + gain_markdown(reply["momentum"].get("gain"))
-
-    momentum.on_click(
-        app.guard(lambda e: send("momentum", {"mode": MOMENTUM_LABELS[e.target.value]}))
-    )
-    stance.on_click(app.guard(lambda e: send("stance", {"side": STANCE_LABELS[e.target.value]})))
-    swing.on_click(app.guard(lambda e: send("stance", {"swing": SWING_LABELS[e.target.value]})))
-    return [momentum, stance, swing]
+                self._show_gain(reply["momentum"])

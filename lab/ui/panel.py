@@ -19,7 +19,7 @@ import viser
 
 from lab.protocol import VelocityCommand
 from lab.ui import stack_edit
-from lab.ui.balance_controls import add_balance_controls
+from lab.ui.balance_controls import BalanceControls
 from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import stack_risks
@@ -188,7 +188,8 @@ class ControlPanel:
             handle.on_update(app.guard(lambda e, r=limits: self._slider_changed(e, r)))
         pushes.on_click(app.guard(lambda e: self.push(e.target.value)))
 
-        self._controls += add_balance_controls(app, client, order=5.5)
+        self.balance = BalanceControls(app, gui, order=5.5)
+        self._controls += self.balance.controls
         with gui.add_folder("Task stack", order=6):
             self.stack_view = gui.add_markdown("")
             self.task = gui.add_dropdown("Task", ("…",))
@@ -270,6 +271,7 @@ class ControlPanel:
             self.preset.options = tuple(info["stack_presets"])
         note = ROBOT_NOTES.get(info["robot"], "")
         self.robot_note.content, self.robot_note.visible = note, bool(note)
+        self.balance.show_info(info)
         self._show_task()
 
     def _show_task(self) -> None:

@@ -17,7 +17,7 @@ import viser
 import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
-from lab.ui.plot_range import y_range
+from lab.ui.plot_range import axis_range
 from lab.ui.plots import Container
 
 PATH_S = 2.0  # s of the CoM's path shown
@@ -79,8 +79,8 @@ class PhasePortrait:
             return
         _, x, v = self.path.arrays()
         data = portrait_points(np.column_stack((x, v)), self.prediction)
-        shown = y_range(np.concatenate(data[1:]), self._y_range, MIN_SPAN)
-        shown_x = y_range(data[0], self._x_range, MIN_POSITION_SPAN)
+        shown = axis_range(np.concatenate(data[1:]), self._y_range, MIN_SPAN)
+        shown_x = axis_range(data[0], self._x_range, MIN_POSITION_SPAN)
         scales: dict[str, uplot.Scale] = {
             "x": {"time": False, "auto": False, "range": shown_x},
             "y": {"auto": False, "range": shown},

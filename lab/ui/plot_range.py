@@ -1,4 +1,4 @@
-"""A y range computed here for uPlot charts whose series have NaN gaps.
+"""An axis range computed here for uPlot charts whose series have NaN gaps.
 
 uPlot (1.6.x, as viser ships it) starts each series' min/max at its first non-null value in view,
 and NaN is not null: a series whose first value is NaN gets a NaN range, the y scale becomes
@@ -23,10 +23,11 @@ def nice_step(span: float) -> float:
     return next(m * decade for m in (1.0, 2.0, 5.0, 10.0) if m * decade >= raw)
 
 
-def y_range(
+def axis_range(
     values: np.ndarray, current: tuple[float, float] | None, min_span: float
 ) -> tuple[float, float]:
-    """The y range (low, high) to show `values` (NaN ignored), at least `min_span` (> 0) wide:
+    """The axis range (low, high) to show `values` (NaN ignored; the y values of a chart, or the
+    x values of a phase portrait), at least `min_span` (> 0) wide:
     `current` while the finite values fit in it and span more than a third of it, otherwise their
     extent padded by PAD, its ends snapped outwards to a `nice_step`. With no finite value,
     `current`, or ±min_span/2."""

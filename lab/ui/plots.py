@@ -18,7 +18,7 @@ import viser.uplot as uplot
 
 from lab.ui.plot_buffer import RollingBuffer
 from lab.ui.plot_export import Shown, shown_csv, shown_png
-from lab.ui.plot_range import y_range
+from lab.ui.plot_range import axis_range
 from lab.ui.support import polygon_bounds
 
 WINDOWS_S = (10, 30, 60)  # the windows the panel offers; the first is the default
@@ -187,7 +187,7 @@ class Chart:
             floor = GAP_SPAN * float(finite.max()) if finite.size else 1.0
             shown = self._sent_scales.get("y", {}).get("range")
             current = shown if isinstance(shown, tuple) else None
-            shown = y_range(values, current, max(2.0 * self.spec.min_span, floor, 1e-9))
+            shown = axis_range(values, current, max(2.0 * self.spec.min_span, floor, 1e-9))
             scales["y"] = {"auto": False, "range": shown}
         elif self.spec.min_span:
             span = self.spec.min_span  # uPlot soft range: widened to ±span unless data exceeds it

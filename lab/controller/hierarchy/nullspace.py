@@ -28,6 +28,8 @@ such as a contact's normal, CoP and friction rows as its force goes to zero, oth
 released at no change of the optimum and re-activated by rounding in the next step.
 The search may start from any active rows (`problem.active_start`: the controller passes the last
 tick's) and still ends at the same optimum; from a close start in a few solves (a hot start).
+Where the start rows' solution violates a row, it walks from a point instead (`problem.x_start`,
+the last tick's x, under `qdd_force`), pinning the rows that point violates and those it crosses.
 
 Every hierarchy solve (`_project`) counts against a cap, MAX_PROJECTIONS per call, against
 cycling and against ticks far over their budget (docs/controller.md). At the cap the
@@ -106,7 +108,9 @@ def solve_nullspace(problem: HierarchyProblem, solver: str = "daqp") -> Hierarch
     else:
         change = reparametrize(problem, problem.formulation)
         levels = [change.eom] + [change.level(level) for level in problem.levels]
-        search = _searched(levels, change.T.shape[1], starts[0])
+        # z is x itself under qdd_force: the last tick's x is a point to start from
+        point = problem.x_start if problem.formulation == "qdd_force" else None
+        search = _searched(levels, change.T.shape[1], starts[0], point)
         x, searches = change.T @ search.z + change.t, (search,)
     statuses = (PROJECTED,) * len(problem.levels)
     return HierarchySolution(
@@ -125,10 +129,14 @@ def hierarchical_least_squares(levels: Sequence[Level], n: int) -> np.ndarray:
 
 
 def _searched(
-    levels: Sequence[Level], n: int, start: Sequence[np.ndarray] | None = None
+    levels: Sequence[Level],
+    n: int,
+    start: Sequence[np.ndarray] | None = None,
+    point: np.ndarray | None = None,
 ) -> ActiveSetSolution:
-    """The active-set search from `start`, warning (ActiveSetCapWarning) when the cap stopped it."""
-    solution = active_set_least_squares(levels, n, start=start)
+    """The active-set search from `start` (and `point`), warning (ActiveSetCapWarning) when the
+    cap stopped it."""
+    solution = active_set_least_squares(levels, n, start=start, point=point)
     if solution.capped:
         state = "feasible" if solution.feasible else "still violating an inequality"
         warnings.warn(
@@ -145,30 +153,66 @@ def active_set_least_squares(
     n: int,
     cap: int | None = None,
     start: Sequence[np.ndarray] | None = None,
+    point: np.ndarray | None = None,
 ) -> ActiveSetSolution:
     """The active-set search of `hierarchical_least_squares`, at most `cap` hierarchy solves
     (default MAX_PROJECTIONS), from the active rows `start` (e.g. the last tick's; ignored unless
-    they match the levels' rows) or none."""
+    they match the levels' rows) or none, and, where those rows' solution violates a row, from
+    `point` (e.g. the last tick's z), walking from it to a z that satisfies every row."""
     active = [np.zeros(len(level.d), dtype=bool) for level in levels]
     if start is not None and [len(on) for on in start] == [len(on) for on in active]:
         active = [np.array(on, dtype=bool) for on in start]
     budget = _Budget(MAX_PROJECTIONS if cap is None else cap)
     entry: list[tuple[np.ndarray, np.ndarray]] = []  # (z, Z) on entering each level
     z = _project(levels, active, n, entry, 0, budget)
+    if point is not None and len(point) == n and _violates(levels, active, z):
+        # A primal start: ticks apart the optimum moves a little while its active rows may jump,
+        # and §3.2's activation from the start rows' solution then pinned ~30 rows (Talos's
+        # torque limits) that hundreds of trial releases undid. From the last tick's point only
+        # the rows it violates and those crossed on the way to the solution get pinned.
+        for level, on in zip(levels, active, strict=True):
+            on |= level.C @ point - level.d > ACTIVATION_TOL
+        target = _project(levels, active, n, entry, 0, budget)
+        z = _walked(levels, active, n, entry, budget, point, target)
+        if budget.ran_out:
+            return ActiveSetSolution(z, budget.used, capped=True, feasible=True, active=active)
     while (k := _activate_violated(levels, active, z)) is not None:  # §3.2
         if not budget.take():
             return ActiveSetSolution(z, budget.used, capped=True, feasible=False, active=active)
         z = _project(levels, active, n, entry, k, budget)
     # z satisfies every inequality from here on: each step stops at the first row it would cross
     while (target := _release_one(levels, active, z, n, entry, budget)) is not None:
-        while True:  # from the feasible z towards the optimum of the new active set
-            z, k = _step(levels, active, z, target)
-            if k is None or not budget.take():
-                break
-            target = _project(levels, active, n, entry, k, budget)
+        z = _walked(levels, active, n, entry, budget, z, target)
         if budget.ran_out:
             break
     return ActiveSetSolution(z, budget.used, capped=budget.ran_out, feasible=True, active=active)
+
+
+def _violates(levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray) -> bool:
+    """Whether z violates an inactive row by more than ACTIVATION_TOL."""
+    return any(
+        np.any((level.C @ z - level.d)[~on] > ACTIVATION_TOL)
+        for level, on in zip(levels, active, strict=True)
+    )
+
+
+def _walked(
+    levels: Sequence[Level],
+    active: Sequence[np.ndarray],
+    n: int,
+    entry: list[tuple[np.ndarray, np.ndarray]],
+    budget: _Budget,
+    z: np.ndarray,
+    target: np.ndarray,
+) -> np.ndarray:
+    """From z towards `target` (the solution of the active rows), re-solved each time a row
+    blocks the way and is activated (`_step`), to the optimum of the active rows where no row
+    blocks; where the budget ran out, the point reached."""
+    while True:
+        z, k = _step(levels, active, z, target)
+        if k is None or not budget.take():
+            return z
+        target = _project(levels, active, n, entry, k, budget)
 
 
 def _activate_violated(

@@ -59,6 +59,8 @@ class HierarchyProblem:
     # `HierarchySolution.active_sets`); any start gives the same optimum, a close one in fewer
     # solves. Ignored where the rows do not match.
     active_start: tuple[list[np.ndarray], ...] = ()
+    # `nullspace` (qdd_force): the last tick's x, a point its search may start from as well
+    x_start: np.ndarray | None = None
 
     @property
     def nx(self) -> int:

@@ -42,28 +42,40 @@ class InternalForceTask(Task):
             raise ValueError(f"unknown source {source!r} (sources: {', '.join(SENSED_SOURCES)})")
         self.source = source
 
-    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+    def feedback(
+        self, robot: RobotModel, refs: References
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(feet, F_int,cmd, error) this tick: the point feet in support, the command of eq. 12
+        for each pair of them and the error F_int,ref − F_int,act (empty before the first sensed
+        step); no command with fewer than two feet. Sets `sensed` and `command`. The rows' right
+        side, which the native kernel takes from here."""
         feet = np.flatnonzero(
             refs.contact_active & np.array([c.kind == "point" for c in robot.contacts])
         )
         if len(feet) < 2:
             self.sensed, self.command = np.zeros(0), np.zeros(0)
-            return no_task_rows(robot.nx)
+            return feet, self.command, np.zeros(0)
         positions = robot.contact_positions[feet]
-        W = internal_force_map(positions)
-        reference = np.full(len(W), self.reference)
+        reference = np.full(len(feet) * (len(feet) - 1) // 2, self.reference)  # one per pair
         self.sensed = self._sensed(robot, refs, feet, positions)
         if self.sensed.size:
             error = reference - self.sensed
             self.command = reference + self.gains.kp * error  # eq. 12
         else:
             error, self.command = np.zeros(0), reference
+        return feet, self.command, error
+
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+        feet, command, error = self.feedback(robot, refs)
+        if len(feet) < 2:
+            return no_task_rows(robot.nx)
+        W = internal_force_map(robot.contact_positions[feet])
         A = np.zeros((len(W), robot.nx))
         columns = robot.nv + np.concatenate(
             [np.arange(3) + robot.force_slices[i].start for i in feet]
         )
         A[:, columns] = -W  # W_int λ with λ = −F
-        return TaskRows(A, self.command.copy(), error)
+        return TaskRows(A, command.copy(), error)
 
     def _sensed(
         self, robot: RobotModel, refs: References, feet: np.ndarray, positions: np.ndarray
