@@ -215,6 +215,14 @@ def main() -> int:
         f"max {since['lateness_us']['max']} us, tick p50 {since['tick_us']['p50']} us "
         f"p99 {since['tick_us']['p99']} us"
     )
+    kinds = since.get("tick_us_by_kind", {})
+    print("tick p50 by kind (us): " + ", ".join(f"{k} {v['p50']}" for k, v in kinds.items()))
+    late = since.get("late_lateness_us", {})
+    print(
+        "lateness of late ticks p50/p99 (us): "
+        + ", ".join(f"{k} {v['p50']}/{v['p99']}" for k, v in late.items())
+        + f"; GC collections by generation {result['gc_collections']}, load {result['load']}"
+    )
     print(f"telemetry per subscriber: {result['telemetry_hz_per_subscriber']} Hz")
     return 0
 

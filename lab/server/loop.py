@@ -90,20 +90,23 @@ class LoopConfig:
     state_hz: float = 60.0
     max_commands_per_tick: int = 4
     # Sleep until this long before a deadline, then spin. On this project's 2-core VM a sleep
-    # woke more than 10 % of a period late on ~1.5 % of ticks; with 0.3 ms of spinning, on
-    # 0.05-0.1 % (docs/performance.md). Spinning the whole period instead gets the loop
-    # throttled by the kernel's realtime budget (50 ms stalls at SCHED_FIFO).
-    spin_s: float = 3e-4
-    # How to spend the spin: "yield" calls sched_yield (lets other threads have the GIL and the
-    # CPU), "busy" only reads the clock.
-    spin: str = "yield"
-    # The EEVDF slice (s) to ask for at SCHED_OTHER (Linux >= 6.12, unprivileged): a thread with
-    # a shorter slice than the running one preempts it when it wakes (PREEMPT_SHORT) instead of
-    # waiting for the end of that one's slice. None keeps the kernel's default.
-    slice_s: float | None = None
-    # gc.freeze() once before the first tick: the objects of the set-up (models, arrays, modules)
-    # leave the collector's generations, so a full collection does not walk them again.
-    gc_freeze: bool = False
+    # woke more than 10 % of a period late on ~1.5 % of ticks (the idle vCPU halts; waking it
+    # takes the host 35-50 µs at the median): a short spin keeps the tail in. Spinning the whole
+    # period instead gets the loop throttled by the kernel's realtime budget (50 ms stalls at
+    # SCHED_FIFO), and at SCHED_OTHER every µs of spin is CPU time EEVDF charges the loop with.
+    # 0.05 ms, busy, with the slice below: the best of the settings measured in round 9
+    # (docs/performance.md, "The 1 kHz loop on EEVDF").
+    spin_s: float = 5e-5
+    # How to spend the spin: "busy" only reads the clock; "yield" calls sched_yield, which under
+    # EEVDF pushes the loop's virtual deadline back a slice, so a runnable neighbour goes first:
+    # it doubled the late wake-ups (round 9). No other Python thread of the server needs the GIL
+    # in that stretch (Zenoh's threads run no Python; the main thread waits on an Event).
+    spin: str = "busy"
+    # The EEVDF slice (s) to ask for at SCHED_OTHER (Linux >= 6.12, unprivileged; threads the
+    # loop starts keep the default): a waking thread with a shorter slice than the running one
+    # preempts it (PREEMPT_SHORT) instead of waiting for that slice to end, which this kernel
+    # (HZ=250) notices only at its next 4 ms tick. None keeps the kernel's default (1.4 ms here).
+    slice_s: float | None = 1e-4
 
 
 class LogHistogram:
@@ -439,9 +442,6 @@ class SimLoop:
                 elif self.config.slice_s is not None:
                     granted = request_slice(self.config.slice_s)
                     self.stats.slice_us = None if granted is None else round(granted * 1e6, 1)
-            if self.config.gc_freeze:
-                gc.collect()
-                gc.freeze()
             self._run(stop)
         except BaseException as exc:
             self.error = exc

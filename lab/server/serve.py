@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--spin-ms",
         type=float,
         default=LoopConfig.spin_s * 1e3,
-        help="ms before each deadline the loop yields instead of sleeping "
+        help="ms before each deadline the loop spins instead of sleeping "
         f"(default: {LoopConfig.spin_s * 1e3:g})",
     )
     p.add_argument(
@@ -111,12 +111,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="the EEVDF slice the loop asks for at SCHED_OTHER (Linux >= 6.12; "
         f"{SLICE_MIN_S * 1e3:g}-{SLICE_MAX_S * 1e3:g}; 0: the kernel's default) "
         f"(default: {'0' if LoopConfig.slice_s is None else f'{LoopConfig.slice_s * 1e3:g}'})",
-    )
-    p.add_argument(
-        "--gc-freeze",
-        action=argparse.BooleanOptionalAction,
-        default=LoopConfig.gc_freeze,
-        help="gc.freeze() the set-up's objects before the first tick",
     )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
@@ -202,7 +196,6 @@ def serve_main(argv: list[str]) -> int:
             spin_s=args.spin_ms * 1e-3,
             spin=args.spin,
             slice_s=args.slice_ms * 1e-3 if args.slice_ms else None,
-            gc_freeze=args.gc_freeze,
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
