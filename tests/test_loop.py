@@ -345,26 +345,38 @@ def test_each_message_is_published_on_a_later_tick_than_it_was_built() -> None:
     ticks = 400
     stop = threading.Event()
     session = _CountingSession(ticks, stop)
-    built: list[tuple[str, int]] = []
-    published: list[tuple[str, int, int]] = []
-    session.telemetry = lambda: (
-        built.append(("telemetry", len(session.jobs))) or {"t": 0.0, "n": len(built)}
-    )
-    session.drawing_state = lambda: built.append(("state", len(session.jobs))) or {"n": len(built)}
+    messages = _Messages(session)
+    session.telemetry = lambda: messages.build("telemetry")
+    session.drawing_state = lambda: messages.build("state")
     transport = _NoTransport()
-    transport.publish_telemetry = lambda m: published.append(
-        ("telemetry", m["n"], len(session.jobs))
-    )
-    transport.publish_state = lambda m: published.append(("state", m["n"], len(session.jobs)))
+    transport.publish_telemetry = lambda m: messages.publish("telemetry", m)
+    transport.publish_state = lambda m: messages.publish("state", m)
     loop = SimLoop(session, transport, LoopConfig(rate_hz=1000, fast=True))
     loop.run(stop)
     assert loop.error is None
+    built, published = messages.built, messages.published
     assert len(published) >= len(built) - 2  # the last ones may still wait when the loop stops
     for kind, n, tick in published:
         assert built[n - 1][0] == kind and built[n - 1][1] < tick  # built on an earlier tick
     assert [n for _, n, _ in published] == sorted(n for _, n, _ in published)
     ticks_with_work = [t for _, t in built] + [t for _, _, t in published]
     assert len(ticks_with_work) == len(set(ticks_with_work))  # one job per tick
+
+
+class _Messages:
+    """Which tick built each message (numbered from 1) and which tick published it."""
+
+    def __init__(self, session: "_CountingSession") -> None:
+        self.session = session
+        self.built: list[tuple[str, int]] = []
+        self.published: list[tuple[str, int, int]] = []
+
+    def build(self, kind: str) -> dict:
+        self.built.append((kind, len(self.session.jobs)))
+        return {"t": 0.0, "n": len(self.built)}
+
+    def publish(self, kind: str, message: dict) -> None:
+        self.published.append((kind, message["n"], len(self.session.jobs)))
 
 
 class _StallingClock:
