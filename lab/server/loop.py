@@ -499,10 +499,11 @@ class SimLoop:
         """The work beside the tick, one job per tick where the rates allow: build a telemetry
         message or a drawing state on its schedule, and publish it (encoding and the Zenoh put:
         ~0.15 ms of CPU with three subscribers under load) on a later tick. Building and
-        publishing on one tick made it 0.65-0.9 ms long at the median in the server under load,
-        and most overran the period. Jobs wait in order for a tick of their own (at most
-        MAX_PENDING_JOBS; when a message is due every tick, all run at once). The statistics'
-        percentiles take a tick with no job. Returns the tick's kind (TICK_KINDS)."""
+        publishing on one tick made it 0.65-1.06 ms long at the median in the server under
+        load, and there were about as many overruns as such ticks. Jobs wait in order for a
+        tick of their own (at most MAX_PENDING_JOBS; when a message is due every tick, all run
+        at once). The statistics' percentiles take a tick with no job. Returns the tick's kind
+        (TICK_KINDS)."""
         ticks = self.stats.ticks
         if ticks % self._telemetry_every == 0:
             self._jobs.append(self._build_telemetry)
