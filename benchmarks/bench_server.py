@@ -190,7 +190,7 @@ def main() -> int:
         result["gait"] = args.gait
         result["spin_ms"] = args.spin_ms
         result["serve_args"] = args.serve_arg
-        result["load"] = load
+        result["load"] = round(load, 2)
     if args.json:
         print(json.dumps(result))
         return 0
