@@ -13,6 +13,7 @@ With `--gait`, the robot walks in that gait while the commands alternate vx betw
 
 import argparse
 import json
+import os
 import signal
 import socket
 import subprocess
@@ -37,6 +38,7 @@ def start_server(args: argparse.Namespace, port: int, log) -> subprocess.Popen:
     cmd += ["--rate", str(args.rate), "--sched", args.sched]
     if args.spin_ms is not None:
         cmd += ["--spin-ms", str(args.spin_ms)]
+    cmd += args.serve_arg
     if args.ui:
         cmd += ["--ui-port", str(free_port())]
     else:
@@ -132,7 +134,21 @@ def measure(
         "late_wakeups": last["late_wakeups"] - first["late_wakeups"],
         "fifo": last["fifo"],
         "sched": last["sched"],
-        "since_start": {"lateness_us": last["lateness_us"], "tick_us": last["tick_us"]},
+        "slice_us": last.get("slice_us"),
+        "gc_collections": [
+            b - a for a, b in zip(first["gc_collections"], last["gc_collections"], strict=True)
+        ],
+        "since_start": {
+            key: last[key]
+            for key in (
+                "lateness_us",
+                "tick_us",
+                "tick_us_by_kind",
+                "late_lateness_us",
+                "gc_pause_us",
+            )
+            if key in last
+        },
         "telemetry_hz_per_subscriber": [round(c / elapsed, 1) for c in received],
     }
 
@@ -149,9 +165,17 @@ def main() -> int:
         "--sched", default="auto", help="the server's --sched: auto, fifo or other (default: auto)"
     )
     p.add_argument("--spin-ms", type=float, help="the server's --spin-ms (default: its own)")
+    p.add_argument(
+        "--serve-arg",
+        action="append",
+        default=[],
+        metavar="ARG",
+        help="pass ARG on to `lab serve` (repeat; e.g. --serve-arg=--slice-ms=0.1)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
     port = free_port()
+    load = os.getloadavg()[0]  # the machine's 1-minute load at the start
     with tempfile.TemporaryFile() as log:
         server = start_server(args, port, log)
         try:
@@ -165,6 +189,8 @@ def main() -> int:
         result["ui"] = args.ui
         result["gait"] = args.gait
         result["spin_ms"] = args.spin_ms
+        result["serve_args"] = args.serve_arg
+        result["load"] = load
     if args.json:
         print(json.dumps(result))
         return 0
@@ -188,6 +214,14 @@ def main() -> int:
         f"p50 {since['lateness_us']['p50']} us p99 {since['lateness_us']['p99']} us "
         f"max {since['lateness_us']['max']} us, tick p50 {since['tick_us']['p50']} us "
         f"p99 {since['tick_us']['p99']} us"
+    )
+    kinds = since.get("tick_us_by_kind", {})
+    print("tick p50 by kind (us): " + ", ".join(f"{k} {v['p50']}" for k, v in kinds.items()))
+    late = since.get("late_lateness_us", {})
+    print(
+        "lateness of late ticks p50/p99 (us): "
+        + ", ".join(f"{k} {v['p50']}/{v['p99']}" for k, v in late.items())
+        + f"; GC collections by generation {result['gc_collections']}, load {result['load']}"
     )
     print(f"telemetry per subscriber: {result['telemetry_hz_per_subscriber']} Hz")
     return 0

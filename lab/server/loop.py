@@ -4,15 +4,20 @@ publish telemetry, keep live deadline statistics.
 One thread runs `SimLoop.run`. Each iteration: sleep until just before the next deadline and spin
 to it (`next += period`, never "sleep one period"), take waiting commands from the transport (a
 bounded number per tick), apply them through `Session.handle` and reply, run the velocity
-deadman, `Session.tick()`, and every few ticks publish telemetry, drawing state and events.
+deadman, `Session.tick()`, and at most one job beside it where the rates allow: build telemetry
+or a drawing state on its schedule, publish it (with the events) on a later tick.
 """
 
 import contextlib
 import ctypes
+import functools
+import gc
 import math
 import os
+import platform
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import accumulate
@@ -37,8 +42,22 @@ SCHED_CHOICES = ("auto", "fifo", "other")
 # the sim (issue 16); with 4 or more, one core for the loop leaves enough for the rest. Round 8
 # measured FIFO on 2 cores again (docs/performance.md, "The 1 kHz loop: scheduling"): far more
 # ticks on time than SCHED_OTHER under load and no 4 s clicks, but short of 99.9 %: kept for now.
+# Round 9 ("The 1 kHz loop on EEVDF"): with jobs split over ticks, FIFO 96.6-98.9 % against
+# SCHED_OTHER's 95-97 % at low load; its starvation not measured again: still kept.
 AUTO_FIFO_MIN_CPUS = 4
+SPIN_CHOICES = ("yield", "busy")
 _PR_SET_TIMERSLACK = 29
+# sched_setattr(2) / sched_getattr(2): not in Python's os module.
+_SYS_SCHED_SETATTR = {"x86_64": 314, "aarch64": 274}
+_SYS_SCHED_GETATTR = {"x86_64": 315, "aarch64": 275}
+_SCHED_OTHER = 0
+_SCHED_FLAG_RESET_ON_FORK = 1
+# The custom slices the kernel accepts (it clamps to these; kernel/sched/syscalls.c).
+SLICE_MIN_S, SLICE_MAX_S = 1e-4, 0.1
+# What the loop did beside the tick: nothing, build telemetry, build the drawing state, publish
+# one of them, refresh the statistics' percentiles.
+TICK_KINDS = ("plain", "telemetry", "state", "publish", "stats")
+MAX_PENDING_JOBS = 2  # more jobs beside the tick waiting than this: run them in the same tick
 
 
 class Session(Protocol):
@@ -73,10 +92,23 @@ class LoopConfig:
     state_hz: float = 60.0
     max_commands_per_tick: int = 4
     # Sleep until this long before a deadline, then spin. On this project's 2-core VM a sleep
-    # woke more than 10 % of a period late on ~1.5 % of ticks; with 0.3 ms of spinning, on
-    # 0.05-0.1 % (docs/performance.md). Spinning the whole period instead gets the loop
-    # throttled by the kernel's realtime budget (50 ms stalls at SCHED_FIFO).
-    spin_s: float = 3e-4
+    # woke more than 10 % of a period late on ~1.5 % of ticks (the idle vCPU halts; waking it
+    # takes the host 35-50 µs at the median): a short spin keeps the tail in. Spinning the whole
+    # period instead gets the loop throttled by the kernel's realtime budget (50 ms stalls at
+    # SCHED_FIFO), and at SCHED_OTHER every µs of spin is CPU time EEVDF charges the loop with.
+    # 0.05 ms, busy, with the slice below: the best of the settings measured in round 9
+    # (docs/performance.md, "The 1 kHz loop on EEVDF").
+    spin_s: float = 5e-5
+    # How to spend the spin: "busy" only reads the clock; "yield" calls sched_yield, which under
+    # EEVDF pushes the loop's virtual deadline back a slice, so a runnable neighbour goes first:
+    # it doubled the late wake-ups (round 9). No other Python thread of the server needs the GIL
+    # in that stretch (Zenoh's threads run no Python; the main thread waits on an Event).
+    spin: str = "busy"
+    # The EEVDF slice (s) to ask for at SCHED_OTHER (Linux >= 6.12, unprivileged; threads the
+    # loop starts keep the default): a waking thread with a shorter slice than the running one
+    # preempts it (PREEMPT_SHORT) instead of waiting for that slice to end, which this kernel
+    # (HZ=250) notices only at its next 4 ms tick. None keeps the kernel's default (1.4 ms here).
+    slice_s: float | None = 1e-4
 
 
 class LogHistogram:
@@ -124,6 +156,7 @@ class DeadlineStats:
         self.period = period
         self.realtime = realtime
         self.sched = sched  # the policy in effect: "fifo" or "other"
+        self.slice_us: float | None = None  # the custom EEVDF slice in effect, if any
         self.ticks = 0
         self.on_time = 0
         self.overruns = 0
@@ -132,30 +165,45 @@ class DeadlineStats:
         self._previous_overran = False
         self.lateness = LogHistogram()
         self.work = LogHistogram()
+        self.work_by_kind = {kind: LogHistogram() for kind in TICK_KINDS}
+        # Lateness of the late ticks, by cause: woken late, or pushed by the overrun before.
+        self.late_woken = LogHistogram()
+        self.late_pushed = LogHistogram()
+        self.gc = GcPauses()
         self._percentiles: dict[str, dict[str, float]] = {}
+        self._details: dict[str, dict[str, dict[str, float]]] = {}
+        self._next_detail = 0
         self.refresh_percentiles()
 
-    def record(self, lateness: float, work: float, overrun: bool) -> None:
+    def record(self, lateness: float, work: float, overrun: bool, kind: str = "plain") -> None:
         self.ticks += 1
         on_time = lateness <= ON_TIME_TOLERANCE * self.period
         self.on_time += on_time
-        self.late_wakeups += not on_time and not self._previous_overran
+        if not on_time:
+            if self._previous_overran:
+                self.late_pushed.record(lateness)
+            else:
+                self.late_wakeups += 1
+                self.late_woken.record(lateness)
         self._previous_overran = overrun
         self.overruns += overrun
         self.lateness.record(lateness)
         self.work.record(work)
+        self.work_by_kind[kind].record(work)
 
     def refresh_percentiles(self) -> None:
-        """Recompute lateness and work percentiles (a pass over the bins: not every tick)."""
-
-        def us(h: LogHistogram) -> dict[str, float]:
-            return {
-                "p50": round(h.percentile(50) * 1e6, 2),
-                "p99": round(h.percentile(99) * 1e6, 2),
-                "max": round(h.max * 1e6, 2),
-            }
-
-        self._percentiles = {"lateness_us": us(self.lateness), "tick_us": us(self.work)}
+        """Recompute lateness and work percentiles (a pass over the bins: not every tick), and
+        those of one of the detail histograms (by tick kind, late ticks, GC), in turn."""
+        self._percentiles = {"lateness_us": _us(self.lateness), "tick_us": _us(self.work)}
+        details = [
+            *(("tick_us_by_kind", kind, h) for kind, h in self.work_by_kind.items()),
+            ("late_lateness_us", "woken", self.late_woken),
+            ("late_lateness_us", "pushed", self.late_pushed),
+            ("gc_pause_us", "all", self.gc.pauses),
+        ]
+        group, key, histogram = details[self._next_detail % len(details)]
+        self._next_detail += 1
+        self._details.setdefault(group, {})[key] = _us(histogram)
 
     def snapshot(self) -> dict[str, object]:
         """Counters as of now, percentiles as of the last `refresh_percentiles`."""
@@ -170,7 +218,44 @@ class DeadlineStats:
             "overruns": self.overruns,
             "late_wakeups": self.late_wakeups,
             "skipped": self.skipped,
+            "slice_us": self.slice_us,
+            "gc_collections": list(self.gc.counts),
+            **self._details,
         }
+
+
+def _us(h: LogHistogram) -> dict[str, float]:
+    """p50, p99 and maximum of `h` in µs."""
+    return {
+        "p50": round(h.percentile(50) * 1e6, 2),
+        "p99": round(h.percentile(99) * 1e6, 2),
+        "max": round(h.max * 1e6, 2),
+    }
+
+
+class GcPauses:
+    """How often Python's garbage collector ran in this process (by generation) and for how
+    long, through `gc.callbacks` while installed. A collection stops every thread of the
+    process, the loop's included, whichever thread triggered it."""
+
+    def __init__(self) -> None:
+        self.counts = [0, 0, 0]
+        self.pauses = LogHistogram()
+        self._start = 0.0
+
+    def __call__(self, phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            self._start = time.perf_counter()
+        else:
+            self.counts[info["generation"]] += 1
+            self.pauses.record(time.perf_counter() - self._start)
+
+    def install(self) -> None:
+        gc.callbacks.append(self)
+
+    def remove(self) -> None:
+        with contextlib.suppress(ValueError):
+            gc.callbacks.remove(self)
 
 
 class Deadman:
@@ -255,6 +340,65 @@ def request_fifo() -> bool:
     return True
 
 
+class _SchedAttr(ctypes.Structure):
+    """struct sched_attr, its first version (SCHED_ATTR_SIZE_VER0: 48 bytes)."""
+
+    _fields_ = [
+        ("size", ctypes.c_uint32),
+        ("sched_policy", ctypes.c_uint32),
+        ("sched_flags", ctypes.c_uint64),
+        ("sched_nice", ctypes.c_int32),
+        ("sched_priority", ctypes.c_uint32),
+        ("sched_runtime", ctypes.c_uint64),
+        ("sched_deadline", ctypes.c_uint64),
+        ("sched_period", ctypes.c_uint64),
+    ]
+
+
+def _sched_attr_call(table: dict[str, int], attr: _SchedAttr, *extra: int) -> bool:
+    """sched_getattr/sched_setattr on the calling thread; False when refused or unavailable."""
+    number = table.get(platform.machine())
+    if number is None:
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.syscall(number, 0, ctypes.byref(attr), *extra, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def request_slice(seconds: float) -> float | None:
+    """Ask for an EEVDF slice of `seconds` for the calling SCHED_OTHER thread (sched_setattr's
+    sched_runtime; Linux >= 6.12, no privileges needed, clamped to SLICE_MIN_S..SLICE_MAX_S).
+    A waking thread whose slice is shorter than the running thread's preempts it at once
+    instead of waiting for that slice to end. Returns the slice in effect (s) as the kernel
+    reads it back, or None when refused, unsupported (an older kernel ignores the field and
+    reads back 0) or the thread is not SCHED_OTHER; the thread is then left as it was. Threads
+    it starts later get the default slice (SCHED_FLAG_RESET_ON_FORK)."""
+    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
+    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
+        return None
+    if attr.sched_policy != _SCHED_OTHER:
+        return None
+    attr.size = ctypes.sizeof(_SchedAttr)
+    attr.sched_flags |= _SCHED_FLAG_RESET_ON_FORK
+    attr.sched_runtime = max(1, round(seconds * 1e9))
+    if not _sched_attr_call(_SYS_SCHED_SETATTR, attr):
+        return None
+    return thread_slice()
+
+
+def thread_slice() -> float | None:
+    """The calling SCHED_OTHER thread's EEVDF slice (s): its custom one, else the kernel's
+    default; None for other policies, and on kernels without custom slices (they read back 0)."""
+    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
+    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
+        return None
+    if attr.sched_policy != _SCHED_OTHER or attr.sched_runtime == 0:
+        return None
+    return attr.sched_runtime * 1e-9
+
+
 class SimLoop:
     """Drives one session in real time (or as fast as possible) and serves the protocol."""
 
@@ -271,12 +415,17 @@ class SimLoop:
         self.clock = clock
         self.period = 1.0 / config.rate_hz
         self.wanted_sched = "other" if config.fast else resolve_sched(config.sched, usable_cpus())
+        if config.spin not in SPIN_CHOICES:
+            raise ValueError(f"unknown spin {config.spin!r} (choices: {', '.join(SPIN_CHOICES)})")
         self.stats = DeadlineStats(self.period, realtime=not config.fast)
         self.error: BaseException | None = None
         self._telemetry_every = max(1, math.floor(config.rate_hz / config.telemetry_hz))
         self._state_every = max(1, math.floor(config.rate_hz / config.state_hz))
         self._state_due = self._state_every // 2  # tick of the next drawing state
         self._stats_due = 1  # tick of the next percentile refresh
+        self._jobs: deque[Callable[[float], str]] = deque()  # beside the tick, in order
+        every_tick = min(self._telemetry_every, self._state_every) == 1
+        self._max_pending = 0 if every_tick else MAX_PENDING_JOBS
         self._deadman = Deadman()
         self._overrun_events = EventThrottle()
         self._rejected_events = EventThrottle()
@@ -286,26 +435,37 @@ class SimLoop:
 
     def run(self, stop: threading.Event) -> None:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
+        self.stats.gc.install()
         try:
             if not self.config.fast:
                 lower_timer_slack()
                 if self.wanted_sched == "fifo" and request_fifo():
                     self.stats.sched = "fifo"
+                elif self.config.slice_s is not None:
+                    granted = request_slice(self.config.slice_s)
+                    self.stats.slice_us = None if granted is None else round(granted * 1e6, 1)
             self._run(stop)
         except BaseException as exc:
             self.error = exc
             stop.set()
+        finally:
+            self.stats.gc.remove()
 
     def _run(self, stop: threading.Event) -> None:
         period, clock, fast = self.period, self.clock, self.config.fast
+        spin_yield = self.config.spin == "yield"
         deadline = clock()
         while not stop.is_set():
             if not fast:
                 delay = deadline - clock() - self.config.spin_s
                 if delay > 0.0:
                     time.sleep(delay)
-                while clock() < deadline:  # the last stretch: yield (and the GIL), don't sleep
-                    os.sched_yield()
+                if spin_yield:
+                    while clock() < deadline:  # the last stretch: yield (and the GIL), don't sleep
+                        os.sched_yield()
+                else:
+                    while clock() < deadline:  # the last stretch: only the clock
+                        pass
             start = clock()
             lateness = 0.0 if fast else max(0.0, start - deadline)
             stalled = lateness > MAX_BEHIND_S
@@ -313,11 +473,11 @@ class SimLoop:
                 missed = math.floor(lateness / period)  # counts them) and serve the current one
                 self.stats.skipped += missed
                 deadline += missed * period
-            self._iterate(start)
+            kind = self._iterate(start)
             end = clock()
             deadline = start if fast else deadline + period
             overrun = not fast and end > deadline
-            self.stats.record(lateness, end - start, overrun or stalled)
+            self.stats.record(lateness, end - start, overrun or stalled, kind)
             if overrun or stalled:
                 self._overrun_events.hit()
                 self._worst_lateness = max(self._worst_lateness, lateness, end - deadline)
@@ -326,36 +486,59 @@ class SimLoop:
                 self.stats.skipped += missed
                 deadline += missed * period
 
-    def _iterate(self, now: float) -> None:
+    def _iterate(self, now: float) -> str:
+        """One tick and the work beside it; which kind of tick it was (TICK_KINDS)."""
         self._apply_commands(now)
         decayed = self._deadman.update(now)
         if decayed is not None:
             self.session.handle("velocity", decayed.payload())
         self.session.tick()
-        self._after_tick(now)
+        return self._after_tick(now)
 
-    def _after_tick(self, now: float) -> None:
-        """The work beside the tick, spread so that two jobs rarely share a tick (each costs
-        ~80-190 µs in the server, and a tick with two overran the period): telemetry on its
-        schedule; the drawing state when due, one tick later if telemetry has that tick (unless
-        it has every tick); the statistics' percentiles on a tick with neither."""
+    def _after_tick(self, now: float) -> str:
+        """The work beside the tick, one job per tick where the rates allow: build a telemetry
+        message or a drawing state on its schedule, and publish it (encoding and the Zenoh put:
+        ~0.15 ms of CPU with three subscribers under load) on a later tick. Building and
+        publishing on one tick made it 0.65-0.9 ms long at the median in the server under load,
+        and most overran the period. Jobs wait in order for a tick of their own (at most
+        MAX_PENDING_JOBS; when a message is due every tick, all run at once). The statistics'
+        percentiles take a tick with no job. Returns the tick's kind (TICK_KINDS)."""
         ticks = self.stats.ticks
-        telemetry_tick = ticks % self._telemetry_every == 0
-        if telemetry_tick:
-            telemetry = self.session.telemetry()
-            telemetry["loop"] = {**self.stats.snapshot(), "clock_s": now}
-            self._last_sim_time = float(telemetry["t"])
-            self.transport.publish_telemetry(telemetry)
-            self._publish_events(now)
-        state_tick = ticks >= self._state_due and (
-            not telemetry_tick or ticks > self._state_due or self._telemetry_every == 1
-        )
-        if state_tick:
-            self.transport.publish_state(self.session.drawing_state())
+        if ticks % self._telemetry_every == 0:
+            self._jobs.append(self._build_telemetry)
+        if ticks >= self._state_due:
+            self._jobs.append(self._build_state)
             self._state_due += self._state_every
-        elif not telemetry_tick and ticks >= self._stats_due:
-            self.stats.refresh_percentiles()
-            self._stats_due = ticks + STATS_INTERVAL_TICKS
+        if not self._jobs:
+            if ticks >= self._stats_due:
+                self.stats.refresh_percentiles()
+                self._stats_due = ticks + STATS_INTERVAL_TICKS
+                return "stats"
+            return "plain"
+        kind = self._jobs.popleft()(now)
+        while len(self._jobs) > self._max_pending:
+            self._jobs.popleft()(now)
+        return kind
+
+    def _build_telemetry(self, now: float) -> str:
+        telemetry = self.session.telemetry()
+        telemetry["loop"] = {**self.stats.snapshot(), "clock_s": now}
+        self._last_sim_time = float(telemetry["t"])
+        self._jobs.append(functools.partial(self._publish_telemetry, telemetry))
+        return "telemetry"
+
+    def _publish_telemetry(self, telemetry: dict, now: float) -> str:
+        self.transport.publish_telemetry(telemetry)
+        self._publish_events(now)
+        return "publish"
+
+    def _build_state(self, now: float) -> str:
+        self._jobs.append(functools.partial(self._publish_state, self.session.drawing_state()))
+        return "state"
+
+    def _publish_state(self, state: dict, now: float) -> str:
+        self.transport.publish_state(state)
+        return "publish"
 
     def _apply_commands(self, now: float) -> None:
         velocity: list[Request] = []

@@ -14,7 +14,15 @@ import zenoh
 
 from lab.protocol import DEFAULT_PORT, LabIdError, LabKeys, default_lab_id
 from lab.server.access import read_users, remote_listen_refusal
-from lab.server.loop import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, LoopConfig, SimLoop
+from lab.server.loop import (
+    AUTO_FIFO_MIN_CPUS,
+    SCHED_CHOICES,
+    SLICE_MAX_S,
+    SLICE_MIN_S,
+    SPIN_CHOICES,
+    LoopConfig,
+    SimLoop,
+)
 from lab.server.transport import ServerTransport, server_config
 
 UI_STOP_TIMEOUT_S = 2.0
@@ -86,8 +94,23 @@ def build_parser() -> argparse.ArgumentParser:
         "--spin-ms",
         type=float,
         default=LoopConfig.spin_s * 1e3,
-        help="ms before each deadline the loop yields instead of sleeping "
+        help="ms before each deadline the loop spins instead of sleeping "
         f"(default: {LoopConfig.spin_s * 1e3:g})",
+    )
+    p.add_argument(
+        "--spin",
+        choices=SPIN_CHOICES,
+        default=LoopConfig.spin,
+        help="how the loop spends the spin: yield (sched_yield) or busy (reads the clock only) "
+        f"(default: {LoopConfig.spin})",
+    )
+    p.add_argument(
+        "--slice-ms",
+        type=float,
+        default=None if LoopConfig.slice_s is None else LoopConfig.slice_s * 1e3,
+        help="the EEVDF slice the loop asks for at SCHED_OTHER (Linux >= 6.12; "
+        f"{SLICE_MIN_S * 1e3:g}-{SLICE_MAX_S * 1e3:g}; 0: the kernel's default) "
+        f"(default: {'0' if LoopConfig.slice_s is None else f'{LoopConfig.slice_s * 1e3:g}'})",
     )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
@@ -103,6 +126,16 @@ def serve_main(argv: list[str]) -> int:
         return 2
     if not 0 <= args.spin_ms < 1e3 / args.rate:
         print("lab serve: --spin-ms must be >= 0 and shorter than the period", file=sys.stderr)
+        return 2
+    if (
+        args.slice_ms is not None
+        and args.slice_ms != 0
+        and not (SLICE_MIN_S * 1e3 <= args.slice_ms <= SLICE_MAX_S * 1e3)
+    ):
+        print(
+            f"lab serve: --slice-ms must be 0 or {SLICE_MIN_S * 1e3:g}-{SLICE_MAX_S * 1e3:g}",
+            file=sys.stderr,
+        )
         return 2
     lab_id = args.lab_id or default_lab_id(args.robot)
     try:
@@ -161,6 +194,8 @@ def serve_main(argv: list[str]) -> int:
             fast=args.fast,
             sched=args.sched,
             spin_s=args.spin_ms * 1e-3,
+            spin=args.spin,
+            slice_s=args.slice_ms * 1e-3 if args.slice_ms else None,
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
