@@ -152,10 +152,10 @@ def foot_centre_of_pressure(
 ) -> list[float] | None:
     """CoP (world) of a flat foot's contact wrench [f, m] in the sole frame (origin `position`,
     axes `rotation`, world); None when the foot is unloaded."""
-    fz = wrench[2]
+    _, _, fz, mx, my, _ = wrench.tolist()  # Python floats: cheaper than numpy scalars
     if fz <= COP_MIN_FORCE:
         return None
-    cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0])
+    cop_local = np.array([-my / fz, mx / fz, 0.0])
     return (position + rotation @ cop_local).tolist()
 
 
