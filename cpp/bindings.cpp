@@ -13,6 +13,7 @@
 
 #include "behaviours/python.hpp"  // leg_posture_velocity: the walking behaviour's hot part
 #include "controller.hpp"
+#include "frames.hpp"  // FramePlacements: the drawing state's frames
 #if __has_include("hierarchy/python.hpp")
 #include "hierarchy/python.hpp"  // solve_hierarchy: the native methods on a given problem
 #define LAB_BIND_HIERARCHY
@@ -391,6 +392,7 @@ NB_MODULE(_kernel, m) {
   lab::bind_hierarchy(m);
 #endif
   lab::bind_behaviours(m);
+  lab::bind_frame_placements(m);
 
   nb::class_<TickOutcome>(m, "TickOutcome",
                           "What a tick_into reported besides τ and x (a copy: it stays the "

@@ -4,6 +4,7 @@ and `FramePlacements` reads the world placements of its links that the UI draws 
 """
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
@@ -12,6 +13,11 @@ from scipy.spatial.transform import Rotation
 from lab.description import RobotDescription
 from lab.protocol import ContactSpec
 from lab.urdf_visuals import read_visuals
+
+try:
+    from lab import _kernel
+except ImportError:  # not built: the frames are placed through pinocchio's Python bindings
+    _kernel = None
 
 
 @dataclass(frozen=True)
@@ -42,9 +48,10 @@ class Robot:
             f.name for f in self.model.frames if f.type == pin.FrameType.BODY and f.parentJoint == 1
         )
 
-    @property
+    @cached_property
     def joint_names(self) -> tuple[str, ...]:
-        """Actuated joints in pinocchio order (the order of τ and of q[7:], v[6:])."""
+        """Actuated joints in pinocchio order (the order of τ and of q[7:], v[6:]); read once
+        (the drawing state sends them with every message)."""
         return tuple(self.model.names[2:])
 
 
@@ -173,9 +180,13 @@ class FramePlacements:
     """World placements of the frames the UI draws with: every URDF link that has a visual
     (locked joints' links included), the base link and the contact frames. They are the
     `frames` of a `lab/state` message, from which the UI poses each link's visual meshes; only
-    those links, as each costs the sim loop a few microseconds per message."""
+    those links, as each costs the sim loop a few microseconds per message.
 
-    def __init__(self, robot: Robot) -> None:
+    With the native kernel built (`native` None or True) one call of `lab._kernel` computes
+    them all (pinocchio's forward kinematics and frame placements, Eigen's quaternions);
+    without it (or `native=False`) pinocchio's Python bindings and scipy do."""
+
+    def __init__(self, robot: Robot, native: bool | None = None) -> None:
         model, desc = robot.model, robot.description
         drawn = {visual.link for visual in read_visuals(desc.urdf_path, desc.package_dirs)}
         drawn.add(robot.base_link)
@@ -186,23 +197,43 @@ class FramePlacements:
         ]
         links = {model.frames[i].name for i in ids}
         ids += [model.getFrameId(c.frame) for c in robot.contacts if c.frame not in links]
+        self.ids = tuple(ids)  # pinocchio frame indices (a joint and its link share a name)
         self.names = tuple(model.frames[i].name for i in ids)
-        self._joints = np.array([model.frames[i].parentJoint for i in ids])
-        self._in_joint = np.array([model.frames[i].placement.homogeneous for i in ids])
-        self._model = model
-        self._data = model.createData()  # scratch: the controller's model data is not moved
+        self._name_list = list(self.names)
+        if native and _kernel is None:
+            raise RuntimeError("the native kernel (lab._kernel) is not built")
+        self.native = _kernel is not None and native is not False
+        self._placements = np.empty((len(ids), 7))  # rows: x, y, z, qx, qy, qz, qw
+        if self.native:
+            self._kernel = _kernel.FramePlacements(model.saveToString(), ids)
+        else:
+            self._joints = np.array([model.frames[i].parentJoint for i in ids])
+            self._in_joint = np.array([model.frames[i].placement.homogeneous for i in ids])
+            self._model = model
+            self._data = model.createData()  # scratch: the controller's model data is not moved
 
-    def message(self, q: np.ndarray) -> dict[str, list]:
-        """Names, positions (m) and quaternions (x, y, z, w) in the world at configuration q.
-        One placement per joint from pinocchio, then each frame's fixed placement in its joint
-        applied to all frames at once: reading each frame from pinocchio cost the sim loop
-        about 5x more (the rotations are orthonormal, so scipy need not orthonormalise them)."""
+    def placements(self, q: np.ndarray) -> np.ndarray:
+        """Each frame's position (m) and quaternion (x, y, z, w) in the world at configuration
+        q, one row of 7 per frame (an array this object reuses)."""
+        if self.native:
+            self._kernel.compute(q, self._placements)
+            return self._placements
+        # One placement per joint from pinocchio, then each frame's fixed placement in its joint
+        # applied to all frames at once: reading each frame from pinocchio cost about 5x more
+        # (the rotations are orthonormal, so scipy need not orthonormalise them).
         pin.forwardKinematics(self._model, self._data, q)
         joints = np.array([placement.homogeneous for placement in self._data.oMi])
         world = joints[self._joints] @ self._in_joint
+        self._placements[:, :3] = world[:, :3, 3]
         rotations = Rotation.from_matrix(world[:, :3, :3], assume_valid=True)
+        self._placements[:, 3:] = rotations.as_quat()
+        return self._placements
+
+    def message(self, q: np.ndarray) -> dict[str, list]:
+        """Names, positions (m) and quaternions (x, y, z, w) in the world at configuration q."""
+        placements = self.placements(q)
         return {
-            "names": list(self.names),
-            "positions": world[:, :3, 3].tolist(),
-            "quaternions": rotations.as_quat().tolist(),  # scalar last: x, y, z, w
+            "names": self._name_list.copy(),
+            "positions": placements[:, :3].tolist(),
+            "quaternions": placements[:, 3:].tolist(),
         }

@@ -53,6 +53,9 @@ def test_native_steps_agree_with_python_ones(name: str) -> None:
                     native.feet_touching(threshold), python.feet_touching(threshold)
                 )
             assert native.non_foot_ground_contact() == python.non_foot_ground_contact()
+            np.testing.assert_allclose(
+                native.foot_forces(), python.foot_forces(), rtol=1e-12, atol=1e-9
+            )
             touched_any |= bool(native.feet_touching(1.0).any())
             non_foot_any |= native.non_foot_ground_contact()
             tau = _pd(python, q_py, v_py)

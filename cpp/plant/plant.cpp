@@ -123,6 +123,27 @@ class PlantStep {
     return array;
   }
 
+  /// plant.py `foot_forces`: per foot (rows), the terrain's force on it (N, world) at the last
+  /// step, summed over its contacts: each contact's force (mj_contactForce, contact frame)
+  /// rotated into the world, acting from geom1 onto geom2.
+  void foot_forces(nb::ndarray<double, nb::shape<-1, 3>, nb::c_contig, nb::device::cpu> out) const {
+    if (out.shape(0) != static_cast<std::size_t>(n_feet_))
+      throw std::invalid_argument("foot_forces needs an array of " + std::to_string(n_feet_) +
+                                  " x 3");
+    double* forces = out.data();
+    std::fill(forces, forces + 3 * n_feet_, 0.0);
+    mjtNum local[6], world[3];
+    for (int i = 0; i < d_->ncon; ++i) {
+      const mjContact& contact = d_->contact[i];
+      const int foot = robot_geom_of(contact);
+      if (foot < 0 || contact.efc_address < 0) continue;
+      mj_contactForce(m_, d_, i, local);
+      mju_mulMatTVec3(world, contact.frame, local);  // the frame's rows are the contact's axes
+      const double sign = terrain_[contact.geom[0]] ? 1.0 : -1.0;  // robot geom is geom2: +1
+      for (int k = 0; k < 3; ++k) forces[3 * foot + k] += sign * world[k];
+    }
+  }
+
   /// plant.py `non_foot_ground_contact`: does a robot geom other than the feet touch the
   /// terrain?
   bool non_foot_ground_contact() const {
@@ -171,6 +192,8 @@ NB_MODULE(_plant, m) {
       .def("step", &PlantStep::step, "mj_step, then check(): the new sim time, -1 if not valid.")
       .def("foot_normal_forces", &PlantStep::foot_normal_forces,
            "Per foot, its largest normal force on the terrain at the last step (N).")
+      .def("foot_forces", &PlantStep::foot_forces, "out"_a.noconvert(),
+           "Per foot, the terrain's force on it at the last step (N, world), into out (n x 3).")
       .def("non_foot_ground_contact", &PlantStep::non_foot_ground_contact,
            "Whether a robot geom other than the feet touches the terrain.");
 }

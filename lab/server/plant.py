@@ -658,6 +658,9 @@ class MujocoPlant:
         if self._forces_step == self._steps:
             return self._forces.copy()
         self._forces_step = self._steps
+        if self._native is not None:
+            self._native.foot_forces(self._forces)
+            return self._forces.copy()
         self._forces[:] = 0.0
         efc_force, frames = self.mj_data.efc_force, self.mj_data.contact.frame
         for i, foot, row, sign in self._terrain_contacts():

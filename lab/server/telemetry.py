@@ -152,10 +152,10 @@ def foot_centre_of_pressure(
 ) -> list[float] | None:
     """CoP (world) of a flat foot's contact wrench [f, m] in the sole frame (origin `position`,
     axes `rotation`, world); None when the foot is unloaded."""
-    fz = wrench[2]
+    _, _, fz, mx, my, _ = wrench.tolist()  # Python floats: cheaper than numpy scalars
     if fz <= COP_MIN_FORCE:
         return None
-    cop_local = np.array([-wrench[4] / fz, wrench[3] / fz, 0.0])
+    cop_local = np.array([-my / fz, mx / fz, 0.0])
     return (position + rotation @ cop_local).tolist()
 
 
@@ -171,59 +171,60 @@ def net_centre_of_pressure(normal: np.ndarray, positions: np.ndarray) -> list[fl
 
 
 def _contacts(session: SessionView) -> tuple[list[dict], dict]:
-    """One entry per foot and the centres of pressure (`cop`) of the telemetry message."""
+    """One entry per foot and the centres of pressure (`cop`) of the telemetry message. The
+    arrays become lists once each (one tolist per array, not per foot: the message is built on
+    a tick of the 1 kHz loop)."""
     model = session.model
     measured = session.plant.foot_forces()
-    commanded = model.contact_forces_world(session.forces)
+    positions = model.contact_positions
+    commanded = model.contact_forces_world(session.forces).tolist()
     active = session.controller.references.contact_active
     contacts = []
     feet_cop: dict[str, list[float] | None] = {}
-    for i, (contact, rows) in enumerate(zip(model.contacts, model.force_slices, strict=True)):
-        position = model.contact_positions[i]
+    for i, (contact, rows, position, measured_force) in enumerate(
+        zip(model.contacts, model.force_slices, positions.tolist(), measured.tolist(), strict=True)
+    ):
         entry = {
             "name": contact.name,
             "kind": contact.kind,
             "active": bool(active[i]),
-            "position": position.tolist(),
-            "measured_force": measured[i].tolist(),
-            "force": commanded[i].tolist(),
+            "position": position,
+            "measured_force": measured_force,
+            "force": commanded[i],
         }
         if contact.kind == "flat":
             wrench = session.forces[rows]
             R = model.contact_rotations[i]
             entry["moment"] = (R @ wrench[3:]).tolist()
-            feet_cop[contact.name] = foot_centre_of_pressure(wrench, position, R)
+            feet_cop[contact.name] = foot_centre_of_pressure(wrench, positions[i], R)
         contacts.append(entry)
-    net = net_centre_of_pressure(measured[:, 2], model.contact_positions)
+    net = net_centre_of_pressure(measured[:, 2], positions)
     return contacts, {"feet": feet_cop, "net": net}
 
 
 def _tasks(controller: NativeController) -> list[dict]:
-    errors = controller.task_errors()
-    gains, used = controller.gains(), controller.gains_used()
-    return [
-        {
-            "name": name,
-            "level": level,
-            "error": errors.get(name, 0.0),
-            **(
-                gain_fields(gains[name], used[name])
-                if name in gains
-                else {"kp": None, "kd": None, "weight": 1.0}
-            ),
-        }
-        for level, names in enumerate(controller.config.stack.levels)
-        for name in names
-    ]
+    errors, tasks = controller.task_errors(), controller.tasks
+    entries = []
+    for level, names in enumerate(controller.config.stack.levels):
+        for name in names:
+            task = tasks.get(name)
+            gains = (
+                {"kp": None, "kd": None, "weight": 1.0}
+                if task is None
+                else gain_fields(task.gains, task.GAINS)
+            )
+            entries.append({"name": name, "level": level, "error": errors.get(name, 0.0), **gains})
+    return entries
 
 
 def telemetry_message(session: SessionView) -> dict:
     """Everything the UI plots and the tests check, JSON-ready (`lab/telemetry`)."""
     model, controller = session.model, session.controller
-    q = model.q
+    q = model.q[:7].tolist()
     rotation = model.base_rotation
     contacts, cop = _contacts(session)
-    momentum = model.centroidal_momentum()
+    momentum = model.centroidal_momentum().tolist()
+    solution = session.solution
     return {
         "t": session.time,
         "robot": session.config.robot,
@@ -233,13 +234,13 @@ def telemetry_message(session: SessionView) -> dict:
         "divergences": session.divergences,
         "gait": session.behaviour.name,
         "base": {
-            "position": q[:3].tolist(),
-            "quaternion": q[3:7].tolist(),
+            "position": q[:3],
+            "quaternion": q[3:],
             "linear_velocity": (rotation @ model.v[:3]).tolist(),
             "angular_velocity": (rotation @ model.v[3:6]).tolist(),
         },
         "com": {"position": model.com.tolist(), "velocity": model.com_velocity.tolist()},
-        "momentum": {"linear": momentum[:3].tolist(), "angular": momentum[3:].tolist()},
+        "momentum": {"linear": momentum[:3], "angular": momentum[3:]},
         "contacts": contacts,
         "cop": cop,
         "tasks": _tasks(controller),
@@ -256,7 +257,7 @@ def telemetry_message(session: SessionView) -> dict:
             "solve_us": session.control_us,
             "failures": session.qp_failures,
         },
-        "solution": None if session.solution is None else session.solution.summary(),
+        "solution": None if solution is None else solution.summary(),
         "command": dict(zip(("vx", "vy", "yaw_rate"), session.velocity.tolist(), strict=True)),
         "pushes": [
             {
