@@ -8,9 +8,9 @@
 #include <pinocchio/algorithm/kinematics.hpp>
 #include <pinocchio/multibody/data.hpp>
 #include <pinocchio/multibody/model.hpp>
-#include <pinocchio/serialization/archive.hpp>
-#include <pinocchio/serialization/model.hpp>
 #include <stdexcept>
+
+#include "model.hpp"
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -19,12 +19,7 @@ namespace lab {
 
 FramePlacements::FramePlacements(const std::string& serialized_model,
                                  std::vector<std::size_t> frames)
-    : model_(std::make_unique<pinocchio::Model>()), frames_(std::move(frames)) {
-  try {
-    model_->loadFromString(serialized_model);
-  } catch (const std::exception& error) {
-    throw std::invalid_argument(std::string("not a serialized pinocchio model: ") + error.what());
-  }
+    : model_(load_model(serialized_model)), frames_(std::move(frames)) {
   for (const auto frame : frames_)
     if (frame >= model_->frames.size())
       throw std::invalid_argument("frame index " + std::to_string(frame) + " is not in the model");

@@ -13,15 +13,20 @@
 
 namespace lab {
 
-namespace {
-
-std::unique_ptr<pinocchio::Model> model_from_string(const std::string& text) {
+std::unique_ptr<pinocchio::Model> load_model(const std::string& serialized_model) {
   auto model = std::make_unique<pinocchio::Model>();
   try {
-    model->loadFromString(text);
+    model->loadFromString(serialized_model);
   } catch (const std::exception& error) {
     throw std::invalid_argument(std::string("not a serialized pinocchio model: ") + error.what());
   }
+  return model;
+}
+
+namespace {
+
+std::unique_ptr<pinocchio::Model> model_from_string(const std::string& text) {
+  auto model = load_model(text);
   if (model->joints.size() < 2 || model->joints[1].shortname() != "JointModelFreeFlyer")
     throw std::invalid_argument("the model needs a free-flyer root joint");
   return model;

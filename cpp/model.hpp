@@ -30,6 +30,10 @@ struct ContactSpec {
   int force_dim() const { return kind == ContactKind::point ? 3 : 6; }
 };
 
+/// The model pinocchio serialized on the Python side (`Model.saveToString()`); throws
+/// std::invalid_argument for another string.
+std::unique_ptr<pinocchio::Model> load_model(const std::string& serialized_model);
+
 /// Kinematics and dynamics of one floating-base robot at the current state.
 class RobotModel {
  public:
