@@ -135,6 +135,7 @@ def measure(
         "fifo": last["fifo"],
         "sched": last["sched"],
         "slice_us": last.get("slice_us"),
+        "nice": last.get("nice"),
         "gc_collections": [
             b - a for a, b in zip(first["gc_collections"], last["gc_collections"], strict=True)
         ],
@@ -210,7 +211,8 @@ def main() -> int:
     print(
         f"loop: {result['tick_rate_hz']} ticks/s, on-time {result['on_time_fraction']:.4%}, "
         f"overruns {result['overruns']}, late wake-ups {result['late_wakeups']}, "
-        f"SCHED_{result['sched'].upper()}; since start: lateness "
+        f"SCHED_{result['sched'].upper()} (slice {result['slice_us']} us, nice {result['nice']}); "
+        "since start: lateness "
         f"p50 {since['lateness_us']['p50']} us p99 {since['lateness_us']['p99']} us "
         f"max {since['lateness_us']['max']} us, tick p50 {since['tick_us']['p50']} us "
         f"p99 {since['tick_us']['p99']} us"

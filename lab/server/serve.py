@@ -94,7 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--spin-ms",
         type=float,
         default=LoopConfig.spin_s * 1e3,
-        help="ms before each deadline the loop spins instead of sleeping "
+        help="ms before each deadline the loop spins instead of sleeping; the whole period "
+        "(1 at 1 kHz) never sleeps and keeps a CPU busy "
         f"(default: {LoopConfig.spin_s * 1e3:g})",
     )
     p.add_argument(
@@ -112,6 +113,13 @@ def build_parser() -> argparse.ArgumentParser:
         f"{SLICE_MIN_S * 1e3:g}-{SLICE_MAX_S * 1e3:g}; 0: the kernel's default) "
         f"(default: {'0' if LoopConfig.slice_s is None else f'{LoopConfig.slice_s * 1e3:g}'})",
     )
+    p.add_argument(
+        "--nice",
+        type=int,
+        default=LoopConfig.nice,
+        help="the nice value the loop asks for at SCHED_OTHER (-20..19; below 0 needs "
+        f"CAP_SYS_NICE, refused quietly without) (default: {LoopConfig.nice})",
+    )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
     p.add_argument("--headless", action="store_true", help="do not start the browser UI")
@@ -124,8 +132,11 @@ def serve_main(argv: list[str]) -> int:
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
         return 2
-    if not 0 <= args.spin_ms < 1e3 / args.rate:
-        print("lab serve: --spin-ms must be >= 0 and shorter than the period", file=sys.stderr)
+    if not 0 <= args.spin_ms <= 1e3 / args.rate:
+        print("lab serve: --spin-ms must be between 0 and the period", file=sys.stderr)
+        return 2
+    if args.nice is not None and not -20 <= args.nice <= 19:
+        print("lab serve: --nice must be -20..19", file=sys.stderr)
         return 2
     if (
         args.slice_ms is not None
@@ -196,6 +207,7 @@ def serve_main(argv: list[str]) -> int:
             spin_s=args.spin_ms * 1e-3,
             spin=args.spin,
             slice_s=args.slice_ms * 1e-3 if args.slice_ms else None,
+            nice=args.nice,
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
