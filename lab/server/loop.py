@@ -375,6 +375,24 @@ def _sched_attr_call(table: dict[str, int], attr: _SchedAttr, *extra: int) -> bo
         return False
 
 
+def _change_fair_attr(runtime_ns: int, nice: int | None) -> bool:
+    """sched_setattr on the calling SCHED_OTHER thread: `runtime_ns` (its EEVDF slice; 0 is the
+    kernel's default) and, unless None, `nice` (else the one it has), with
+    SCHED_FLAG_RESET_ON_FORK, so that threads it starts later get neither. False when refused,
+    unavailable, or the thread is not SCHED_OTHER; the thread is then left as it was."""
+    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
+    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
+        return False
+    if attr.sched_policy != _SCHED_OTHER:
+        return False
+    attr.size = ctypes.sizeof(_SchedAttr)
+    attr.sched_flags |= _SCHED_FLAG_RESET_ON_FORK
+    attr.sched_runtime = runtime_ns
+    if nice is not None:
+        attr.sched_nice = nice
+    return _sched_attr_call(_SYS_SCHED_SETATTR, attr)
+
+
 def request_slice(seconds: float) -> float | None:
     """Ask for an EEVDF slice of `seconds` for the calling SCHED_OTHER thread (sched_setattr's
     sched_runtime; Linux >= 6.12, no privileges needed, clamped to SLICE_MIN_S..SLICE_MAX_S).
@@ -383,15 +401,7 @@ def request_slice(seconds: float) -> float | None:
     reads it back, or None when refused, unsupported (an older kernel ignores the field and
     reads back 0) or the thread is not SCHED_OTHER; the thread is then left as it was. Threads
     it starts later get the default slice (SCHED_FLAG_RESET_ON_FORK)."""
-    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
-    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
-        return None
-    if attr.sched_policy != _SCHED_OTHER:
-        return None
-    attr.size = ctypes.sizeof(_SchedAttr)
-    attr.sched_flags |= _SCHED_FLAG_RESET_ON_FORK
-    attr.sched_runtime = max(1, round(seconds * 1e9))
-    if not _sched_attr_call(_SYS_SCHED_SETATTR, attr):
+    if not _change_fair_attr(max(1, round(seconds * 1e9)), nice=None):
         return None
     return thread_slice()
 
@@ -403,16 +413,7 @@ def request_nice(nice: int) -> int | None:
     a raised RLIMIT_NICE: refusal is expected, and leaves the thread as it was. Threads it starts
     later get nice 0 (SCHED_FLAG_RESET_ON_FORK). Returns the nice in effect, or None when
     refused, unavailable, or the thread is not SCHED_OTHER."""
-    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
-    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
-        return None
-    if attr.sched_policy != _SCHED_OTHER:
-        return None
-    attr.size = ctypes.sizeof(_SchedAttr)
-    attr.sched_flags |= _SCHED_FLAG_RESET_ON_FORK
-    attr.sched_nice = nice
-    attr.sched_runtime = 0  # the default slice
-    if not _sched_attr_call(_SYS_SCHED_SETATTR, attr):
+    if not _change_fair_attr(0, nice):
         return None
     return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
 
