@@ -519,3 +519,28 @@ def test_the_loop_keeps_ticking_through_a_sim_divergence() -> None:
     times = [m["t"] for m in telemetry]
     assert all(b >= a for a, b in itertools.pairwise(times)) and times[-1] > 0.19
     assert telemetry[-1]["divergences"] == 1 and not telemetry[-1]["fell"]
+
+
+def test_a_whole_period_spin_never_sleeps(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With `spin_s` equal to the period the loop never sleeps (it keeps its CPU: no halted
+    vCPU to wake); with the default it sleeps between ticks."""
+    import lab.server.loop as loop_module
+
+    sleeps: list[float] = []
+    real_sleep = loop_module.time.sleep
+
+    def counting_sleep(seconds: float) -> None:
+        sleeps.append(seconds)
+        real_sleep(seconds)
+
+    monkeypatch.setattr(loop_module.time, "sleep", counting_sleep)
+    for spin_s, sleeps_expected in ((1e-3, False), (LoopConfig.spin_s, True)):
+        sleeps.clear()
+        stop = threading.Event()
+        config = LoopConfig(rate_hz=1000, sched="other", spin_s=spin_s)
+        loop = SimLoop(_CountingSession(20, stop), _NoTransport(), config)
+        thread = threading.Thread(target=loop.run, args=(stop,))
+        thread.start()
+        thread.join()
+        assert loop.error is None and loop.stats.ticks >= 20
+        assert bool(sleeps) == sleeps_expected
