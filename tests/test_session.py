@@ -390,3 +390,24 @@ def test_the_foot_forces_reach_the_controller_only_while_a_task_reads_them() -> 
     run(session, 0.05)
     weight = session.model.mass * 9.81
     assert task.measured_forces[:, 2].sum() == pytest.approx(weight, rel=0.1)
+
+
+def test_a_reset_starts_the_nullspace_search_cold(monkeypatch) -> None:
+    """The nullspace method starts each tick from the last tick's active rows and x; after a
+    reset the robot stands anew and the first tick starts cold, not from the state left."""
+    starts: list[bool] = []
+    nullspace = hierarchy.METHODS["nullspace"]
+
+    def spy(problem: hierarchy.HierarchyProblem, solver: str) -> hierarchy.HierarchySolution:
+        starts.append(problem.x_start is not None or len(problem.active_start) > 0)
+        return nullspace(problem, solver)
+
+    monkeypatch.setitem(hierarchy.METHODS, "nullspace", spy)
+    session = Session(SessionConfig(robot="anymal", method="nullspace"))
+    session.handle("push", {"body": "base", "force": [0.0, 150.0, 0.0], "duration": 0.05})
+    run(session, 0.02)
+    assert starts[0] is False and all(starts[1:])
+    starts.clear()
+    assert session.handle("reset")["ok"]
+    run(session, 0.002)
+    assert starts == [False, True]
