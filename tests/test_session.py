@@ -1,9 +1,11 @@
 """The session: commands between ticks, pushes, fallbacks, falls, telemetry."""
 
 import dataclasses
+import gc
 import json
 import math
 import warnings
+import weakref
 
 import numpy as np
 import pinocchio as pin
@@ -411,3 +413,26 @@ def test_a_reset_starts_the_nullspace_search_cold(monkeypatch) -> None:
     assert session.handle("reset")["ok"]
     run(session, 0.002)
     assert starts == [False, True]
+
+
+def test_a_session_dropped_frees_its_native_parts_at_once() -> None:
+    """No reference cycle holds a session: dropped, it and its native parts (the kernel, the
+    plant's step, the frame placements, the last tick's outcome) are freed at once, with the
+    garbage collector off. A cycle through a native object is invisible to the collector and
+    would keep them to the interpreter's exit, where nanobind reports them as leaked."""
+    gc.disable()
+    try:
+        session = Session(SessionConfig(robot="talos"))
+        alive = []
+        for command, payload in (("stance", {"side": "left"}), ("gait", {"name": "trot"})):
+            assert session.handle(command, payload)["ok"]
+            run(session, 0.01)
+            session.telemetry(), session.drawing_state(), session.solution
+            parts = (session.controller, session.plant, session.frame_placements)
+            alive += [weakref.ref(part) for part in parts]
+            assert session.handle("robot", {"name": "anymal"})["ok"]  # a rebuild drops them
+        alive.append(weakref.ref(session))
+        del session, parts
+        assert [ref() for ref in alive] == [None] * len(alive)
+    finally:
+        gc.enable()
