@@ -11,7 +11,7 @@ from lab.server import warning_capture
 from lab.server.warning_capture import WarningCapture, swaps_hooks
 
 
-@pytest.fixture(params=["hooks", "catch_warnings"], autouse=True)
+@pytest.fixture(params=["hooks", "catch_warnings"])
 def way(request, monkeypatch) -> str:
     """Each test on both ways: the swapped hooks, and the `catch_warnings` fallback."""
     if request.param == "catch_warnings":
@@ -23,6 +23,7 @@ def _warn(message: str) -> None:
     warnings.warn(message, RuntimeWarning, stacklevel=1)  # one location for every call
 
 
+@pytest.mark.usefixtures("way")
 def test_every_warning_of_the_block_is_recorded_each_time() -> None:
     capture = WarningCapture()
     for tick in range(3):
@@ -33,6 +34,7 @@ def test_every_warning_of_the_block_is_recorded_each_time() -> None:
         assert all(w.category is RuntimeWarning for w in caught)
 
 
+@pytest.mark.usefixtures("way")
 def test_the_warnings_module_is_restored_even_after_an_error() -> None:
     capture = WarningCapture()
     with warnings.catch_warnings():
