@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from lab.controller import native
 from lab.controller.behaviours import leg_posture
 from lab.controller.behaviours.balance import standing_references
 from lab.controller.behaviours.leg_posture import LegPostureReference
@@ -333,6 +334,33 @@ def test_a_stack_the_kernel_lacks_runs_on_python_and_says_so() -> None:
     controller.compute(robot.q_standing, np.zeros(robot.model.nv))
     assert controller.kernel_ran == "python"
     assert "nullspace" in controller.kernel_note or NOT_BUILT
+
+
+@pytest.mark.parametrize("why", ["python asked", "nullspace", "not built", "stack"])
+def test_the_python_kernel_runs_exactly_when_native_is_not_asked_or_the_note_says_why(
+    why, monkeypatch
+) -> None:
+    """One rule picks the kernel of a tick: native when asked and `kernel_note` is empty."""
+    description = load_description("anymal")
+    robot = build_robot(description)
+    model = RobotModel(robot.model, robot.contacts)
+    config = ControllerConfig(Stack.of(description.stack), dict(description.gains))
+    refs = standing_references(model, robot.q_standing)
+    controller = NativeController(model, refs, config, robot.torque_limits)
+    v = np.zeros(robot.model.nv)
+    controller.compute(robot.q_standing, v)
+    assert (controller.kernel_ran, controller.kernel_note) == ("native", "")
+    if why == "python asked":
+        controller.set_kernel("python")
+    elif why == "nullspace":
+        controller.set_hierarchy("nullspace")
+    elif why == "not built":
+        monkeypatch.setattr(native, "NOT_BUILT", "the native kernel is not built (test)")
+    else:  # every task is native today: the note a task written in Python only would leave
+        controller._unsupported = "the native kernel has no task 'python_only'"
+    controller.compute(robot.q_standing, v)
+    assert controller.kernel_ran == "python"
+    assert bool(controller.kernel_note) == (why != "python asked"), controller.kernel_note
 
 
 def test_compute_in_one_crossing_equals_update_then_solve_and_each_output_keeps_its_tick() -> None:

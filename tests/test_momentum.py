@@ -215,13 +215,13 @@ def test_a_sole_holds_no_more_yaw_torque_than_its_torsional_friction() -> None:
         assert not np.all(C @ x <= d)
 
 
-# The UI's default push (150 N for 0.2 s, 30 N s) from the side, and a harder-hitting 200 N for
-# 0.1 s from the front, at the pelvis: Talos keeps both feet down under Table 2 with either law.
+# The UI's default push (150 N for 0.2 s, 30 N s) to the side, and a harder-hitting 200 N for
+# 0.1 s forward (+x), at the pelvis: Talos keeps both feet down under Table 2 with either law.
 # Bounds: the CoG (horizontal) at most 8 cm off on the way (the feet span ±15 cm sideways and
 # 22 cm lengthwise), no QP failure, and on its way back 1.2 s after the push starts.
 UI_PUSHES = {
     "side_150N_0.2s": ((0.0, 150.0, 0.0), 0.2),
-    "front_200N_0.1s": ((200.0, 0.0, 0.0), 0.1),
+    "forward_200N_0.1s": ((200.0, 0.0, 0.0), 0.1),
 }
 
 
@@ -256,8 +256,8 @@ def test_talos_survives_the_ui_push_under_table_2(mode: str, push: str) -> None:
     assert final < 0.75 * worst
 
 
-def test_talos_survives_the_ui_default_push_from_the_front_under_lqr() -> None:
-    """The UI's default push (150 N for 0.2 s at the pelvis) from the front felled Talos under
+def test_talos_survives_the_ui_default_forward_push_under_lqr() -> None:
+    """The UI's default push (150 N for 0.2 s at the pelvis) forward (+x) felled Talos under
     the LQR with the printed cost while the momentum rows left out the static forces' moment
     about the displaced CoG (the torso joint saturated at 78 N m). Now: no fall, no QP failure,
     the CoG at most 12 cm off (measured 10.1 cm; 1.7 cm under `lqr_talos`) and coming back
@@ -296,7 +296,7 @@ def test_lqr_holds_the_cog_closer_than_pd_on_the_same_push() -> None:
 
 def sole_tilt_under_the_ui_push(internal_wrench: bool) -> tuple[float, float]:
     """Talos under Table 2 (`lqr_talos`), with or without the soles' internal wrench priced (the
-    `herzog_table2_flat_soles` preset), pushed at the pelvis from the front by the UI's default
+    `herzog_table2_flat_soles` preset), pushed forward (+x) at the pelvis by the UI's default
     push: the largest tilt of a sole (rad) and horizontal CoG excursion (m) over the 0.6 s from
     the push."""
     session = Session(SessionConfig(robot="talos"))
@@ -319,7 +319,7 @@ def sole_tilt_under_the_ui_push(internal_wrench: bool) -> tuple[float, float]:
 
 
 def test_pricing_the_soles_internal_wrench_keeps_them_flat_under_the_ui_push() -> None:
-    """The UI's default push (150 N for 0.2 s) from the front binds the planned CoPs at the toe
+    """The UI's default push (150 N for 0.2 s) forward (+x) binds the planned CoPs at the toe
     bound; the soles' internal wrench then runs to the corners of its bounds and the soles roll
     onto their edges (measured 0.063 rad under `lqr_talos`), unless `internal_wrench` prices it
     (0.004 rad, the CoG 1.45 cm off against 1.69). Asserted: priced, under 0.01 rad and 2.5 cm;

@@ -326,3 +326,35 @@ def test_a_search_walked_from_a_point_ends_at_the_same_optimum() -> None:
     far = active_set_least_squares(levels, n, cap=1000, point=far_point)
     assert not far.capped and far.feasible
     np.testing.assert_allclose(far.z, cold.z, atol=1e-6)
+
+
+def test_the_last_ticks_start_is_dropped_with_the_stack_or_method_it_belongs_to(
+    anymal, monkeypatch
+) -> None:
+    """The controller starts each nullspace tick from the last tick's active rows and x; a new
+    stack, method or formulation starts cold (those were another problem's), a new solver for
+    the other methods does not."""
+    starts: list[tuple] = []
+
+    def spy(problem: HierarchyProblem, solver: str):
+        starts.append((len(problem.active_start), problem.x_start is not None))
+        return solve_nullspace(problem, solver)
+
+    monkeypatch.setitem(METHODS, "nullspace", spy)
+    c = controller(anymal, STRICT, (True, True, True, True), seed=0)
+    c.set_hierarchy("nullspace")
+    cold, warm = (0, False), (1, True)  # qdd_force: one search, its active rows and x
+    c.solve()
+    c.solve()
+    assert starts == [cold, warm]
+    c.set_stack(Stack.of([["contact"], ["com", "base_orientation"], ["posture"]]))
+    c.solve()
+    c.set_hierarchy("nullspace", solver="clarabel")  # the same problem: the start holds
+    c.solve()
+    c.set_hierarchy("nullspace", formulation="sequential")
+    c.solve()
+    c.set_hierarchy("cascade")
+    c.solve()  # not the spy: the cascade's x is stored as the last tick's
+    c.set_hierarchy("nullspace", formulation="qdd_force")
+    c.solve()
+    assert starts[2:] == [cold, warm, cold, cold]

@@ -1,9 +1,11 @@
 """The session: commands between ticks, pushes, fallbacks, falls, telemetry."""
 
 import dataclasses
+import gc
 import json
 import math
 import warnings
+import weakref
 
 import numpy as np
 import pinocchio as pin
@@ -390,3 +392,47 @@ def test_the_foot_forces_reach_the_controller_only_while_a_task_reads_them() -> 
     run(session, 0.05)
     weight = session.model.mass * 9.81
     assert task.measured_forces[:, 2].sum() == pytest.approx(weight, rel=0.1)
+
+
+def test_a_reset_starts_the_nullspace_search_cold(monkeypatch) -> None:
+    """The nullspace method starts each tick from the last tick's active rows and x; after a
+    reset the robot stands anew and the first tick starts cold, not from the state left."""
+    starts: list[bool] = []
+    nullspace = hierarchy.METHODS["nullspace"]
+
+    def spy(problem: hierarchy.HierarchyProblem, solver: str) -> hierarchy.HierarchySolution:
+        starts.append(problem.x_start is not None or len(problem.active_start) > 0)
+        return nullspace(problem, solver)
+
+    monkeypatch.setitem(hierarchy.METHODS, "nullspace", spy)
+    session = Session(SessionConfig(robot="anymal", method="nullspace"))
+    session.handle("push", {"body": "base", "force": [0.0, 150.0, 0.0], "duration": 0.05})
+    run(session, 0.02)
+    assert starts[0] is False and all(starts[1:])
+    starts.clear()
+    assert session.handle("reset")["ok"]
+    run(session, 0.002)
+    assert starts == [False, True]
+
+
+def test_a_session_dropped_frees_its_native_parts_at_once() -> None:
+    """No reference cycle holds a session: dropped, it and its native parts (the kernel, the
+    plant's step, the frame placements, the last tick's outcome) are freed at once, with the
+    garbage collector off. A cycle through a native object is invisible to the collector and
+    would keep them to the interpreter's exit, where nanobind reports them as leaked."""
+    gc.disable()
+    try:
+        session = Session(SessionConfig(robot="talos"))
+        alive = []
+        for command, payload in (("stance", {"side": "left"}), ("gait", {"name": "trot"})):
+            assert session.handle(command, payload)["ok"]
+            run(session, 0.01)
+            session.telemetry(), session.drawing_state(), session.solution
+            parts = (session.controller, session.plant, session.frame_placements)
+            alive += [weakref.ref(part) for part in parts]
+            assert session.handle("robot", {"name": "anymal"})["ok"]  # a rebuild drops them
+        alive.append(weakref.ref(session))
+        del session, parts
+        assert [ref() for ref in alive] == [None] * len(alive)
+    finally:
+        gc.enable()

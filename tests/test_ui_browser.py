@@ -264,7 +264,7 @@ def test_a_second_browser_is_read_only_until_it_takes_control(browser, serve, pa
     assert second.get_by_role("button", name="Stop").is_disabled()
     assert second.get_by_label("Gait", exact=True).first.is_disabled()
     assert second.get_by_role("button", name="Load preset").is_disabled()
-    assert second.get_by_role("button", name="front", exact=True).count() == 0
+    assert second.get_by_role("button", name="forward", exact=True).count() == 0
     press(second, "Take control")
     second.get_by_text("You hold control").wait_for()
     page.get_by_text("Read-only").wait_for()
@@ -413,10 +413,10 @@ def event_log(pg) -> str:
 def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: Pushes) -> None:
     type_number(slider_box(page, "Magnitude [N]"), "500")
     type_number(slider_box(page, "Duration [ms]"), "300")
-    press(page, "front")
+    press(page, "forward")
     remaining = pushes.wait(500.0)
     assert 0.0 < remaining <= 0.3 + 1e-9, remaining  # 300 ms, as typed
-    page.get_by_text("pushed front: 500 N for 300 ms").first.wait_for()
+    page.get_by_text("pushed forward: 500 N for 300 ms").first.wait_for()
     lab.command("reset")
 
 
@@ -468,7 +468,7 @@ def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pu
     lab.wait_telemetry(lambda m: not m["pushes"], timeout=20.0)  # earlier pushes have ended
     pushes.seen.clear()
     type_keys(box, "432", delay_ms=0)
-    press(page, "back")
+    press(page, "backward")
     refused = page.get_by_text("Nothing sent: check the box and press again").first
     end = time.monotonic() + PAGE_TIMEOUT_MS / 1000  # a loaded UI may take seconds to answer
     while not pushes.seen and not refused.is_visible() and time.monotonic() < end:
@@ -535,7 +535,7 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
     if robot == "bolt":  # the page says how Bolt stands and how to make it step
         page.get_by_text("Bolt stands on its two point feet").first.wait_for()
     pushes.seen.clear()
-    press(page, "front")
+    press(page, "forward")
     pushes.wait(100.0)
     ui_alive(page, serve)
 

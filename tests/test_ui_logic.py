@@ -2,8 +2,10 @@
 typed numbers, the event log, the status line; and the drawn robot's frames against the sim's."""
 
 import math
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -230,11 +232,11 @@ def test_a_warning_that_comes_and_goes_keeps_one_line_and_pushes_nothing_out() -
     for k in range(50):  # the sim falls behind real time and catches up, again and again
         log.add("warning", f"t {k:.2f} s · the sim runs at 0.8× real time", wall=k, kind="behind")
         if k == 25:
-            log.add("info", "pushed front", wall=k + 0.5)
+            log.add("info", "pushed forward", wall=k + 0.5)
     texts = [e.text for e in log.entries()]
     assert texts == [
         "t 49.00 s · the sim runs at 0.8× real time",
-        "pushed front",
+        "pushed forward",
         "kp = -5 is below the limit 0",
     ]
     assert "(×50)" in log.markdown().splitlines()[2]
@@ -593,3 +595,32 @@ def test_the_balance_folder_shows_the_current_laws_gain_from_info(viser_server) 
     assert session.handle("robot", {"name": "talos"})["ok"]  # its default stack
     folder.show_info(session.info())
     assert "no `momentum` task" in folder.gain.content
+
+
+def test_a_push_button_pushes_the_robot_the_way_it_names_and_herzog_names_the_other_side() -> None:
+    """The panel's buttons name the way the force pushes the robot, in its heading frame; Herzog
+    2016's Table 3 scenarios (Talos facing +x) name the side the pusher stands on: each of their
+    pushes "from the <side>" is the button of the opposite way."""
+    from lab.ui.panel import PUSH_DIRECTIONS, push_force
+
+    assert set(PUSH_DIRECTIONS) == {"forward", "backward", "left", "right"}
+    for yaw, forward, left in ((0.0, (1, 0), (0, 1)), (math.pi / 2, (0, 1), (-1, 0))):
+        ways = {"forward": forward, "left": left, "backward": np.negative(forward)}
+        ways["right"] = np.negative(left)
+        for button, (x, y) in ways.items():
+            np.testing.assert_allclose(
+                push_force(button, 100.0, yaw), [100 * x, 100 * y, 0], atol=1e-9
+            )
+    button_of = {"front": "backward", "back": "forward", "right": "left", "left": "right"}
+    checked = 0
+    for path in sorted((Path(__file__).parents[1] / "scenarios").glob("herzog_table3_*.toml")):
+        side = None
+        for line in path.read_text().splitlines():
+            if heading := re.match(r"# (?:torso|hip), from the (\w+)", line):
+                side = heading[1]
+            elif side and (push := re.search(r"force = \[([^\]]+)\]", line)):
+                force = np.array([float(f) for f in push[1].split(",")])
+                expected = push_force(button_of[side], float(np.linalg.norm(force)), 0.0)
+                np.testing.assert_allclose(force, expected, atol=1e-9, err_msg=f"{path}: {line}")
+                checked += 1
+    assert checked == 3 * 7 * 4  # three scenarios, 7 points, 4 pushes each

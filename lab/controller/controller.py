@@ -132,6 +132,7 @@ class WholeBodyController:
         if self.config.method in STACK_CHECKS:
             STACK_CHECKS[self.config.method](stack.names())
         self.config.stack = stack
+        self.forget_last_solution()  # its active rows are rows of the old stack
         # Each level's tasks and constraints, looked up here once instead of by name every tick.
         self._levels = [
             (
@@ -178,8 +179,17 @@ class WholeBodyController:
             )
         if method in STACK_CHECKS:
             STACK_CHECKS[method](self.config.stack.names())
+        if (method, formulation) != (self.config.method, self.config.formulation):
+            self.forget_last_solution()  # another method's, or another formulation's levels
         self.config.method, self.config.solver = method, solver
         self.config.formulation = formulation
+
+    def forget_last_solution(self) -> None:
+        """Start the next `nullspace` search cold: the last tick's active rows and x, its start
+        otherwise, belong to a state, stack or method that is gone (a reset, a new stack, method
+        or formulation). From a stale start the search still ends at the optimum, but it may take
+        up to MAX_PROJECTIONS hierarchy solves to get there, or stop at the cap short of it."""
+        self._active_sets, self._last_x = (), None
 
     def update(self, q: np.ndarray, v: np.ndarray) -> None:
         """Read the state (q, v): the model update the next `solve` works at."""

@@ -207,13 +207,8 @@ class NativeController(WholeBodyController):
 
     # ----------------------------------------------------------------------------- the tick
     def _runs_native(self) -> bool:
-        config = self.config  # kernel_note's conditions, without building its message
-        return (
-            config.kernel == "native"
-            and not NOT_BUILT
-            and config.method in NATIVE_METHODS
-            and not self._unsupported
-        )
+        """Whether the native kernel runs the next tick: asked for, and no `kernel_note`."""
+        return self.config.kernel == "native" and not self.kernel_note
 
     def update(self, q: np.ndarray, v: np.ndarray) -> None:
         """Read the state (q, v) with the model update of the kernel that runs next: the native

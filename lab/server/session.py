@@ -164,6 +164,7 @@ class Session:
         """The robot standing under control at sim time `time` (s), nothing commanded."""
         self.plant.reset(self.robot.q_standing, time=time)
         self.plant.set_joint_damping(0.0)
+        self.controller.forget_last_solution()  # the last tick's was of the state left behind
         self._set_behaviour(Balance.name)
         self.pushes: dict[str, Push] = {}
         self.velocity = np.zeros(3)

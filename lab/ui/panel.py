@@ -56,9 +56,12 @@ class PanelHost(Protocol):
     def base_body(self) -> str: ...
 
 
-PUSH_DIRECTIONS = {  # heading-frame unit vectors
-    "front": (1.0, 0.0),
-    "back": (-1.0, 0.0),
+# Each push button by the way it pushes the robot: its force's unit vector in the heading frame.
+# Herzog 2016 (Table 3) and its scenarios name a push by the side the pusher stands on instead:
+# pushed "from the front" is the backward push here (docs/ui.md).
+PUSH_DIRECTIONS = {
+    "forward": (1.0, 0.0),
+    "backward": (-1.0, 0.0),
     "left": (0.0, 1.0),
     "right": (0.0, -1.0),
 }
@@ -82,6 +85,14 @@ PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")
 # number (its throttle keeps only the newest message): a click this soon after a typed update may
 # carry a number the box no longer shows, so it is refused with a message instead.
 TYPING_SETTLE_S = 0.4
+
+
+def push_force(direction: str, magnitude: float, yaw: float) -> list[float]:
+    """The world force [N] of the push button `direction` (a key of PUSH_DIRECTIONS) of
+    `magnitude` N on a robot heading `yaw` rad about z."""
+    hx, hy = PUSH_DIRECTIONS[direction]
+    c, s = np.cos(yaw), np.sin(yaw)
+    return [magnitude * (c * hx - s * hy), magnitude * (s * hx + c * hy), 0.0]
 
 
 def _levels_markdown(levels: list[list[str]], selected: str, disabled: list[str]) -> str:
@@ -441,10 +452,7 @@ class ControlPanel:
         except NumberError as error:
             self.note(self.push_note, "error", f"push not sent: {error}")
             return
-        hx, hy = PUSH_DIRECTIONS[direction]
-        yaw = self.app.base_yaw()
-        c, s = np.cos(yaw), np.sin(yaw)
-        force = [magnitude * (c * hx - s * hy), magnitude * (s * hx + c * hy), 0.0]
+        force = push_force(direction, magnitude, self.app.base_yaw())
         payload = {"body": self.app.base_body(), "force": force}
         payload["duration"] = duration_ms / 1000.0
         reply = self.app.send(self.client, "push", payload)
