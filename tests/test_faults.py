@@ -82,10 +82,19 @@ class LiveServer:
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self.loop.run, args=(self.stop,))
         self.thread.start()
-        self.client = LabClient(self.endpoint)
         self.events: list[dict] = []
-        self.client.subscribe_events(self.events.append)
-        self.client.wait_telemetry(timeout=WAIT_S)
+        try:  # a server that does not come up must not leave its loop thread running
+            self.client = LabClient(self.endpoint)
+        except BaseException:
+            self._stop_loop()
+            raise
+        try:
+            self.client.subscribe_events(self.events.append)
+            self.client.wait_telemetry(timeout=WAIT_S)
+        except BaseException:
+            self.client.close()
+            self._stop_loop()
+            raise
 
     def event(self, kind: str) -> dict:
         wait_for(lambda: any(e["type"] == kind for e in self.events), WAIT_S, f"a {kind} event")
@@ -97,10 +106,13 @@ class LiveServer:
 
     def close(self) -> None:
         self.client.close()
+        self._stop_loop()
+        assert self.loop.error is None, repr(self.loop.error)
+
+    def _stop_loop(self) -> None:
         self.stop.set()
         self.thread.join()
         self.transport.close()
-        assert self.loop.error is None, repr(self.loop.error)
 
 
 @contextmanager
