@@ -14,7 +14,13 @@ import pytest
 from lab.controller import hierarchy
 from lab.controller.hierarchy.nullspace import ActiveSetCapWarning
 from lab.controller.qp import QPFailure
-from lab.server.session import FALL_CONTACT_S, WARNING_HOLD_S, Session, SessionConfig
+from lab.server.session import (
+    FALL_CONTACT_S,
+    LIMP_DAMPING_SPEED,
+    WARNING_HOLD_S,
+    Session,
+    SessionConfig,
+)
 
 
 @pytest.fixture(scope="module")
@@ -280,17 +286,25 @@ def test_a_diverging_simulation_is_an_event_and_the_clock_goes_on() -> None:
     assert not session.fell and session.divergences == 2
 
 
-def test_a_sustained_push_on_a_fallen_light_robot_does_not_diverge() -> None:
-    """A fallen Solo12 pushed again with 80 N for 4 s: with its joints undamped MuJoCo diverged
-    in 10 of 10 runs (shank speeds of 6e5 rad/s); damped limp joints keep it finite."""
+def test_a_fallen_light_robots_limp_joints_stay_slow_under_a_sustained_push() -> None:
+    """A fallen Solo12 pushed again with 80 N for 4 s. Undamped, its 38 g shanks spun past
+    5e5 rad/s and MuJoCo diverged in every run (70, 80 and 90 N); damped, the limp joints stay
+    below ~170 rad/s. The push itself slides the 2.5 kg robot at up to ~90 m/s by its end, and
+    MuJoCo may diverge late in that slide (2 of 33 pushes from 76 to 84 N did, after 3.9 s): a
+    divergence event the session recovers from (the tests above). So the joints' speeds are
+    checked up to a divergence, over at least the push's first half."""
     session = Session(SessionConfig(robot="solo12"))
     session.handle("push", {"body": "base_link", "force": [0.0, 80.0, 0.0], "duration": 0.5})
     run(session, 0.5)
     assert session.fell
     session.handle("push", {"body": "base_link", "force": [0.0, 80.0, 0.0], "duration": 4.0})
-    run(session, 4.0)
-    assert session.divergences == 0 and session.time == pytest.approx(4.5, abs=1e-9)
-    assert np.all(np.isfinite(session.plant.state()[1]))
+    fastest, ticks = 0.0, 0
+    while ticks < 4000 and session.divergences == 0:
+        session.tick()
+        ticks += 1
+        fastest = max(fastest, float(np.abs(session.plant.state()[1][6:]).max()))
+    assert ticks >= 2000
+    assert fastest < 100 * LIMP_DAMPING_SPEED  # rad/s
 
 
 @pytest.mark.parametrize(
