@@ -7,16 +7,24 @@ namespace lab {
 
 bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                               Eigen::MatrixXd& Z, Eigen::VectorXd& x,
-                                              Eigen::PartialPivLU<Eigen::MatrixXd>& lu) {
-  const Eigen::Index k = A.rows(), n = A.cols();
-  lu.compute(A.leftCols(k));
+                                              BaseBlockLU& lu) {
+  constexpr Eigen::Index k = kBaseRows;
+  const Eigen::Index n = A.cols();
+  if (A.rows() != k || n < k) return false;
+  lu.compute(A.leftCols<k>());
   if (!(std::abs(lu.determinant()) > 0.0)) return false;
+  // Column by column: a fixed-size right-hand side takes the unrolled triangular solves (a
+  // dynamic one takes the blocked ones, three times the instructions at these sizes).
   Z.resize(n, n - k);
-  Z.topRows(k) = lu.solve(A.rightCols(n - k));
-  Z.topRows(k) *= -1.0;
+  Eigen::Matrix<double, k, 1> column;
+  for (Eigen::Index j = 0; j < n - k; ++j) {
+    column = A.col(k + j);
+    Z.col(j).head<k>() = -lu.solve(column);
+  }
   Z.bottomRows(n - k).setIdentity();
   x.setZero(n);
-  x.head(k) = lu.solve(b);
+  column = b;
+  x.head<k>() = lu.solve(column);
   return Z.allFinite() && x.allFinite();
 }
 
@@ -71,10 +79,15 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
 
 void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::Index& cols,
                         Eigen::VectorXd& x, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                        LeastSquaresStep& step, bool update_z) {
+                        LeastSquaresStep& step, bool update_z, bool identity_below) {
   auto Z = Z_buffer.middleCols(first, cols);
   step.AZ.resize(A.rows(), cols);
-  step.AZ.noalias() = A * Z;
+  if (identity_below) {  // A Z = A_1 Z_top + A_2: a product over kBaseRows only, unrolled
+    step.AZ.noalias() = A.leftCols<kBaseRows>().lazyProduct(Z.topRows<kBaseRows>());
+    step.AZ += A.rightCols(cols);
+  } else {
+    step.AZ.noalias() = A * Z;
+  }
   step.qr.compute(step.AZ);
   const int rank = step.qr.rank();
   if (rank == 0) return;
