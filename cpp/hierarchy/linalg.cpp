@@ -25,6 +25,16 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
   return Z.allFinite() && x.allFinite();
 }
 
+bool full_rank_by_margin(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, double frobenius,
+                         Eigen::MatrixXd& R_inverse) {
+  const Eigen::Index rows = qr.rows(), cols = qr.cols();
+  R_inverse.setIdentity(cols, cols);
+  qr.matrixQR().topLeftCorner(cols, cols).triangularView<Eigen::Upper>().solveInPlace(R_inverse);
+  const double sigma_min = 1.0 / R_inverse.norm();  // 0 or NaN when R is singular
+  const double threshold = kRankRtol * std::max(1.0, frobenius);
+  return sigma_min > kRankMargin * std::sqrt(static_cast<double>(rows)) * threshold;
+}
+
 void RowSpaceQR::compute(const Eigen::Ref<const Eigen::MatrixXd>& A) {
   rows_ = static_cast<int>(A.rows());
   rank_ = 0;
@@ -74,6 +84,25 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
   N = Q.rightCols(n - rank);
 }
 
+namespace {
+
+/// The last level's step u where its A Z (rows >= cols) has full column rank by a margin
+/// (full_rank_by_margin): the minimiser is then unique, and an unpivoted QR of A Z finds it for
+/// less than the pivoted QR of the wide (A Z)^T, whose column norms are downdated over every row
+/// of A Z at each step. False otherwise. `r` and `u` may be the same vector.
+bool full_rank_step(LeastSquaresStep& step, const Eigen::VectorXd& r, Eigen::VectorXd& u) {
+  const Eigen::Index n = step.AZ.cols();
+  if (step.AZ.rows() < n) return false;
+  step.full_rank_qr.compute(step.AZ);
+  if (!full_rank_by_margin(step.full_rank_qr, step.AZ.norm(), step.R_inverse)) return false;
+  step.y = r;
+  step.full_rank_qr.householderQ().transpose().applyThisOnTheLeft(step.y);
+  u.noalias() = step.R_inverse * step.y.head(n);
+  return true;
+}
+
+}  // namespace
+
 void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::Index& cols,
                         Eigen::VectorXd& x, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                         LeastSquaresStep& step, bool update_z, bool identity_below) {
@@ -85,11 +114,15 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
   } else {
     step.AZ.noalias() = A * Z;
   }
+  step.r = b;
+  step.r.noalias() -= A * x;
+  if (!update_z && full_rank_step(step, step.r, step.r)) {  // the last level: only the step
+    x.noalias() += Z * step.r;
+    return;
+  }
   step.qr.compute(step.AZ);
   const int rank = step.qr.rank();
   if (rank == 0) return;
-  step.r = b;
-  step.r.noalias() -= A * x;
   step.qr.solve(step.r, step.y);
   if (!update_z) {  // the last level: only the step, Z Q [y; 0]
     step.r.setZero(cols);
