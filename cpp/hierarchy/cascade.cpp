@@ -30,7 +30,7 @@ bool satisfies(const Eigen::MatrixXd& C, const Eigen::VectorXd& u, const Eigen::
 /// What the cascade keeps from tick to tick: no allocation on the equality path once the
 /// stack's shapes have been seen (one set per thread, as the QP solver's).
 struct Buffers {
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  BaseBlockLU lu;
   Eigen::MatrixXd Z_all, Z0, Z;  // the dynamics' null space: all columns, support ones; a copy
   Eigen::VectorXd x0, x, rows;   // the dynamics' solution; the equality pass's; row scratch
   std::vector<LeastSquaresStep> steps;  // one per level
@@ -73,10 +73,13 @@ void equalities_only(const HierarchyProblem& problem, Buffers& b, LevelClock& cl
   for (std::size_t depth = 0; depth < problem.levels.size(); ++depth)
     if (problem.levels[depth].b.size()) last = depth;
   b.steps.resize(problem.levels.size());
+  // Every contact in support: Z0 is [-A1^-1 A2; I] until a level's step rotates it.
+  const bool all_support = b.Z0.cols() == b.Z_all.cols();
   for (std::size_t depth = 0; depth < problem.levels.size(); ++depth) {
     const Level& level = problem.levels[depth];
     if (level.b.size() && cols)
-      least_squares_step(b.Z, first, cols, b.x, level.A, level.b, b.steps[depth], depth != last);
+      least_squares_step(b.Z, first, cols, b.x, level.A, level.b, b.steps[depth], depth != last,
+                         all_support && first == 0);
     clock.lap(depth);
   }
 }

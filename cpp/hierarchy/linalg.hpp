@@ -9,13 +9,32 @@ namespace lab {
 /// Diagonal entries of R below this fraction of max(1, |R00|) do not count towards the rank.
 constexpr double kRankRtol = 1e-9;
 
+/// Safety factor on full_rank_by_margin's sufficient condition (rounding is ~1e-16 of it).
+constexpr double kRankMargin = 1e3;
+
+/// Rows of the Newton-Euler equations: the free-flyer base's six (model.hpp's BASE_DOF).
+constexpr Eigen::Index kBaseRows = 6;
+/// The LU of the base block of M, fixed-size: its factorization and solves are unrolled, a
+/// third of the dynamic-size ones' instructions.
+using BaseBlockLU = Eigen::PartialPivLU<Eigen::Matrix<double, kBaseRows, kBaseRows>>;
+
 /// x solves A x = b and Z spans null(A), for A = [A1 A2] with A1 square and invertible:
 /// x = [A1^-1 b; 0], Z = [-A1^-1 A2; I]. The Newton-Euler rows have this form, A1 being the
 /// base block of M (Herzog §2.4, footnote 3). Z is not orthonormal; it spans the null space.
-/// Returns false when A1 is singular. `lu` is the factorization's storage, kept between calls.
+/// A has kBaseRows rows. Returns false when A1 is singular. `lu` is the factorization's storage.
 bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                               Eigen::MatrixXd& Z, Eigen::VectorXd& x,
-                                              Eigen::PartialPivLU<Eigen::MatrixXd>& lu);
+                                              BaseBlockLU& lu);
+
+/// Whether B (rows >= cols, factorized as `qr`, B = Q R) has full column rank by a margin that
+/// the rank rule of RowSpaceQR, applied to B^T, cannot miss. That rule's pivoted QR of B^T keeps at
+/// each step a column at least sigma_min(B) / sqrt(rows) long (projected off the columns chosen
+/// before, the others still span with sigma_min(B)), so every diagonal entry is at least that;
+/// its threshold is at most kRankRtol max(1, ||B||_F); and sigma_min(B) = sigma_min(R) >=
+/// 1 / ||R^-1||_F. So sigma_min / sqrt(rows) above kRankMargin times the threshold means rank =
+/// cols there too. `R_inverse` is scratch (it holds R^-1 after a true answer).
+bool full_rank_by_margin(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, double frobenius,
+                         Eigen::MatrixXd& R_inverse);
 
 /// A column-pivoted QR of the transpose of a level's rows A (m x n): A^T P = Q [R1; 0], with
 /// R1 the `rank` rows whose diagonal exceeds kRankRtol * max(1, |R00|). Then A ~ P R1^T Q1^T.
@@ -68,7 +87,8 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
 /// Buffers of one equality level of the cascade, kept from tick to tick.
 struct LeastSquaresStep {
   RowSpaceQR qr;
-  Eigen::MatrixXd AZ;
+  Eigen::HouseholderQR<Eigen::MatrixXd> full_rank_qr;  // the last level's, see linalg.cpp
+  Eigen::MatrixXd AZ, R_inverse;
   Eigen::VectorXd r, y;
 };
 
@@ -76,9 +96,11 @@ struct LeastSquaresStep {
 /// least_squares_and_null_space(A Z, b - A x) (Herzog eq. 8), without forming Q or N. Z is the
 /// `cols` columns of `Z_buffer` from `first` on; the level's step uses the leading columns of
 /// Z Q, so the null space left is the window's tail: `first` moves right by the rank, `cols`
-/// shrinks by it. `update_z` false (the last level) leaves Z as it is.
+/// shrinks by it. `update_z` false (the last level) leaves Z as it is. `identity_below` says that
+/// Z is [Z_top; I] with Z_top its first kBaseRows rows (the dynamics' null space as
+/// solution_and_null_space_of_leading_block gives it): A Z is then formed from Z_top alone.
 void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::Index& cols,
                         Eigen::VectorXd& x, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                        LeastSquaresStep& step, bool update_z = true);
+                        LeastSquaresStep& step, bool update_z = true, bool identity_below = false);
 
 }  // namespace lab

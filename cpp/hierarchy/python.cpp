@@ -7,6 +7,7 @@
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
+#include "hierarchy/linalg.hpp"
 #include "hierarchy/problem.hpp"
 #include "hierarchy/qp.hpp"
 
@@ -23,6 +24,8 @@ nb::dict solve_hierarchy(const std::string& method, const Eigen::MatrixXd& dynam
                          const Eigen::Array<bool, Eigen::Dynamic, 1>& support) {
   HierarchyProblem problem{dynamics_A, dynamics_b, {}, support};
   const Eigen::Index nx = dynamics_A.cols();
+  if (dynamics_A.rows() != kBaseRows)
+    throw nb::value_error("dynamics_A must have the 6 Newton-Euler rows of a free-flyer base");
   if (dynamics_b.size() != dynamics_A.rows())
     throw nb::value_error("dynamics_b must have one entry per row of dynamics_A");
   for (const auto& [A, b, C, d, weight] : levels) {

@@ -1,6 +1,7 @@
 // All levels in one weighted QP (Raiola 2020, stack S1); mirrors
 // lab/controller/hierarchy/weighted.py.
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "hierarchy/linalg.hpp"
@@ -17,38 +18,49 @@ constexpr double kWellConditionedWeight = 1e-9;
 /// The weighted QP over u after the Newton-Euler rows are eliminated with the base block of M
 /// (x = x0 + Z u, Z = [-A1^-1 A2; I], the cascade's level 0): DAQP then sees no equality row.
 /// The same optimum as with the rows, in 17 instead of 25 us for ANYmal (DAQP's own elimination,
-/// a QR, was most of it). Its Hessian and gradient are summed level by level from each level's
-/// A Z, Z^T H Z = sum_r w_r (A_r Z)^T (A_r Z) + eps Z^T Z and Z^T (g + H x0) = sum_r w_r
+/// a QR, was most of it). Its Hessian and gradient come from each level's A Z,
+/// Z^T H Z = sum_r w_r (A_r Z)^T (A_r Z) + eps Z^T Z and Z^T (g + H x0) = sum_r w_r
 /// (A_r Z)^T (A_r x0 - b_r) + eps Z^T x0, never forming the full H (fewer and smaller products:
-/// the rank updates are over u's columns only). Levels of weight 0 add nothing and are skipped.
+/// the rank update is over u's columns only). Levels of weight 0 add nothing and are skipped.
 /// False when the base block is singular or DAQP finds no u.
 bool solve_reduced(const HierarchyProblem& problem, double regularization, const Eigen::MatrixXd& C,
                    const Eigen::VectorXd& d, Eigen::VectorXd& x, QpReport& report) {
-  thread_local Eigen::MatrixXd Z, AZ, Hz, Cz;
+  thread_local Eigen::MatrixXd Z, S, Hz, Cz;
   thread_local Eigen::VectorXd x0, gz, dz, u, residual;
-  thread_local Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  thread_local BaseBlockLU lu;
   if (!solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b, Z, x0, lu))
     return false;
   // Z's lower block is the identity: products with Z take its upper k rows only.
-  const Eigen::Index k = problem.dynamics_A.rows(), nu = Z.cols();
-  const auto Zt = Z.topRows(k);
-  Hz.setIdentity(nu, nu);
-  Hz.selfadjointView<Eigen::Lower>().rankUpdate(Zt.transpose());  // Z^T Z = Zt^T Zt + I
-  Hz *= regularization;
-  gz.noalias() = Zt.transpose() * x0.head(k);
+  constexpr Eigen::Index k = kBaseRows;
+  const Eigen::Index nu = Z.cols();
+  const auto Zt = Z.topRows<k>();
+  // S stacks sqrt(eps) Zt and each level's sqrt(w_r) A_r Z: Z^T H Z = S^T S + eps I, one rank
+  // update instead of one per level (each sets up its own blocking: most of its cost here).
+  Eigen::Index rows = k;
+  for (const Level& level : problem.levels)
+    if (level.b.size() && level.weight != 0.0) rows += level.b.size();
+  S.resize(rows, nu);
+  S.topRows<k>() = std::sqrt(regularization) * Zt;
+  gz.noalias() = Zt.transpose() * x0.head<k>();
   gz += x0.tail(nu);
   gz *= regularization;
+  Eigen::Index row = k;
   for (const Level& level : problem.levels) {
     if (!level.b.size() || level.weight == 0.0) continue;
-    AZ.noalias() = level.A.leftCols(k) * Zt;
+    auto AZ = S.middleRows(row, level.b.size());
+    AZ.noalias() = level.A.leftCols<k>().lazyProduct(Zt);  // over k only: unrolled
     AZ += level.A.rightCols(nu);
     residual = -level.b;
     residual.noalias() += level.A * x0;
-    Hz.selfadjointView<Eigen::Lower>().rankUpdate(AZ.transpose(), level.weight);
     gz.noalias() += level.weight * (AZ.transpose() * residual);
+    AZ *= std::sqrt(level.weight);
+    row += level.b.size();
   }
+  Hz.setIdentity(nu, nu);
+  Hz *= regularization;
+  Hz.selfadjointView<Eigen::Lower>().rankUpdate(S.transpose());
   Hz.triangularView<Eigen::StrictlyUpper>() = Hz.transpose();
-  Cz.noalias() = C.leftCols(k) * Zt;
+  Cz.noalias() = C.leftCols<k>().lazyProduct(Zt);
   Cz += C.rightCols(nu);
   dz = d;
   dz.noalias() -= C * x0;
