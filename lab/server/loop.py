@@ -17,6 +17,7 @@ import os
 import platform
 import threading
 import time
+from bisect import bisect_left
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,7 +35,7 @@ DEADMAN_RAMP_S = 0.5  # ...and then ramps linearly to zero over this long
 DEADMAN_UPDATE_S = 0.01  # how often the ramp sends a new velocity to the session
 EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per second each
 COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
-STATS_INTERVAL_TICKS = 100  # recompute the percentiles of the loop statistics this often
+STATS_INTERVAL_TICKS = 50  # recompute the percentiles of one loop statistic this often
 FIFO_PRIORITY = 50
 SCHED_CHOICES = ("auto", "fifo", "other")
 # `auto` takes SCHED_FIFO only with this many CPUs to run on. On a 2-core machine a 1 kHz FIFO
@@ -111,40 +112,53 @@ class LoopConfig:
     slice_s: float | None = 1e-4
 
 
+def _geometric_edges(low: float, ratio: float, count: int) -> list[float]:
+    """low, low·ratio, …, low·ratio^(count-1)."""
+    return [low * ratio**i for i in range(count)]
+
+
 class LogHistogram:
     """Counts of positive durations in geometric bins (5 % wide from 0.1 µs to 10 s); cheap to
-    record every tick, percentiles read as the upper edge of the bin."""
+    record every tick, percentiles read as the upper edge of the bin.
+
+    Both are C calls on a list, not Python arithmetic: a record is one `bisect` over the bin
+    edges (the log, division and `min` it replaced cost ~1 µs a record, three records a tick), a
+    percentile one `accumulate` and one `bisect` (a Python pass over the bins cost ~0.1 ms a
+    percentile in the server, six at every refresh: docs/performance.md, round 10)."""
 
     LOW_S = 1e-7
     RATIO = 1.05
     BINS = 380
+    # Upper edge of bin i < BINS; bin 0 holds durations <= LOW_S, bin BINS those above the last
+    # edge (only their maximum is known).
+    EDGES = _geometric_edges(LOW_S, RATIO, BINS)
 
     def __init__(self) -> None:
         self.counts = [0] * (self.BINS + 1)
         self.total = 0
         self.max = 0.0
-        self._log_ratio = math.log(self.RATIO)
 
     def record(self, seconds: float) -> None:
-        if seconds <= self.LOW_S:
-            index = 0
-        else:
-            index = min(self.BINS, 1 + int(math.log(seconds / self.LOW_S) / self._log_ratio))
-        self.counts[index] += 1
+        self.counts[bisect_left(self.EDGES, seconds)] += 1
         self.total += 1
-        self.max = max(self.max, seconds)
+        if seconds > self.max:
+            self.max = seconds
 
     def percentile(self, p: float) -> float:
         """Upper edge of the bin holding the p-th percentile (s), capped at the maximum."""
+        return self.percentiles(p)[0]
+
+    def percentiles(self, *ps: float) -> list[float]:
+        """`percentile` of each of `ps`, with one pass over the bins for all."""
         if self.total == 0:
-            return 0.0
-        rank = p / 100.0 * self.total
-        for index, cumulative in enumerate(accumulate(self.counts)):
-            if cumulative >= rank and index < self.BINS:
-                return min(self.max, self.LOW_S * self.RATIO**index)
-            if cumulative >= rank:
-                break  # the overflow bin: only the maximum is known
-        return self.max
+            return [0.0] * len(ps)
+        cumulative = list(accumulate(self.counts))
+        edges = self.EDGES
+        out = []
+        for p in ps:
+            index = bisect_left(cumulative, p / 100.0 * self.total)
+            out.append(min(self.max, edges[index]) if index < self.BINS else self.max)
+        return out
 
 
 class DeadlineStats:
@@ -170,10 +184,29 @@ class DeadlineStats:
         self.late_woken = LogHistogram()
         self.late_pushed = LogHistogram()
         self.gc = GcPauses()
-        self._percentiles: dict[str, dict[str, float]] = {}
-        self._details: dict[str, dict[str, dict[str, float]]] = {}
-        self._next_detail = 0
-        self.refresh_percentiles()
+        self._percentiles: dict[str, dict[str, float]] = {"lateness_us": {}, "tick_us": {}}
+        self._details: dict[str, dict[str, dict[str, float]]] = {
+            "tick_us_by_kind": {},
+            "late_lateness_us": {},
+            "gc_pause_us": {},
+        }
+        details = [
+            *((self._details["tick_us_by_kind"], kind, h) for kind, h in self.work_by_kind.items()),
+            (self._details["late_lateness_us"], "woken", self.late_woken),
+            (self._details["late_lateness_us"], "pushed", self.late_pushed),
+            (self._details["gc_pause_us"], "all", self.gc.pauses),
+        ]
+        # One histogram per refresh: lateness and work every third, the details in turn between.
+        self._refresh_order: list[tuple[dict[str, dict[str, float]], str, LogHistogram]] = []
+        for detail in details:
+            self._refresh_order += [
+                (self._percentiles, "lateness_us", self.lateness),
+                (self._percentiles, "tick_us", self.work),
+                detail,
+            ]
+        self._next_refresh = 0
+        for target, key, histogram in self._refresh_order:
+            target[key] = _us(histogram)
 
     def record(self, lateness: float, work: float, overrun: bool, kind: str = "plain") -> None:
         self.ticks += 1
@@ -192,18 +225,12 @@ class DeadlineStats:
         self.work_by_kind[kind].record(work)
 
     def refresh_percentiles(self) -> None:
-        """Recompute lateness and work percentiles (a pass over the bins: not every tick), and
-        those of one of the detail histograms (by tick kind, late ticks, GC), in turn."""
-        self._percentiles = {"lateness_us": _us(self.lateness), "tick_us": _us(self.work)}
-        details = [
-            *(("tick_us_by_kind", kind, h) for kind, h in self.work_by_kind.items()),
-            ("late_lateness_us", "woken", self.late_woken),
-            ("late_lateness_us", "pushed", self.late_pushed),
-            ("gc_pause_us", "all", self.gc.pauses),
-        ]
-        group, key, histogram = details[self._next_detail % len(details)]
-        self._next_detail += 1
-        self._details.setdefault(group, {})[key] = _us(histogram)
+        """Recompute the percentiles of one histogram (a pass over its bins: not every tick):
+        lateness or work on two refreshes of three, one of the details (by tick kind, late
+        ticks, GC) in turn on the third."""
+        target, key, histogram = self._refresh_order[self._next_refresh]
+        self._next_refresh = (self._next_refresh + 1) % len(self._refresh_order)
+        target[key] = _us(histogram)
 
     def snapshot(self) -> dict[str, object]:
         """Counters as of now, percentiles as of the last `refresh_percentiles`."""
@@ -226,11 +253,8 @@ class DeadlineStats:
 
 def _us(h: LogHistogram) -> dict[str, float]:
     """p50, p99 and maximum of `h` in µs."""
-    return {
-        "p50": round(h.percentile(50) * 1e6, 2),
-        "p99": round(h.percentile(99) * 1e6, 2),
-        "max": round(h.max * 1e6, 2),
-    }
+    p50, p99 = h.percentiles(50, 99)
+    return {"p50": round(p50 * 1e6, 2), "p99": round(p99 * 1e6, 2), "max": round(h.max * 1e6, 2)}
 
 
 class GcPauses:
