@@ -104,6 +104,38 @@ def test_histogram_counts_zero_and_huge_values() -> None:
     assert hist.percentile(100) == 1e3
 
 
+def test_histogram_reads_several_percentiles_at_once_as_one_at_a_time() -> None:
+    hist = LogHistogram()
+    for s in np.geomspace(1e-6, 1e-2, 1000):
+        hist.record(float(s))
+    hist.record(LogHistogram.EDGES[200])  # on an edge: in the bin it closes
+    assert hist.percentiles(0, 50, 99, 100) == [hist.percentile(p) for p in (0, 50, 99, 100)]
+    assert hist.counts[200] >= 1 and hist.percentile(100) == 1e-2
+
+
+def test_one_histogram_is_refreshed_at_a_time_the_headline_ones_most_often() -> None:
+    """A refresh passes over one histogram's bins (the stats tick stays short): the work and
+    lateness percentiles within three refreshes, every detail within one round of them."""
+    stats = DeadlineStats(period=1e-3, realtime=True)
+    stats.record(2e-4, 3e-4, overrun=False, kind="state")
+    rounds = len(TICK_KINDS) + 3  # the detail histograms: kinds, late woken/pushed, GC
+
+    def p50(*keys: str) -> float:
+        value: object = stats.snapshot()
+        for key in keys:
+            value = value[key]
+        return value["p50"]
+
+    for _ in range(3):
+        stats.refresh_percentiles()
+    assert 300 <= p50("tick_us") <= 300 * LogHistogram.RATIO
+    assert 200 <= p50("lateness_us") <= 200 * LogHistogram.RATIO
+    for _ in range(3 * rounds - 3):
+        stats.refresh_percentiles()
+    assert 300 <= p50("tick_us_by_kind", "state") <= 300 * LogHistogram.RATIO
+    assert 200 <= p50("late_lateness_us", "woken") <= 200 * LogHistogram.RATIO
+
+
 def test_event_throttle_folds_bursts() -> None:
     throttle = EventThrottle()
     assert throttle.take(0.0) == 0
