@@ -2,6 +2,7 @@
 
 No Python runs on Zenoh's threads in the sim process: commands land in a Zenoh ring channel and
 the loop thread takes them out between ticks (`receive`), applies them and replies (`reply`).
+What the loop publishes it encodes itself; a thread of ours (`PutThread`) puts the bytes.
 See docs/protocol.md.
 """
 
