@@ -43,6 +43,7 @@ def parts(session: Session) -> dict[str, Callable[[], object]]:
         return [placement.homogeneous for placement in data.oMi]
 
     state, message = telemetry.state_message(session), telemetry.telemetry_message(session)
+    _, finish = telemetry.telemetry_in_two(session)
     return {
         "state: whole": lambda: telemetry.state_message(session),
         "state: plant.state": session.plant.state,
@@ -51,8 +52,10 @@ def parts(session: Session) -> dict[str, Callable[[], object]]:
         "state:   fk + oMi.homogeneous": read_joint_placements,
         "state: encode": lambda: encode(state),
         "telemetry: whole": lambda: telemetry.telemetry_message(session),
+        "telemetry: in two, first": lambda: telemetry.telemetry_in_two(session),
+        "telemetry: in two, finish": finish,
         "telemetry: contacts + cop": lambda: telemetry._contacts(session),
-        "telemetry: tasks": lambda: telemetry._tasks(controller),
+        "telemetry: tasks": lambda: telemetry._tasks(controller, controller.task_errors()),
         "telemetry: stack.as_lists": controller.config.stack.as_lists,
         "telemetry: momentum": model.centroidal_momentum,
         "telemetry: internal_force": lambda: telemetry.internal_force_report(controller),

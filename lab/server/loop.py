@@ -5,7 +5,8 @@ One thread runs `SimLoop.run`. Each iteration: sleep until just before the next 
 to it (`next += period`, never "sleep one period"), take waiting commands from the transport (a
 bounded number per tick), apply them through `Session.handle` and reply, run the velocity
 deadman, `Session.tick()`, and at most one job beside it where the rates allow: build telemetry
-or a drawing state on its schedule, publish it (with the events) on a later tick.
+(over two ticks) or a drawing state on its schedule, publish it (with the events) on a later
+tick.
 """
 
 import contextlib
@@ -59,6 +60,9 @@ SLICE_MIN_S, SLICE_MAX_S = 1e-4, 0.1
 # one of them, refresh the statistics' percentiles.
 TICK_KINDS = ("plain", "telemetry", "state", "publish", "stats")
 MAX_PENDING_JOBS = 2  # more jobs beside the tick waiting than this: run them in the same tick
+# Build a telemetry message over two ticks only with at least this many ticks between messages
+# (three jobs a message, and the drawing state's two): at 250 Hz (every 2nd tick) in one.
+SPLIT_TELEMETRY_MIN_TICKS = 5
 
 
 class Session(Protocol):
@@ -66,7 +70,7 @@ class Session(Protocol):
 
     def tick(self) -> None: ...
     def handle(self, verb: str, payload: object) -> dict: ...
-    def telemetry(self) -> dict: ...
+    def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]: ...
     def drawing_state(self) -> dict: ...
     def pop_events(self) -> list[dict]: ...
 
@@ -450,6 +454,7 @@ class SimLoop:
         self._jobs: deque[Callable[[float], str]] = deque()  # beside the tick, in order
         every_tick = min(self._telemetry_every, self._state_every) == 1
         self._max_pending = 0 if every_tick else MAX_PENDING_JOBS
+        self._split_telemetry = self._telemetry_every >= SPLIT_TELEMETRY_MIN_TICKS
         self._deadman = Deadman()
         self._overrun_events = EventThrottle()
         self._rejected_events = EventThrottle()
@@ -521,13 +526,13 @@ class SimLoop:
 
     def _after_tick(self, now: float) -> str:
         """The work beside the tick, one job per tick where the rates allow: build a telemetry
-        message or a drawing state on its schedule, and publish it (encoding and the Zenoh put:
-        ~0.15 ms of CPU with three subscribers under load) on a later tick. Building and
-        publishing on one tick made it 0.65-1.06 ms long at the median in the server under
-        load, and there were about as many overruns as such ticks. Jobs wait in order for a
-        tick of their own (at most MAX_PENDING_JOBS; when a message is due every tick, all run
-        at once). The statistics' percentiles take a tick with no job. Returns the tick's kind
-        (TICK_KINDS)."""
+        message (in two steps, on two ticks: `Session.telemetry_in_two`) or a drawing state on
+        its schedule, and publish it (encoding; the Zenoh put is the transport's thread's) on a
+        later tick. Building and publishing on one tick made it 0.65-1.06 ms long at the median
+        in the server under load, and there were about as many overruns as such ticks. Jobs
+        wait in order for a tick of their own (at most MAX_PENDING_JOBS; when a message is due
+        every tick, all run at once). The statistics' percentiles take a tick with no job.
+        Returns the tick's kind (TICK_KINDS)."""
         ticks = self.stats.ticks
         if ticks % self._telemetry_every == 0:
             self._jobs.append(self._build_telemetry)
@@ -546,9 +551,17 @@ class SimLoop:
         return kind
 
     def _build_telemetry(self, now: float) -> str:
-        telemetry = self.session.telemetry()
+        telemetry, finish = self.session.telemetry_in_two()
         telemetry["loop"] = {**self.stats.snapshot(), "clock_s": now}
         self._last_sim_time = float(telemetry["t"])
+        if self._split_telemetry:
+            self._jobs.append(functools.partial(self._finish_telemetry, telemetry, finish))
+        else:
+            self._finish_telemetry(telemetry, finish, now)
+        return "telemetry"
+
+    def _finish_telemetry(self, telemetry: dict, finish: Callable[[], None], now: float) -> str:
+        finish()
         self._jobs.append(functools.partial(self._publish_telemetry, telemetry))
         return "telemetry"
 
