@@ -200,7 +200,7 @@ class DeadlineStats:
             (self._details["late_lateness_us"], "pushed", self.late_pushed),
             (self._details["gc_pause_us"], "all", self.gc.pauses),
         ]
-        # One histogram per refresh: lateness and work every third, the details in turn between.
+        # One histogram per refresh, round and round: lateness, work, then the next detail.
         self._refresh_order: list[tuple[dict[str, dict[str, float]], str, LogHistogram]] = []
         for detail in details:
             self._refresh_order += [
