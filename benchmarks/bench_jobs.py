@@ -9,6 +9,11 @@ tick`: caches as the loop's job tick finds them), another session tick, the tele
 built whole, then each part in a hot loop (`hot`), the encoding of the messages just built
 last. Prints median, p99 and minimum of each in µs. Standing uses the robot's default stack;
 `--trot` trots at 0.5 m/s (the gait command's stack).
+
+`--cold` times each part the way the server's loop finds it instead: first after
+COLD_PERIODS periods of the loop (sleep ~0.8 ms, one session tick), with the caches as sleeping
+and the session tick left them; in the server the side jobs cost 3-5x their hot time
+(docs/performance.md, round 10).
 """
 
 import argparse
@@ -23,6 +28,8 @@ from lab.server.session import Session, SessionConfig
 from lab.server.transport import encode
 
 WARM_UP_TICKS = 1000
+COLD_PERIODS = 3
+COLD_SLEEP_S = 8e-4
 
 
 def parts(session: Session) -> dict[str, Callable[[], object]]:
@@ -36,16 +43,19 @@ def parts(session: Session) -> dict[str, Callable[[], object]]:
         return [placement.homogeneous for placement in data.oMi]
 
     state, message = telemetry.state_message(session), telemetry.telemetry_message(session)
+    _, finish = telemetry.telemetry_in_two(session)
     return {
-        "state: whole, hot": lambda: telemetry.state_message(session),
+        "state: whole": lambda: telemetry.state_message(session),
         "state: plant.state": session.plant.state,
         "state: joint_names": lambda: list(session.robot.joint_names),
         "state: frames.message": lambda: frames.message(q),
         "state:   fk + oMi.homogeneous": read_joint_placements,
         "state: encode": lambda: encode(state),
-        "telemetry: whole, hot": lambda: telemetry.telemetry_message(session),
+        "telemetry: whole": lambda: telemetry.telemetry_message(session),
+        "telemetry: in two, first": lambda: telemetry.telemetry_in_two(session),
+        "telemetry: in two, finish": finish,
         "telemetry: contacts + cop": lambda: telemetry._contacts(session),
-        "telemetry: tasks": lambda: telemetry._tasks(controller),
+        "telemetry: tasks": lambda: telemetry._tasks(controller, controller.task_errors()),
         "telemetry: stack.as_lists": controller.config.stack.as_lists,
         "telemetry: momentum": model.centroidal_momentum,
         "telemetry: internal_force": lambda: telemetry.internal_force_report(controller),
@@ -66,8 +76,9 @@ def parts(session: Session) -> dict[str, Callable[[], object]]:
     }
 
 
-def measure(robot: str, trot: bool, reps: int) -> dict[str, np.ndarray]:
-    """Each part's time (µs) on each of `reps` repetitions, one session tick apart."""
+def measure(robot: str, trot: bool, reps: int, cold: bool = False) -> dict[str, np.ndarray]:
+    """Each part's time (µs) on each of `reps` repetitions, one session tick apart (`cold`:
+    each part first after COLD_PERIODS loop periods)."""
     session = Session(SessionConfig(robot=robot))
     if trot:
         session.handle("gait", {"name": "trot"})
@@ -86,6 +97,9 @@ def measure(robot: str, trot: bool, reps: int) -> dict[str, np.ndarray]:
             job(session)
             times.setdefault(f"{name}: whole, after a tick", []).append((clock() - start) / 1e3)
         for name, call in parts(session).items():
+            for _ in range(COLD_PERIODS if cold else 0):
+                time.sleep(COLD_SLEEP_S)
+                session.tick()
             start = clock()
             call()
             times.setdefault(name, []).append((clock() - start) / 1e3)
@@ -97,9 +111,11 @@ def main() -> None:
     parser.add_argument("--robot", default="anymal")
     parser.add_argument("--trot", action="store_true")
     parser.add_argument("--reps", type=int, default=2000)
+    parser.add_argument("--cold", action="store_true", help="each part after loop periods")
     args = parser.parse_args()
-    times = measure(args.robot, args.trot, args.reps)
-    print(f"{args.robot} {'trot' if args.trot else 'stand'}, {args.reps} reps, µs")
+    times = measure(args.robot, args.trot, args.reps, args.cold)
+    how = "cold (after loop periods)" if args.cold else "hot"
+    print(f"{args.robot} {'trot' if args.trot else 'stand'}, {args.reps} reps, {how}, µs")
     print(f"{'part':34s} {'median':>8s} {'p99':>8s} {'min':>8s}")
     for name, t in times.items():
         print(f"{name:34s} {np.median(t):8.1f} {np.percentile(t, 99):8.1f} {t.min():8.1f}")

@@ -108,6 +108,25 @@ def test_stack_gains_and_hierarchy_changes_show_in_telemetry(session: Session) -
     assert telemetry["qp"]["status"] == "ok"
 
 
+@pytest.mark.parametrize("kernel", ["native", "python"])
+def test_telemetry_built_over_two_ticks_is_the_first_ticks_message(kernel: str) -> None:
+    """The loop builds telemetry in two steps on two ticks: what `finish` adds later (the
+    tasks' errors, the solution summary) is the first tick's, as one call there gives."""
+    session = Session(SessionConfig(robot="anymal"))
+    assert session.handle("hierarchy", {"kernel": kernel})["ok"]
+    assert session.handle("push", {"body": "base", "force": [40.0, 0.0, 0.0], "duration": 0.2})[
+        "ok"
+    ]
+    run(session, 0.05)
+    whole = json.dumps(session.telemetry())
+    message, finish = session.telemetry_in_two()
+    assert message["tasks"] is None and message["solution"] is None  # filled in by finish
+    session.tick()
+    finish()
+    assert json.dumps(message) == whole
+    assert message["solution"] is not None and any(t["error"] > 0.0 for t in message["tasks"])
+
+
 def test_the_nullspace_formulation_shows_and_survives_a_scene_switch() -> None:
     session = Session(SessionConfig(robot="anymal"))
     reply = session.handle("hierarchy", {"method": "nullspace", "formulation": "sequential"})

@@ -5,7 +5,8 @@ One thread runs `SimLoop.run`. Each iteration: sleep until just before the next 
 to it (`next += period`, never "sleep one period"), take waiting commands from the transport (a
 bounded number per tick), apply them through `Session.handle` and reply, run the velocity
 deadman, `Session.tick()`, and at most one job beside it where the rates allow: build telemetry
-or a drawing state on its schedule, publish it (with the events) on a later tick.
+(over two ticks) or a drawing state on its schedule, publish it (with the events) on a later
+tick.
 """
 
 import contextlib
@@ -17,6 +18,7 @@ import os
 import platform
 import threading
 import time
+from bisect import bisect_left
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,7 +36,7 @@ DEADMAN_RAMP_S = 0.5  # ...and then ramps linearly to zero over this long
 DEADMAN_UPDATE_S = 0.01  # how often the ramp sends a new velocity to the session
 EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per second each
 COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
-STATS_INTERVAL_TICKS = 100  # recompute the percentiles of the loop statistics this often
+STATS_INTERVAL_TICKS = 50  # recompute the percentiles of one loop statistic this often
 FIFO_PRIORITY = 50
 SCHED_CHOICES = ("auto", "fifo", "other")
 # `auto` takes SCHED_FIFO only with this many CPUs to run on. On a 2-core machine a 1 kHz FIFO
@@ -58,6 +60,9 @@ SLICE_MIN_S, SLICE_MAX_S = 1e-4, 0.1
 # one of them, refresh the statistics' percentiles.
 TICK_KINDS = ("plain", "telemetry", "state", "publish", "stats")
 MAX_PENDING_JOBS = 2  # more jobs beside the tick waiting than this: run them in the same tick
+# Build a telemetry message over two ticks only with at least this many ticks between messages
+# (three jobs a message, and the drawing state's two): at 250 Hz (every 2nd tick) in one.
+SPLIT_TELEMETRY_MIN_TICKS = 5
 
 
 class Session(Protocol):
@@ -65,7 +70,7 @@ class Session(Protocol):
 
     def tick(self) -> None: ...
     def handle(self, verb: str, payload: object) -> dict: ...
-    def telemetry(self) -> dict: ...
+    def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]: ...
     def drawing_state(self) -> dict: ...
     def pop_events(self) -> list[dict]: ...
 
@@ -117,40 +122,53 @@ class LoopConfig:
     nice: int | None = -10
 
 
+def _geometric_edges(low: float, ratio: float, count: int) -> list[float]:
+    """low, low·ratio, …, low·ratio^(count-1)."""
+    return [low * ratio**i for i in range(count)]
+
+
 class LogHistogram:
     """Counts of positive durations in geometric bins (5 % wide from 0.1 µs to 10 s); cheap to
-    record every tick, percentiles read as the upper edge of the bin."""
+    record every tick, percentiles read as the upper edge of the bin.
+
+    Both are C calls on a list, not Python arithmetic: a record is one `bisect` over the bin
+    edges (the log, division and `min` it replaced cost ~1 µs a record, three records a tick), a
+    percentile one `accumulate` and one `bisect` (a Python pass over the bins cost ~0.1 ms a
+    percentile in the server, six at every refresh: docs/performance.md, round 10)."""
 
     LOW_S = 1e-7
     RATIO = 1.05
     BINS = 380
+    # Upper edge of bin i < BINS; bin 0 holds durations <= LOW_S, bin BINS those above the last
+    # edge (only their maximum is known).
+    EDGES = _geometric_edges(LOW_S, RATIO, BINS)
 
     def __init__(self) -> None:
         self.counts = [0] * (self.BINS + 1)
         self.total = 0
         self.max = 0.0
-        self._log_ratio = math.log(self.RATIO)
 
     def record(self, seconds: float) -> None:
-        if seconds <= self.LOW_S:
-            index = 0
-        else:
-            index = min(self.BINS, 1 + int(math.log(seconds / self.LOW_S) / self._log_ratio))
-        self.counts[index] += 1
+        self.counts[bisect_left(self.EDGES, seconds)] += 1
         self.total += 1
-        self.max = max(self.max, seconds)
+        if seconds > self.max:
+            self.max = seconds
 
     def percentile(self, p: float) -> float:
         """Upper edge of the bin holding the p-th percentile (s), capped at the maximum."""
+        return self.percentiles(p)[0]
+
+    def percentiles(self, *ps: float) -> list[float]:
+        """`percentile` of each of `ps`, with one pass over the bins for all."""
         if self.total == 0:
-            return 0.0
-        rank = p / 100.0 * self.total
-        for index, cumulative in enumerate(accumulate(self.counts)):
-            if cumulative >= rank and index < self.BINS:
-                return min(self.max, self.LOW_S * self.RATIO**index)
-            if cumulative >= rank:
-                break  # the overflow bin: only the maximum is known
-        return self.max
+            return [0.0] * len(ps)
+        cumulative = list(accumulate(self.counts))
+        edges = self.EDGES
+        out = []
+        for p in ps:
+            index = bisect_left(cumulative, p / 100.0 * self.total)
+            out.append(min(self.max, edges[index]) if index < self.BINS else self.max)
+        return out
 
 
 class DeadlineStats:
@@ -177,10 +195,29 @@ class DeadlineStats:
         self.late_woken = LogHistogram()
         self.late_pushed = LogHistogram()
         self.gc = GcPauses()
-        self._percentiles: dict[str, dict[str, float]] = {}
-        self._details: dict[str, dict[str, dict[str, float]]] = {}
-        self._next_detail = 0
-        self.refresh_percentiles()
+        self._percentiles: dict[str, dict[str, float]] = {"lateness_us": {}, "tick_us": {}}
+        self._details: dict[str, dict[str, dict[str, float]]] = {
+            "tick_us_by_kind": {},
+            "late_lateness_us": {},
+            "gc_pause_us": {},
+        }
+        details = [
+            *((self._details["tick_us_by_kind"], kind, h) for kind, h in self.work_by_kind.items()),
+            (self._details["late_lateness_us"], "woken", self.late_woken),
+            (self._details["late_lateness_us"], "pushed", self.late_pushed),
+            (self._details["gc_pause_us"], "all", self.gc.pauses),
+        ]
+        # One histogram per refresh, round and round: lateness, work, then the next detail.
+        self._refresh_order: list[tuple[dict[str, dict[str, float]], str, LogHistogram]] = []
+        for detail in details:
+            self._refresh_order += [
+                (self._percentiles, "lateness_us", self.lateness),
+                (self._percentiles, "tick_us", self.work),
+                detail,
+            ]
+        self._next_refresh = 0
+        for target, key, histogram in self._refresh_order:
+            target[key] = _us(histogram)
 
     def record(self, lateness: float, work: float, overrun: bool, kind: str = "plain") -> None:
         self.ticks += 1
@@ -199,18 +236,12 @@ class DeadlineStats:
         self.work_by_kind[kind].record(work)
 
     def refresh_percentiles(self) -> None:
-        """Recompute lateness and work percentiles (a pass over the bins: not every tick), and
-        those of one of the detail histograms (by tick kind, late ticks, GC), in turn."""
-        self._percentiles = {"lateness_us": _us(self.lateness), "tick_us": _us(self.work)}
-        details = [
-            *(("tick_us_by_kind", kind, h) for kind, h in self.work_by_kind.items()),
-            ("late_lateness_us", "woken", self.late_woken),
-            ("late_lateness_us", "pushed", self.late_pushed),
-            ("gc_pause_us", "all", self.gc.pauses),
-        ]
-        group, key, histogram = details[self._next_detail % len(details)]
-        self._next_detail += 1
-        self._details.setdefault(group, {})[key] = _us(histogram)
+        """Recompute the percentiles of one histogram (a pass over its bins: not every tick):
+        lateness or work on two refreshes of three, one of the details (by tick kind, late
+        ticks, GC) in turn on the third."""
+        target, key, histogram = self._refresh_order[self._next_refresh]
+        self._next_refresh = (self._next_refresh + 1) % len(self._refresh_order)
+        target[key] = _us(histogram)
 
     def snapshot(self) -> dict[str, object]:
         """Counters as of now, percentiles as of the last `refresh_percentiles`."""
@@ -234,11 +265,8 @@ class DeadlineStats:
 
 def _us(h: LogHistogram) -> dict[str, float]:
     """p50, p99 and maximum of `h` in µs."""
-    return {
-        "p50": round(h.percentile(50) * 1e6, 2),
-        "p99": round(h.percentile(99) * 1e6, 2),
-        "max": round(h.max * 1e6, 2),
-    }
+    p50, p99 = h.percentiles(50, 99)
+    return {"p50": round(p50 * 1e6, 2), "p99": round(p99 * 1e6, 2), "max": round(h.max * 1e6, 2)}
 
 
 class GcPauses:
@@ -456,6 +484,7 @@ class SimLoop:
         self._jobs: deque[Callable[[float], str]] = deque()  # beside the tick, in order
         every_tick = min(self._telemetry_every, self._state_every) == 1
         self._max_pending = 0 if every_tick else MAX_PENDING_JOBS
+        self._split_telemetry = self._telemetry_every >= SPLIT_TELEMETRY_MIN_TICKS
         self._deadman = Deadman()
         self._overrun_events = EventThrottle()
         self._rejected_events = EventThrottle()
@@ -530,13 +559,13 @@ class SimLoop:
 
     def _after_tick(self, now: float) -> str:
         """The work beside the tick, one job per tick where the rates allow: build a telemetry
-        message or a drawing state on its schedule, and publish it (encoding and the Zenoh put:
-        ~0.15 ms of CPU with three subscribers under load) on a later tick. Building and
-        publishing on one tick made it 0.65-1.06 ms long at the median in the server under
-        load, and there were about as many overruns as such ticks. Jobs wait in order for a
-        tick of their own (at most MAX_PENDING_JOBS; when a message is due every tick, all run
-        at once). The statistics' percentiles take a tick with no job. Returns the tick's kind
-        (TICK_KINDS)."""
+        message (in two steps, on two ticks: `Session.telemetry_in_two`) or a drawing state on
+        its schedule, and publish it (encoding; the Zenoh put is the transport's thread's) on a
+        later tick. Building and publishing on one tick made it 0.65-1.06 ms long at the median
+        in the server under load, and there were about as many overruns as such ticks. Jobs
+        wait in order for a tick of their own (at most MAX_PENDING_JOBS; when a message is due
+        every tick, all run at once). The statistics' percentiles take a tick with no job.
+        Returns the tick's kind (TICK_KINDS)."""
         ticks = self.stats.ticks
         if ticks % self._telemetry_every == 0:
             self._jobs.append(self._build_telemetry)
@@ -555,9 +584,17 @@ class SimLoop:
         return kind
 
     def _build_telemetry(self, now: float) -> str:
-        telemetry = self.session.telemetry()
+        telemetry, finish = self.session.telemetry_in_two()
         telemetry["loop"] = {**self.stats.snapshot(), "clock_s": now}
         self._last_sim_time = float(telemetry["t"])
+        if self._split_telemetry:
+            self._jobs.append(functools.partial(self._finish_telemetry, telemetry, finish))
+        else:
+            self._finish_telemetry(telemetry, finish, now)
+        return "telemetry"
+
+    def _finish_telemetry(self, telemetry: dict, finish: Callable[[], None], now: float) -> str:
+        finish()
         self._jobs.append(functools.partial(self._publish_telemetry, telemetry))
         return "telemetry"
 

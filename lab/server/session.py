@@ -9,6 +9,7 @@ the drawing state) is built in `telemetry.py`.
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -38,6 +39,7 @@ from lab.server.telemetry import (
     momentum_report,
     state_message,
     task_gains_report,
+    telemetry_in_two,
     telemetry_message,
 )
 from lab.server.warning_capture import WarningCapture
@@ -539,6 +541,11 @@ class Session:
     def telemetry(self) -> dict:
         """Everything the UI plots and the tests check, JSON-ready (see docs/protocol.md)."""
         return telemetry_message(self)
+
+    def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]:
+        """`telemetry` in two steps, for two ticks of the realtime loop: the message with this
+        tick's state now, `finish` fills in the rest later (`telemetry.telemetry_in_two`)."""
+        return telemetry_in_two(self)
 
     def recent_warnings(self) -> list[dict]:
         """The controller's warnings (e.g. nullspace's active-set cap) raised within the last

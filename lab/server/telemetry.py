@@ -4,7 +4,7 @@ Plain reads of a running session, JSON-ready: nothing here changes the session. 
 module calls these; this module does not import it (it reads a `SessionView`).
 """
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Protocol
 
 import numpy as np
@@ -202,8 +202,9 @@ def _contacts(session: SessionView) -> tuple[list[dict], dict]:
     return contacts, {"feet": feet_cop, "net": net}
 
 
-def _tasks(controller: NativeController) -> list[dict]:
-    errors, tasks = controller.task_errors(), controller.tasks
+def _tasks(controller: NativeController, errors: dict[str, float]) -> list[dict]:
+    """The stack's tasks, level by level, with their gains and `errors` (by name)."""
+    tasks = controller.tasks
     entries = []
     for level, names in enumerate(controller.config.stack.levels):
         for name in names:
@@ -219,13 +220,25 @@ def _tasks(controller: NativeController) -> list[dict]:
 
 def telemetry_message(session: SessionView) -> dict:
     """Everything the UI plots and the tests check, JSON-ready (`lab/telemetry`)."""
+    message, finish = telemetry_in_two(session)
+    finish()
+    return message
+
+
+def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
+    """The telemetry message in two steps, for two ticks of the realtime loop (one costs up to
+    ~0.3 ms in the server, its caches cold: docs/performance.md, round 10): the message of
+    this tick with None for the parts that read no state the next tick overwrites, and
+    `finish`, which fills them in later: the stack's tasks with this tick's errors, this tick's
+    solution summary, and the controller's configuration (stack, method, momentum mode, kernel
+    note; as of `finish` when a command changed them in between)."""
     model, controller = session.model, session.controller
     q = model.q[:7].tolist()
     rotation = model.base_rotation
     contacts, cop = _contacts(session)
     momentum = model.centroidal_momentum().tolist()
-    solution = session.solution
-    return {
+    solution, errors = session.solution, controller.task_errors()
+    message = {
         "t": session.time,
         "robot": session.config.robot,
         "scene": session.config.scene,
@@ -243,21 +256,21 @@ def telemetry_message(session: SessionView) -> dict:
         "momentum": {"linear": momentum[:3], "angular": momentum[3:]},
         "contacts": contacts,
         "cop": cop,
-        "tasks": _tasks(controller),
-        "stack": controller.config.stack.as_lists(),
-        "momentum_control": momentum_report(controller),
+        "tasks": None,
+        "stack": None,
+        "momentum_control": None,
         "internal_force": internal_force_report(controller),
         "stepping": stepping_report(session.behaviour, model),
-        "hierarchy": hierarchy_report(controller),
+        "hierarchy": None,
         "kernel": controller.kernel_ran,
-        "kernel_note": controller.kernel_note,
+        "kernel_note": None,
         "controller_warnings": session.recent_warnings(),
         "qp": {
             "status": "ok" if session.qp_ok else "failed",
             "solve_us": session.control_us,
             "failures": session.qp_failures,
         },
-        "solution": None if solution is None else solution.summary(),
+        "solution": None,
         "command": dict(zip(("vx", "vy", "yaw_rate"), session.velocity.tolist(), strict=True)),
         "pushes": [
             {
@@ -271,6 +284,16 @@ def telemetry_message(session: SessionView) -> dict:
             for p in session.pushes.values()
         ],
     }
+
+    def finish() -> None:
+        message["tasks"] = _tasks(controller, errors)
+        message["stack"] = controller.config.stack.as_lists()
+        message["momentum_control"] = momentum_report(controller)
+        message["hierarchy"] = hierarchy_report(controller)
+        message["kernel_note"] = controller.kernel_note
+        message["solution"] = None if solution is None else solution.summary()
+
+    return message, finish
 
 
 def state_message(session: SessionView) -> dict:
