@@ -441,6 +441,9 @@ def test_a_cut_teleop_link_ramps_the_velocity_to_zero(tmp_path: Path) -> None:
         link = Process(tmp_path / "teleop.log", "-c", teleop, endpoint)
         running.append(link)
         lab.wait_telemetry(lambda m: m["command"]["vx"] == pytest.approx(0.2), timeout=STARTUP_S)
+        # The command can show in telemetry before the teleop has printed its reply: kill it
+        # only once it has printed one, so that there is a last refresh to measure from.
+        wait_for(lambda: "refreshed" in link.output(), WAIT_S, "the teleop's first refresh")
         link.kill()
         # It ramps down (a value between), not to zero at once: waited for, or a timeout error.
         lab.wait_telemetry(lambda m: 0.0 < m["command"]["vx"] < 0.2, timeout=WAIT_S)
