@@ -31,6 +31,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 
 from lab.server.loop import ON_TIME_TOLERANCE, LoopConfig, SimLoop, lower_timer_slack
 
@@ -54,6 +55,9 @@ class EmptySession:
 
     def telemetry(self) -> dict:
         return {"t": 0.0}
+
+    def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]:
+        return self.telemetry(), lambda: None
 
     def drawing_state(self) -> dict:
         return {}

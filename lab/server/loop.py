@@ -59,6 +59,12 @@ SLICE_MIN_S, SLICE_MAX_S = 1e-4, 0.1
 # What the loop did beside the tick: nothing, build telemetry, build the drawing state, publish
 # one of them, refresh the statistics' percentiles.
 TICK_KINDS = ("plain", "telemetry", "state", "publish", "stats")
+# A busy spin longer than this (e.g. the whole period) drops the GIL until this long before the
+# deadline (time.sleep(0): no sleep, the GIL released and taken back), so that the transport's
+# put thread can publish meanwhile; without it the put thread waited for Python's 5 ms switch
+# interval and then held the GIL wherever the loop was. The last stretch holds it: a put
+# takes 30-140 µs.
+GIL_HOLD_S = 3e-4
 MAX_PENDING_JOBS = 2  # more jobs beside the tick waiting than this: run them in the same tick
 # Build a telemetry message over two ticks only with at least this many ticks between messages
 # (three jobs a message, and the drawing state's two): at 250 Hz (every 2nd tick) in one.
@@ -106,8 +112,10 @@ class LoopConfig:
     spin_s: float = 5e-5
     # How to spend the spin: "busy" only reads the clock; "yield" calls sched_yield, which under
     # EEVDF pushes the loop's virtual deadline back a slice, so a runnable neighbour goes first:
-    # it doubled the late wake-ups (round 9). No other Python thread of the server needs the GIL
-    # in that stretch (Zenoh's threads run no Python; the main thread waits on an Event).
+    # it doubled the late wake-ups (round 9). The transport's put thread takes the GIL for each
+    # put, normally while the loop sleeps; in a spin longer than GIL_HOLD_S the loop drops the
+    # GIL until GIL_HOLD_S before the deadline (Zenoh's own threads run no Python; the main
+    # thread waits on an Event).
     spin: str = "busy"
     # The EEVDF slice (s) to ask for at SCHED_OTHER (Linux >= 6.12, unprivileged; threads the
     # loop starts keep the default): a waking thread with a shorter slice than the running one
@@ -526,6 +534,8 @@ class SimLoop:
                     while clock() < deadline:  # the last stretch: yield (and the GIL), don't sleep
                         os.sched_yield()
                 else:
+                    while clock() < deadline - GIL_HOLD_S:  # a long spin: the GIL stays free
+                        time.sleep(0)
                     while clock() < deadline:  # the last stretch: only the clock
                         pass
             start = clock()
