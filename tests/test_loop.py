@@ -265,12 +265,8 @@ def test_the_loop_reports_the_slice_it_was_granted() -> None:
     """A realtime loop at SCHED_OTHER with `slice_s` asks for it and reports it in `slice_us`
     (None where the kernel has no custom slices); it runs with either spin."""
     for spin in ("yield", "busy"):
-        stop = threading.Event()
         config = LoopConfig(rate_hz=2000, sched="other", slice_s=3e-4, spin=spin)
-        loop = SimLoop(_CountingSession(5, stop), _NoTransport(), config)
-        thread = threading.Thread(target=loop.run, args=(stop,))
-        thread.start()
-        thread.join()
+        loop = _run_loop(config, ticks=5)
         assert loop.error is None and loop.stats.ticks >= 5
         assert loop.stats.snapshot()["slice_us"] in (None, pytest.approx(300.0))
 
@@ -361,12 +357,7 @@ def test_a_refused_or_fifo_nice_request_reports_none(monkeypatch: pytest.MonkeyP
 def test_the_loop_reports_the_nice_it_was_granted(nice: int | None) -> None:
     """A realtime loop at SCHED_OTHER asks for `nice` and reports what it was granted (a nice
     above 0 needs no privilege); with None it asks for nothing and reports None."""
-    stop = threading.Event()
-    config = LoopConfig(rate_hz=2000, sched="other", nice=nice)
-    loop = SimLoop(_CountingSession(5, stop), _NoTransport(), config)
-    thread = threading.Thread(target=loop.run, args=(stop,))
-    thread.start()
-    thread.join()
+    loop = _run_loop(LoopConfig(rate_hz=2000, sched="other", nice=nice), ticks=5)
     assert loop.error is None
     assert loop.stats.snapshot()["nice"] == nice
 
@@ -384,6 +375,16 @@ def test_serve_refuses_an_out_of_range_loop_setting_by_name(
 
     assert serve_main(argv) == 2
     assert named in capsys.readouterr().err
+
+
+def _run_loop(config: LoopConfig, ticks: int) -> SimLoop:
+    """A loop over a session that stops it after `ticks` ticks, run to its end in a thread."""
+    stop = threading.Event()
+    loop = SimLoop(_CountingSession(ticks, stop), _NoTransport(), config)
+    thread = threading.Thread(target=loop.run, args=(stop,))
+    thread.start()
+    thread.join()
+    return loop
 
 
 class _CountingSession:
@@ -577,12 +578,7 @@ def test_a_whole_period_spin_never_sleeps(monkeypatch: pytest.MonkeyPatch) -> No
     monkeypatch.setattr(loop_module.time, "sleep", counting_sleep)
     for spin_s, sleeps_expected in ((1e-3, False), (LoopConfig.spin_s, True)):
         sleeps.clear()
-        stop = threading.Event()
-        config = LoopConfig(rate_hz=1000, sched="other", spin_s=spin_s)
-        loop = SimLoop(_CountingSession(20, stop), _NoTransport(), config)
-        thread = threading.Thread(target=loop.run, args=(stop,))
-        thread.start()
-        thread.join()
+        loop = _run_loop(LoopConfig(rate_hz=1000, sched="other", spin_s=spin_s), ticks=20)
         assert loop.error is None and loop.stats.ticks >= 20
         assert any(seconds > 0.0 for seconds in sleeps) == sleeps_expected
         assert (0.0 in sleeps) != sleeps_expected  # the GIL dropped in the whole-period spin
