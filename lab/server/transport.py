@@ -121,7 +121,8 @@ class PutThread:
     `put` releases the GIL, so on this thread it runs while the loop sleeps or on the other
     core; the loop only hands over the encoded bytes (docs/performance.md, round 10). A put that
     fails here is raised to the caller's next `put`. With PUBLISH_BACKLOG messages waiting (the
-    thread starved) the caller puts itself: nothing is dropped, nothing piles up."""
+    thread starved for ~0.4 s at the loop's rates) the caller puts itself: nothing is dropped,
+    nothing piles up, but that message may then arrive before older ones still waiting."""
 
     def __init__(self) -> None:
         self._queue: queue.SimpleQueue[tuple[zenoh.Publisher, bytes] | None] = queue.SimpleQueue()
