@@ -434,7 +434,8 @@ def test_a_cut_teleop_link_ramps_the_velocity_to_zero(tmp_path: Path) -> None:
         "print(lab.command('gait', name='trot'), flush=True)\n"
         "while True:\n"
         "    reply = lab.command('velocity', vx=0.2, vy=0.0, yaw_rate=0.0)\n"
-        "    print('refreshed', time.monotonic(), reply['ok'], flush=True)\n"
+        "    sys.stdout.write(f\"refreshed {time.monotonic()} {reply['ok']}\\n\")  # one write\n"
+        "    sys.stdout.flush()\n"
         "    time.sleep(0.1)\n"
     )
     with headless_server(tmp_path) as (running, lab, endpoint):
@@ -443,18 +444,24 @@ def test_a_cut_teleop_link_ramps_the_velocity_to_zero(tmp_path: Path) -> None:
         lab.wait_telemetry(lambda m: m["command"]["vx"] == pytest.approx(0.2), timeout=STARTUP_S)
         # The command can show in telemetry before the teleop has printed its reply: kill it
         # only once it has printed one, so that there is a last refresh to measure from.
-        wait_for(lambda: "refreshed" in link.output(), WAIT_S, "the teleop's first refresh")
+        wait_for(lambda: _refresh_times(link.output()), WAIT_S, "the teleop's first refresh")
         link.kill()
         # It ramps down (a value between), not to zero at once: waited for, or a timeout error.
         lab.wait_telemetry(lambda m: 0.0 < m["command"]["vx"] < 0.2, timeout=WAIT_S)
         lab.wait_telemetry(lambda m: m["command"]["vx"] == 0.0, timeout=WAIT_S)
         stopped = time.monotonic()
-        refreshes = [line.split() for line in link.output().splitlines()]
-        last = max(float(f[1]) for f in refreshes if f[:1] == ["refreshed"] and f[2] == "True")
+        last = max(_refresh_times(link.output()))
         # The last applied refresh came at most one reply's latency (0.15 s allowed) before its
         # answer was printed; the command reaches zero DEADMAN_TIMEOUT_S + DEADMAN_RAMP_S later.
         assert stopped - last >= DEADMAN_TIMEOUT_S + DEADMAN_RAMP_S - 0.15
         assert lab.command("info")["ok"]
+
+
+def _refresh_times(output: str) -> list[float]:
+    """The times of the applied refreshes the teleop printed, whole lines only (the kill can
+    land in the middle of one)."""
+    lines = [line.split() for line in output.splitlines(keepends=True) if line.endswith("\n")]
+    return [float(f[1]) for f in lines if len(f) == 3 and f[0] == "refreshed" and f[2] == "True"]
 
 
 def test_a_restarted_router_reconnects_the_sim_and_its_clients(tmp_path: Path) -> None:
