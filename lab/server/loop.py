@@ -411,15 +411,21 @@ def _sched_attr_call(table: dict[str, int], attr: _SchedAttr, *extra: int) -> bo
         return False
 
 
+def _fair_attr() -> _SchedAttr | None:
+    """The calling thread's sched_getattr, or None when unavailable or it is not SCHED_OTHER."""
+    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
+    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
+        return None
+    return attr if attr.sched_policy == _SCHED_OTHER else None
+
+
 def _change_fair_attr(runtime_ns: int, nice: int | None) -> bool:
     """sched_setattr on the calling SCHED_OTHER thread: `runtime_ns` (its EEVDF slice; 0 is the
     kernel's default) and, unless None, `nice` (else the one it has), with
     SCHED_FLAG_RESET_ON_FORK, so that threads it starts later get neither. False when refused,
     unavailable, or the thread is not SCHED_OTHER; the thread is then left as it was."""
-    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
-    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
-        return False
-    if attr.sched_policy != _SCHED_OTHER:
+    attr = _fair_attr()
+    if attr is None:
         return False
     attr.size = ctypes.sizeof(_SchedAttr)
     attr.sched_flags |= _SCHED_FLAG_RESET_ON_FORK
@@ -457,10 +463,8 @@ def request_nice(nice: int) -> int | None:
 def thread_slice() -> float | None:
     """The calling SCHED_OTHER thread's EEVDF slice (s): its custom one, else the kernel's
     default; None for other policies, and on kernels without custom slices (they read back 0)."""
-    attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
-    if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr)):
-        return None
-    if attr.sched_policy != _SCHED_OTHER or attr.sched_runtime == 0:
+    attr = _fair_attr()
+    if attr is None or attr.sched_runtime == 0:
         return None
     return attr.sched_runtime * 1e-9
 
