@@ -33,7 +33,7 @@ import threading
 import time
 from collections.abc import Callable
 
-from lab.server.loop import ON_TIME_TOLERANCE, LoopConfig, SimLoop, lower_timer_slack
+from lab.server.loop import ON_TIME_TOLERANCE, LoopConfig, SimLoop
 
 PERIOD_S = 1e-3
 SETTINGS = {
@@ -112,7 +112,6 @@ def empty_loop(seconds: float, **settings: object) -> dict:
 def spinning_thread(seconds: float) -> dict:
     """Read the clock for `seconds`; the share of periods in which it stopped for longer than the
     on-time tolerance, and the longest stop."""
-    lower_timer_slack()
     threshold = ON_TIME_TOLERANCE * PERIOD_S
     clock = time.monotonic
     start = last = clock()
