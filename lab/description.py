@@ -44,7 +44,7 @@ class ContactFrame:
 class RobotDescription:
     name: str
     urdf_path: Path
-    srdf_path: Path
+    srdf_path: Path | None  # None: the posture is `standing_joints` (others at 0)
     package_dirs: tuple[Path, ...]
     posture: str
     friction: float
@@ -57,6 +57,9 @@ class RobotDescription:
     kernel: str | None = None  # native | python: which kernel runs the tick (None: native)
     # Joint angles (rad) that replace the SRDF posture's in the standing posture, by joint name.
     standing_joints: dict[str, float] = field(default_factory=dict)
+    # The foothold planner of a walking gait on this robot when the gait command names none
+    # (None: the behaviour's own default, robo-centric).
+    footholds: str | None = None
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -103,7 +106,7 @@ def load_description(name: str) -> RobotDescription:
     return RobotDescription(
         name=name,
         urdf_path=robots / data["urdf"],
-        srdf_path=robots / data["srdf"],
+        srdf_path=robots / data["srdf"] if "srdf" in data else None,
         package_dirs=(share,),
         posture=data.get("posture", "standing"),
         friction=float(data["friction"]),
@@ -115,4 +118,5 @@ def load_description(name: str) -> RobotDescription:
         gains=gains,
         kernel=kernel,
         standing_joints={j: float(a) for j, a in data.get("standing_joints", {}).items()},
+        footholds=data.get("footholds"),
     )

@@ -17,6 +17,7 @@ import pinocchio as pin
 
 from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.behaviours.stance import Stance
+from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, ControlOutput
 from lab.controller.hierarchy import METHODS, HierarchySolution
@@ -196,6 +197,9 @@ class Session:
             raise KeyError(f"unknown gait {name!r} (gaits: {', '.join(BEHAVIOURS)})")
         self.model.update(*self.plant.state())
         behaviour = BEHAVIOURS[name](self.model, self.robot.q_standing)
+        footholds = self.robot.description.footholds
+        if footholds is not None and name in WALKING_BEHAVIOURS:
+            options = {"footholds": footholds, **(options or {})}
         if options:
             behaviour.configure(**options)
         if self.behaviour is not None:
