@@ -1,5 +1,5 @@
 """`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
-`lab teleop`, `lab sweep`, `lab router`."""
+`lab teleop`, `lab sweep`, `lab router`, `lab robot`."""
 
 import argparse
 import json
@@ -70,6 +70,38 @@ def _replay(argv: list[str]) -> int:
     return 0
 
 
+def _robot(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(
+        prog="lab robot", description="Add a robot from a URDF, or check one (docs/robots.md)."
+    )
+    verbs = parser.add_subparsers(dest="verb", required=True)
+    new = verbs.add_parser("new", help="write robots/NAME.toml from a URDF, for you to edit")
+    new.add_argument("name", help="the robot's name (lower case, digits, _)")
+    new.add_argument(
+        "--urdf", required=True, help="a .urdf file, or an example-robot-data robot (go1)"
+    )
+    check = verbs.add_parser("check", help="both engines, the feet at rest, a standing run")
+    check.add_argument("name", help="a robot in robots/")
+    check.add_argument("--seconds", type=float, default=5.0, help="how long it must stand")
+    args = parser.parse_args(argv)
+    if args.verb == "new":
+        from lab.server.robot_new import new_robot
+
+        try:
+            path = new_robot(args.name, args.urdf)
+        except (OSError, ValueError) as error:
+            print(f"lab robot new: {error}", file=sys.stderr)
+            return 2
+        print(f"wrote {path}: edit it, then `lab robot check {args.name}`")
+        return 0
+    from lab.server.robot_check import check_robot
+
+    findings = check_robot(args.name, args.seconds)
+    for finding in findings:
+        print(f"{'ok  ' if finding.ok else 'FAIL'} {finding.check}: {finding.message}")
+    return 0 if all(finding.ok for finding in findings) else 1
+
+
 def _bench(argv: list[str]) -> int:
     from lab.server.bench import bench_main
 
@@ -115,6 +147,7 @@ COMMANDS = {
     "teleop": _teleop,
     "sweep": _sweep,
     "router": _router,
+    "robot": _robot,
 }
 
 

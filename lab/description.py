@@ -16,7 +16,14 @@ from pathlib import Path
 from lab.protocol import ContactSpec, TaskGains
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
-ROBOT_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in ROBOTS_DIR.glob("*.toml")))
+
+
+def robot_names() -> tuple[str, ...]:
+    """The robots described in robots/ now (`lab robot new` may have added one since start)."""
+    return tuple(sorted(p.stem for p in ROBOTS_DIR.glob("*.toml")))
+
+
+ROBOT_NAMES: tuple[str, ...] = robot_names()  # the robots at start: what servers offer
 
 
 @cache
@@ -91,9 +98,16 @@ def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
 
 def load_description(name: str) -> RobotDescription:
     """Read `robots/<name>.toml`; an unknown name raises KeyError naming the known robots."""
-    if name not in ROBOT_NAMES:
-        raise KeyError(f"unknown robot {name!r}; known robots: {', '.join(ROBOT_NAMES)}")
-    with (ROBOTS_DIR / f"{name}.toml").open("rb") as f:
+    known = robot_names()
+    if name not in known:
+        raise KeyError(f"unknown robot {name!r}; known robots: {', '.join(known)}")
+    return read_description(ROBOTS_DIR / f"{name}.toml")
+
+
+def read_description(path: Path) -> RobotDescription:
+    """Read a robot description file; the robot's name is the file's stem."""
+    name = path.stem
+    with path.open("rb") as f:
         data = tomllib.load(f)
     share = example_robot_data_share()
     robots = share / "example-robot-data" / "robots"

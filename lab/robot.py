@@ -62,7 +62,7 @@ def _reference_posture(model: pin.Model, desc: RobotDescription) -> np.ndarray:
         return pin.neutral(model)
     pin.loadReferenceConfigurations(model, str(desc.srdf_path), False)
     if desc.posture not in model.referenceConfigurations:
-        known = ", ".join(model.referenceConfigurations.keys())
+        known = ", ".join(pair.key() for pair in model.referenceConfigurations)
         raise KeyError(f"robot {desc.name!r}: SRDF has no posture {desc.posture!r} ({known})")
     return np.array(model.referenceConfigurations[desc.posture])
 

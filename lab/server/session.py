@@ -27,7 +27,7 @@ from lab.controller.momentum import MOMENTUM_MODES
 from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
-from lab.description import ROBOT_NAMES, load_description
+from lab.description import ROBOT_NAMES, load_description, robot_names
 from lab.protocol import TaskGains
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
@@ -121,8 +121,8 @@ class Session:
     # ----------------------------------------------------------------------------- set-up
     def _build(self, config: SessionConfig) -> None:
         """Create plant, model and controller for `config`; raises on bad names, keeps nothing."""
-        if config.robot not in ROBOT_NAMES:
-            raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(ROBOT_NAMES)})")
+        if config.robot not in (known := robot_names()):
+            raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
         if config.scene not in SCENES:
             raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
         made_for = SCENE_ROBOTS.get(config.scene, (config.robot,))
