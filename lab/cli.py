@@ -66,6 +66,8 @@ def _replay(argv: list[str]) -> int:
     except (OSError, ValueError, KeyError) as error:
         print(f"lab replay: {error}", file=sys.stderr)
         return 2
+    if check.cut_short:
+        print(f"lab replay: {args.recording}: {check.cut_short}", file=sys.stderr)
     print(json.dumps(asdict(check)))
     return 0
 
