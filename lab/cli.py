@@ -8,7 +8,7 @@ from dataclasses import asdict
 
 
 def _run(argv: list[str]) -> int:
-    from lab.server.scenario import ScenarioError, load_scenario, run_scenario
+    from lab.server.scenario import ScenarioError, check_duration, load_scenario, run_scenario
 
     parser = argparse.ArgumentParser(prog="lab run", description="Run a headless scenario.")
     parser.add_argument("scenario", help="path to a scenario TOML file")
@@ -17,6 +17,8 @@ def _run(argv: list[str]) -> int:
     parser.add_argument("--record", metavar="FILE.mcap", help="record the run to an MCAP file")
     args = parser.parse_args(argv)
     try:
+        if args.duration is not None:
+            check_duration(args.duration, "--duration")
         scenario = load_scenario(args.scenario)
         report = run_scenario(scenario, args.duration, args.record)
     except (ScenarioError, KeyError, ValueError) as error:
