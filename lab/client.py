@@ -24,6 +24,8 @@ from lab.server.transport import client_config
 COMMAND_TIMEOUT_S = 2.0
 SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session
 SLOW_VERBS = ("robot", "scene")
+# A query that ends with no reply before this fraction of its timeout was closed, not timed out.
+TIMED_OUT_FRACTION = 0.9
 PROBE_TIMEOUT_S = 2.0  # a TCP connection that tells "nothing there" from "credentials refused"
 # Messages a client keeps between two reads, per kind: `wait_telemetry` looks at every telemetry
 # message that arrives while it waits (up to 2.5 s of them at 100 Hz between two reads), so a
@@ -241,10 +243,13 @@ def query(
     timeout: float | None = None,
 ) -> dict:
     """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. A missing
-    reply becomes {"ok": false, "error": "no reply ..."} so callers handle one shape."""
+    reply becomes {"ok": false, "error": "<verb>: ..."} so callers handle one shape: "no reply
+    within T s" when the timeout ran out, "closed unanswered after t s" when the query ended
+    sooner with no reply (no lab behind the key, or one that dropped it: a full command queue)."""
     if timeout is None:
         timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
     no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
+    start = time.monotonic()
     for reply in session.get(keys.cmd(verb), payload=payload, timeout=timeout):
         if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
             error = reply.err.payload.to_string()
@@ -253,6 +258,13 @@ def query(
             return json.loads(reply.ok.payload.to_bytes())
         except ValueError:
             return {"ok": False, "error": f"{verb}: the reply is not JSON"}
+    waited = time.monotonic() - start
+    if waited < timeout * TIMED_OUT_FRACTION:
+        error = (
+            f"{verb}: the query was closed unanswered after {waited:.2g} s (no lab answers "
+            f"{keys.cmd(verb)}, or it dropped the query: its queue of waiting commands was full)"
+        )
+        return {"ok": False, "error": error}
     return no_reply
 
 
