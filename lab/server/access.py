@@ -106,8 +106,9 @@ class ListenAccess:
 
     def describe(self) -> str:
         """The endpoints and what guards them, for a start-up line."""
-        guards = [name for name, on in (("users", self.users), ("mTLS" if self.mtls else "TLS",
-                  self.tls)) if on]  # fmt: skip
+        guards = ["users"] if self.users else []
+        if self.tls:
+            guards.append("mTLS" if self.mtls else "TLS")
         if not self.remote:
             guard = "loopback only"
         elif guards:
