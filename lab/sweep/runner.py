@@ -142,7 +142,9 @@ def _init_ray(workers: int | None, address: str | None) -> None:
             num_cpus=workers or os.cpu_count(),
             include_dashboard=False,
             object_store_memory=OBJECT_STORE_BYTES,
-            _node_ip_address="127.0.0.1",  # a local instance listens on loopback only
+            # the node's address; Ray 2.60's GCS and raylet still bind every interface, behind
+            # its token authentication (docs/sweeps.md)
+            _node_ip_address="127.0.0.1",
             **quiet,
         )
 
