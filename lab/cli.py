@@ -24,6 +24,9 @@ def _run(argv: list[str]) -> int:
     except (ScenarioError, KeyError, ValueError) as error:
         print(f"lab run: {error.args[0] if error.args else error}", file=sys.stderr)
         return 2
+    except OSError as error:  # a --record file it cannot write
+        print(f"lab run: {error}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(report))
     else:

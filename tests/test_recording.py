@@ -169,6 +169,16 @@ def test_a_file_that_is_not_a_recording_is_refused_in_one_line(
     assert says in err, err
 
 
+def test_a_recording_that_cannot_be_written_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scenario = str(SCENARIOS / "anymal_stand_cascade.toml")
+    where = tmp_path / "no such folder" / "run.mcap"
+    assert main(["run", scenario, "--duration", "0.01", "--record", str(where)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("lab run: [Errno 2] No such file") and str(where) in err, err
+
+
 def test_an_mcap_file_without_the_session_metadata_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "empty.mcap"
     from mcap.writer import Writer
