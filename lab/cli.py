@@ -8,7 +8,7 @@ from dataclasses import asdict
 
 
 def _run(argv: list[str]) -> int:
-    from lab.server.scenario import ScenarioError, load_scenario, run_scenario
+    from lab.server.scenario import ScenarioError, check_duration, load_scenario, run_scenario
 
     parser = argparse.ArgumentParser(prog="lab run", description="Run a headless scenario.")
     parser.add_argument("scenario", help="path to a scenario TOML file")
@@ -17,10 +17,15 @@ def _run(argv: list[str]) -> int:
     parser.add_argument("--record", metavar="FILE.mcap", help="record the run to an MCAP file")
     args = parser.parse_args(argv)
     try:
+        if args.duration is not None:
+            check_duration(args.duration, "--duration")
         scenario = load_scenario(args.scenario)
         report = run_scenario(scenario, args.duration, args.record)
     except (ScenarioError, KeyError, ValueError) as error:
         print(f"lab run: {error.args[0] if error.args else error}", file=sys.stderr)
+        return 2
+    except OSError as error:  # a --record file it cannot write
+        print(f"lab run: {error}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(report))
@@ -66,6 +71,8 @@ def _replay(argv: list[str]) -> int:
     except (OSError, ValueError, KeyError) as error:
         print(f"lab replay: {error}", file=sys.stderr)
         return 2
+    if check.cut_short:
+        print(f"lab replay: {args.recording}: {check.cut_short}", file=sys.stderr)
     print(json.dumps(asdict(check)))
     return 0
 

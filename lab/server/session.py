@@ -115,6 +115,10 @@ class Session:
         self.config = config or SessionConfig()
         self._events: list[dict] = []
         self.divergences = 0  # sim divergences since the session started
+        # ticks whose controller failed since the session started (telemetry's qp.failures):
+        # a reset or a robot switch does not clear it, so it never reads fewer than the
+        # solver_failure events seen (the soak's report once said 0 beside 35 of them)
+        self.qp_failures = 0
         self.behaviour: Behaviour | None = None  # set by _build, replaced by the gait command
         self._build(self.config)
 
@@ -175,7 +179,6 @@ class Session:
         self.fell = False
         self._non_foot_contact_since: float | None = None
         self.ticks = 0
-        self.qp_failures = 0
         self.qp_ok = True
         self._output: ControlOutput | None = None  # the last tick's, None after a fallback
         self._unreported = {kind: 0 for kind in ("solver_failure", "solver_fallback")}
@@ -391,9 +394,11 @@ class Session:
             command = cmd.parse_command(verb, {} if payload is None else payload)
             reply = self._apply(command)
         except (cmd.CommandError, StackError, KeyError, ValueError) as error:
-            message = error.args[0] if isinstance(error, KeyError) and error.args else str(error)
-            self._event("rejected_command", f"{verb}: {message}", verb=verb[:64], error=message)
-            return {"ok": False, "error": str(message)}
+            message = str(error.args[0] if isinstance(error, KeyError) and error.args else error)
+            if not message.startswith(f"{verb}:"):  # a name the session does not know, ...
+                message = f"{verb[:64]}: {message}"  # every error reply starts with the verb
+            self._event("rejected_command", message, verb=verb[:64], error=message)
+            return {"ok": False, "error": message}
         return {"ok": True, **reply}
 
     def _apply(self, command: cmd.Command) -> dict:
