@@ -237,12 +237,17 @@ def query(
     payload: str | bytes,
     timeout: float | None = None,
 ) -> dict:
-    """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. A missing
-    reply becomes {"ok": false, "error": "no reply ..."} so callers handle one shape."""
+    """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. The query's
+    attachment is the client's id, its Zenoh session's id (`client_id`): the server's rate
+    limit and control lock go by it. A missing reply becomes {"ok": false, "error": "no reply
+    ..."} so callers handle one shape."""
     if timeout is None:
         timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
     no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
-    for reply in session.get(keys.cmd(verb), payload=payload, timeout=timeout):
+    replies = session.get(
+        keys.cmd(verb), payload=payload, timeout=timeout, attachment=client_id(session)
+    )
+    for reply in replies:
         if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
             error = reply.err.payload.to_string()
             return no_reply if error == "Timeout" else {"ok": False, "error": f"{verb}: {error}"}
@@ -251,6 +256,11 @@ def query(
         except ValueError:
             return {"ok": False, "error": f"{verb}: the reply is not JSON"}
     return no_reply
+
+
+def client_id(session: zenoh.Session) -> str:
+    """The id a client sends with each command: its Zenoh session's id (32 hex digits)."""
+    return str(session.zid())
 
 
 def find_labs(session: zenoh.Session, timeout: float) -> list[str]:

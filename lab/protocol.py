@@ -16,7 +16,11 @@ from typing import Literal
 # ---------------------------------------------------------------------------------- transport
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
-MAX_PAYLOAD_BYTES = 64 * 1024  # of one command's JSON payload
+# Of one command's JSON payload. The largest valid command (a stack of 64 task names of 128
+# characters) is under 10 KiB; the cap is checked before a payload is read (issue 25).
+MAX_PAYLOAD_BYTES = 16 * 1024
+# A client's id: the attachment of each of its command queries (docs/protocol.md, "Clients").
+CLIENT_ID_PATTERN = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 
 # ---------------------------------------------------------------------------------- key expressions
 # Every key of a sim process is scoped by its lab id, `lab/<id>/...`, so several labs share one

@@ -185,6 +185,7 @@ def serve_main(argv: list[str]) -> int:
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
     from lab.server.recording import Recorder, RecordingTransport
+    from lab.server.switch import Switcher
 
     recorder = None
     if args.record:
@@ -211,6 +212,7 @@ def serve_main(argv: list[str]) -> int:
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
+        switcher=(switcher := Switcher()),
     )
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -249,6 +251,7 @@ def serve_main(argv: list[str]) -> int:
     finally:
         stop.set()
         thread.join()
+        switcher.close()
         transport.close()
         recording.close()
         if ui is not None:
