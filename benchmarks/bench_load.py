@@ -58,9 +58,10 @@ def rss_mb(pid: int) -> float:
     raise RuntimeError(f"no VmRSS for {pid}")
 
 
-def flood(endpoint: str, lab_id: str, kb: int, stop: "multiprocessing.synchronize.Event") -> None:
+def flood(endpoint: str, lab_id: str, kb: int, stop: object, replies: object) -> None:
     """One flooding client (its own process): `gains` commands whose `kp` is a `kb` KB array,
-    as fast as replies come back, IN_FLIGHT queries at most in flight."""
+    as fast as replies come back, IN_FLIGHT queries at most in flight; counts the replies in
+    `replies` (a multiprocessing Value) until `stop` (a multiprocessing Event) is set."""
     session = open_session(endpoint, 10.0)
     key = LabKeys(lab_id).cmd("gains")
     payload = json.dumps({"task": "posture", "kp": [1.0] * (kb * 1024 // 5)}).encode()
@@ -70,8 +71,10 @@ def flood(endpoint: str, lab_id: str, kb: int, stop: "multiprocessing.synchroniz
         while not stop.is_set():
             waiting.append(session.get(key, payload=payload, timeout=2.0, attachment=attachment))
             if len(waiting) >= IN_FLIGHT:
-                for _ in waiting.popleft():
-                    pass
+                for reply in waiting.popleft():
+                    if reply.ok is not None:
+                        with replies.get_lock():
+                            replies.value += 1
     finally:
         session.close()
 
@@ -195,27 +198,35 @@ def main() -> int:
     parser.add_argument("--command-hz", type=float, default=50.0)
     parser.add_argument("--pages", type=int, default=0, help="browser pages during `normal`")
     parser.add_argument("--phases", default="quiet,flood,after,normal")
+    parser.add_argument(
+        "--serve-args", default="", help="more `lab serve` options, e.g. '--switch-interval-ms 0'"
+    )
     args = parser.parse_args()
     log = Path(os.environ.get("TMPDIR", "/tmp")) / f"bench_load_{os.getpid()}.log"
     extra = () if args.pages else ("--headless",)
-    server = LabServe(log, "--robot", args.robot, *extra)
-    report: dict = {"robot": args.robot, "duration_s": args.duration}
+    server = LabServe(log, "--robot", args.robot, *extra, *args.serve_args.split())
+    report: dict = {"robot": args.robot, "duration_s": args.duration, "serve": args.serve_args}
     try:
         lab = server.client()
         pid = server.process.pid
         for phase in args.phases.split(","):
             if phase == "flood":
-                stop = multiprocessing.get_context("spawn").Event()
+                spawn = multiprocessing.get_context("spawn")
+                stop, replies = spawn.Event(), spawn.Value("l", 0)
                 flooders = [
-                    multiprocessing.get_context("spawn").Process(
-                        target=flood, args=(server.endpoint, lab.lab_id, args.flood_kb, stop)
+                    spawn.Process(
+                        target=flood,
+                        args=(server.endpoint, lab.lab_id, args.flood_kb, stop, replies),
                     )
                     for _ in range(args.flooders)
                 ]
                 for process in flooders:
                     process.start()
                 time.sleep(2.0)  # they connected and flood
+                before = replies.value
                 report[phase] = measure(lab, pid, args.duration)
+                rate = (replies.value - before) / args.duration
+                report[phase]["flood_replies_per_s"] = round(rate)
                 stop.set()
                 for process in flooders:
                     process.join(30.0)

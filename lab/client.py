@@ -55,6 +55,7 @@ class LabClient:
         self._directory = LabDirectory()
         self._keys: LabKeys | None = None
         self._latest: dict[str, zenoh.Subscriber] = {}
+        self._token: zenoh.LivelinessToken | None = None  # this client's, at the lab selected
         self._last: dict[str, dict | None] = {}
         self._callbacks: list[tuple[str, Callable[[dict], None], zenoh.Subscriber]] = []
         self._alive = self._session.liveliness().declare_subscriber(
@@ -94,6 +95,13 @@ class LabClient:
                 self._connected.clear()
         for subscriber in old:
             subscriber.undeclare()
+        if self._token is not None:
+            self._token.undeclare()
+        # Held while this client's link to the lab is up: a control lock it holds is released
+        # when it vanishes (docs/protocol.md, "The control lock").
+        self._token = self._session.liveliness().declare_token(
+            keys.client(client_id(self._session))
+        )
         latest = {
             kind: self._session.declare_subscriber(
                 getattr(keys, kind), zenoh.handlers.RingChannel(capacity)
@@ -183,7 +191,8 @@ class LabClient:
 
     def close(self) -> None:
         subscribers = [*self._callbacks, *self._latest.items()]
-        for subscriber in [self._alive, *(entry[-1] for entry in subscribers)]:
+        tokens = [self._token] if self._token is not None else []
+        for subscriber in [*tokens, self._alive, *(entry[-1] for entry in subscribers)]:
             subscriber.undeclare()
         self._callbacks.clear()
         self._latest.clear()

@@ -70,6 +70,16 @@ class LabKeys:
     def events(self) -> str:
         return f"{self.root}/events"
 
+    def client(self, client_id: str) -> str:
+        """The liveliness token a client holds while its link to the lab is up: the control
+        lock is released when its holder's token vanishes (docs/protocol.md)."""
+        return f"{self.root}/clients/{client_id}"
+
+    @property
+    def clients(self) -> str:
+        """Every client's liveliness token (`client`)."""
+        return f"{self.root}/clients/*"
+
     @property
     def alive(self) -> str:
         """A liveliness token the sim process holds while it runs: clients see it appear and
@@ -299,6 +309,21 @@ class RecordCommand:
     action: str
 
 
+@dataclass(frozen=True)
+class TakeCommand:
+    """Take the control lock (docs/protocol.md, "The control lock"): refused while another
+    client holds it."""
+
+
+@dataclass(frozen=True)
+class ReleaseCommand:
+    """Release the control lock this client holds."""
+
+
+# Verbs any client may send while another holds the control lock: they change nothing in the
+# world (a recording watches it).
+READ_ONLY_VERBS = ("info", "record", "take", "release")
+
 Command = (
     InfoCommand
     | VelocityCommand
@@ -316,4 +341,6 @@ Command = (
     | RecordCommand
     | InternalForceCommand
     | StanceCommand
+    | TakeCommand
+    | ReleaseCommand
 )

@@ -17,6 +17,7 @@ import gc
 import math
 import os
 import platform
+import sys
 import threading
 import time
 from bisect import bisect_left
@@ -152,6 +153,11 @@ class LoopConfig:
     # virtual deadline behind its neighbours' and its wake-ups still preempt them. Unlike
     # SCHED_FIFO it cannot starve them: they keep their fair share. None leaves it as it is.
     nice: int | None = -10
+    # The interpreter's switch interval (sys.setswitchinterval) while the loop runs in real
+    # time: how long the loop, woken for a tick, waits at most for the GIL when another thread
+    # of the process (the command intake under a flood, a switch being built) holds it. Python's
+    # default, 5 ms, is five periods (issue 25, docs/reliability.md). None leaves it.
+    switch_interval_s: float | None = 2e-4
 
 
 def _geometric_edges(low: float, ratio: float, count: int) -> list[float]:
@@ -535,8 +541,11 @@ class SimLoop:
     def run(self, stop: threading.Event) -> None:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
         self.stats.gc.install()
+        interval = sys.getswitchinterval()
         try:
             if not self.config.fast:
+                if self.config.switch_interval_s is not None:
+                    sys.setswitchinterval(self.config.switch_interval_s)
                 lower_timer_slack()
                 if self.wanted_sched == "fifo" and request_fifo():
                     self.stats.sched = "fifo"
@@ -551,6 +560,7 @@ class SimLoop:
             self.error = exc
             stop.set()
         finally:
+            sys.setswitchinterval(interval)
             self.stats.gc.remove()
 
     def _run(self, stop: threading.Event) -> None:

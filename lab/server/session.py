@@ -31,6 +31,7 @@ from lab.protocol import TaskGains
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server import commands as cmd
+from lab.server.memory import release_free_memory
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
@@ -450,7 +451,9 @@ class Session:
                     body, np.array(force), duration, None if point is None else np.array(point)
                 )
             case cmd.RobotCommand() | cmd.SceneCommand():
-                self.install(build_parts(self.switch_config(command)))
+                old = self.install(build_parts(self.switch_config(command)))
+                del old  # the old session's parts, freed here...
+                release_free_memory()  # ...and the heap they took given back (memory.py)
             case cmd.HierarchyCommand(
                 method=method, solver=solver, formulation=formulation, kernel=kernel
             ):

@@ -7,13 +7,11 @@ of its own while the loop keeps ticking the old robot; the loop swaps them in be
 freed there, and the C heap's free memory is returned to the system (lab/server/memory.py).
 One switch at a time: another one while a switch is under way is refused, naming it.
 
-While it builds, the thread shares the GIL with the loop: the interpreter's switch interval is
-lowered to `BUILD_SWITCH_INTERVAL_S` so that the loop, woken for its next tick, waits at most
-about that long for the GIL (the default, 5 ms, is five periods), and restored after.
+While it builds, the thread shares the GIL with the loop: the loop's `switch_interval_s`
+(LoopConfig) bounds how long the loop waits for it.
 """
 
 import queue
-import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,8 +19,6 @@ from dataclasses import dataclass
 from lab.server.intake import Request
 from lab.server.memory import release_free_memory
 from lab.server.session import SessionConfig, SessionParts, build_parts
-
-BUILD_SWITCH_INTERVAL_S = 2e-4
 
 
 @dataclass(frozen=True)
@@ -77,8 +73,6 @@ class Switcher:
                 release_free_memory()
                 continue
             request, config = job
-            interval = sys.getswitchinterval()
-            sys.setswitchinterval(BUILD_SWITCH_INTERVAL_S)
             try:
                 self._done.put(Built(request, self._build(config), None))
             except (KeyError, ValueError) as error:  # an unknown robot or scene, or a scene
@@ -88,5 +82,3 @@ class Switcher:
             except Exception as error:  # a fault building it is a refused switch, never a stop
                 message = f"{request.verb}: could not build {config.robot} in {config.scene}"
                 self._done.put(Built(request, None, f"{message}: {type(error).__name__}: {error}"))
-            finally:
-                sys.setswitchinterval(interval)

@@ -28,6 +28,7 @@ from lab.server.intake import CommandIntake, Request
 # answers each at once, so this fills only while that thread is starved.
 COMMAND_QUEUE = 256
 INTAKE_STOP_S = 2.0  # how long `close` waits for the intake thread
+MAX_CLIENT_CHANGES = 1024  # clients' liveliness changes kept between two commands (the oldest go)
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
 PUBLISH_BACKLOG = 64
 
@@ -149,7 +150,13 @@ class ServerTransport:
         self._queryable = self._session.declare_queryable(
             self.keys.cmd("**"), zenoh.handlers.RingChannel(COMMAND_QUEUE)
         )
-        self._intake = CommandIntake(self._queryable, self.keys, validate, answer)
+        # Clients' liveliness tokens: the control lock is released when its holder's vanishes.
+        self._clients = self._session.liveliness().declare_subscriber(
+            self.keys.clients, zenoh.handlers.RingChannel(MAX_CLIENT_CHANGES), history=True
+        )
+        self._intake = CommandIntake(
+            self._queryable, self.keys, validate, answer, presence=self._clients
+        )
         self._telemetry = self._session.declare_publisher(self.keys.telemetry)
         self._state = self._session.declare_publisher(self.keys.state)
         self._events = self._session.declare_publisher(self.keys.events)
@@ -178,7 +185,7 @@ class ServerTransport:
 
     def close(self) -> None:
         self._puts.close()
-        for entity in (self._alive, self._telemetry, self._state, self._events):
+        for entity in (self._alive, self._clients, self._telemetry, self._state, self._events):
             entity.undeclare()
         # The queryable is the intake thread's while it waits in `recv` (undeclaring it then
         # fails): closing the session closes its channel, which ends the wait.
