@@ -60,11 +60,16 @@ def server_config(
     (a non-empty `listen` replaces the loopback endpoint). `users_file` admits only the users in
     it, `credentials` are presented to whom it connects to (access.py); `base_file` is a Zenoh
     configuration (TLS, access control) these settings are written over. `mode="router"`: the
-    same for `lab router`."""
+    same for `lab router`. Shared memory is off (see below)."""
     settings: dict[str, object] = {
         "mode": mode,
         "listen/endpoints": list(listen) or [f"tcp/127.0.0.1:{port}"],
         "connect/endpoints": list(connect),
+        # No shared memory with local clients: under a flood of 64 KB queries the process
+        # mapped their SHM pools (16 MB each) and kept ~100 MB; without it a bare queryable
+        # took 11 MB (its 256-query channel), bounded (benchmarks/zenoh_flood_memory.py,
+        # docs/reliability.md). Messages here are a few KB: loopback TCP carries them.
+        "transport/shared_memory/enabled": False,
     }
     if users_file is not None or credentials is not None:
         settings["transport/auth/usrpwd"] = usrpwd_settings(users_file, credentials)
