@@ -4,8 +4,11 @@
 A peer session with one queryable (a ring channel, as the sim process has) and a thread that
 answers each query at once; `--flooders` client processes send 64 KB queries with up to 32 in
 flight each (benchmarks/bench_load.py's flooding client) for `--duration` s; then quiet for as
-long. With `--trim`, glibc's malloc_trim(0) is called once after the flood. Run it with the
-environment the question needs (e.g. MALLOC_ARENA_MAX=1) and compare:
+long. With `--trim`, glibc's malloc_trim(0) is called once after the flood. With `--lab` the
+lab's own intake answers instead (`ServerTransport`: client ids, rate limits, size cap,
+validation; nobody takes the valid commands, and the flood sends none): the difference is the
+lab's part. Run it with the environment the question needs (e.g. MALLOC_ARENA_MAX=1) and
+compare:
 
     .venv/bin/python benchmarks/zenoh_flood_memory.py [--duration 10] [--trim]
 """
@@ -25,7 +28,7 @@ from bench_load import flood, rss_mb
 
 from lab.protocol import LabKeys
 from lab.server.memory import release_free_memory
-from lab.server.transport import COMMAND_QUEUE, server_config
+from lab.server.transport import COMMAND_QUEUE, ServerTransport, server_config
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from ports import free_port
@@ -48,6 +51,7 @@ def main() -> int:
     parser.add_argument("--flooders", type=int, default=5)
     parser.add_argument("--flood-kb", type=int, default=64)
     parser.add_argument("--trim", action="store_true", help="malloc_trim(0) after the flood")
+    parser.add_argument("--lab", action="store_true", help="the lab's intake answers")
     parser.add_argument(
         "--set",
         action="append",
@@ -62,13 +66,25 @@ def main() -> int:
     for setting in args.set:
         key, value = setting.split("=", 1)
         config.insert_json5(key, value)
-    session = zenoh.open(config)
     keys = LabKeys("flood")
-    queryable = session.declare_queryable(keys.cmd("**"), zenoh.handlers.RingChannel(COMMAND_QUEUE))
-    thread = threading.Thread(target=serve, args=(queryable,))
-    thread.start()
+    if args.lab:
+        transport = ServerTransport(config, keys.lab_id)
+        close = transport.close
+    else:
+        session = zenoh.open(config)
+        queryable = session.declare_queryable(
+            keys.cmd("**"), zenoh.handlers.RingChannel(COMMAND_QUEUE)
+        )
+        thread = threading.Thread(target=serve, args=(queryable,))
+        thread.start()
+
+        def close() -> None:
+            session.close()
+            thread.join()
+
     pid = multiprocessing.current_process().pid
-    report: dict[str, object] = {"set": args.set, "before_mb": round(rss_mb(pid), 1)}
+    report: dict[str, object] = {"lab": args.lab, "set": args.set}
+    report["before_mb"] = round(rss_mb(pid), 1)
     spawn = multiprocessing.get_context("spawn")
     stop, replies = spawn.Event(), spawn.Value("l", 0)
     endpoint = f"tcp/127.0.0.1:{port}"
@@ -92,8 +108,7 @@ def main() -> int:
         report["trimmed"] = release_free_memory()
     time.sleep(args.duration)
     report["after_mb"] = round(rss_mb(pid), 1)
-    session.close()
-    thread.join()
+    close()
     print(json.dumps(report))
     return 0
 

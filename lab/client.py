@@ -192,6 +192,7 @@ class LabClient:
     def close(self) -> None:
         subscribers = [*self._callbacks, *self._latest.items()]
         tokens = [self._token] if self._token is not None else []
+        self._token = None
         for subscriber in [*tokens, self._alive, *(entry[-1] for entry in subscribers)]:
             subscriber.undeclare()
         self._callbacks.clear()

@@ -35,7 +35,10 @@ MAX_BEHIND_S = 0.05  # after a longer stall (e.g. a robot switch) re-anchor inst
 DEADMAN_TIMEOUT_S = 0.5  # a velocity command expires this long after its last refresh...
 DEADMAN_RAMP_S = 0.5  # ...and then ramps linearly to zero over this long
 DEADMAN_UPDATE_S = 0.01  # how often the ramp sends a new velocity to the session
-EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per second each
+EVENT_INTERVAL_S = 1.0  # overrun / rejected_command / stall events: at most one per second each
+# Woken this late, the loop stood still (the process stopped by SIGSTOP or a debugger, the
+# machine starved): a `stall` event says for how long. Shorter lateness is an overrun's.
+STALL_S = 0.2
 COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
 STATS_INTERVAL_TICKS = 50  # recompute the percentiles of one loop statistic this often
 FIFO_PRIORITY = 50
@@ -537,6 +540,8 @@ class SimLoop:
         self._last_rejection: tuple[str, str] = ("", "")
         self._worst_lateness = 0.0
         self._last_sim_time = 0.0
+        self._stall_events = EventThrottle()
+        self._longest_stall = 0.0  # s, since the last stall event
 
     def run(self, stop: threading.Event) -> None:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
@@ -587,6 +592,9 @@ class SimLoop:
                 missed = math.floor(lateness / period)  # counts them) and serve the current one
                 self.stats.skipped += missed
                 deadline += missed * period
+                if lateness > STALL_S:
+                    self._stall_events.hit()
+                    self._longest_stall = max(self._longest_stall, lateness)
             kind = self._iterate(start)
             end = clock()
             deadline = start if fast else deadline + period
@@ -738,6 +746,20 @@ class SimLoop:
                     "count": overruns,
                     "total": self.stats.overruns,
                     "max_lateness_us": round(worst, 1),
+                }
+            )
+        stalls = self._stall_events.take(now)
+        if stalls:
+            longest, self._longest_stall = self._longest_stall, 0.0
+            self.transport.publish_event(
+                {
+                    "type": "stall",
+                    "t": self._last_sim_time,
+                    "message": f"the loop stood still for {longest:.2f} s (the process was "
+                    "stopped or starved); the periods lost were skipped, not caught up",
+                    "count": stalls,
+                    "seconds": round(longest, 3),
+                    "skipped": self.stats.skipped,
                 }
             )
         refused, verb, error = self.transport.rejections()  # by the intake, off this thread
