@@ -7,7 +7,6 @@ from test_faults import WAIT_S, live_server, wait_for
 
 from lab.client import LabClient
 from lab.server.control_lock import GRACE_S, ControlLock
-from lab.ui.ownership import ControlOwnership
 
 
 def test_the_lock_refuses_others_and_goes_after_its_holders_link_drops() -> None:
@@ -54,14 +53,3 @@ def test_the_lock_through_zenoh() -> None:
 
         wait_for(a_takes, WAIT_S, "the lock released after its holder's link dropped")
         assert a.command("release")["ok"]
-
-
-def test_the_pages_ownership_takes_and_releases_the_labs_lock() -> None:
-    """The browsers of one UI are one client of the lab: the first to take control takes the
-    lab's lock, control passing between them keeps it, the last to let go releases it."""
-    sent: list[str] = []
-    ownership = ControlOwnership(sent.append)
-    assert ownership.claim_if_free(1) and not ownership.claim_if_free(2)
-    assert ownership.take(2) == 1 and not ownership.release(1)
-    assert sent == ["take"]
-    assert ownership.release(2) and sent == ["take", "release"]

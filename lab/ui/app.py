@@ -120,7 +120,7 @@ class LabApp:
         except zenoh.ZError:
             self.server.stop()
             raise
-        self.ownership = ControlOwnership(self._send_lock)  # the lab's lock follows it
+        self.ownership = ControlOwnership()
         self.info: dict | None = None
         self.telemetry: dict | None = None
         self._lost_at: float | None = None  # wall time the sim process was last seen to vanish
@@ -275,10 +275,6 @@ class LabApp:
             panels = list(self.panels.values())
         for panel in panels:
             panel.labs.show(labs, self.link.lab_id)
-
-    def _send_lock(self, verb: str) -> None:
-        """`take` or `release` the lab's control lock, in order with the background sends."""
-        self._sender.submit(self.link.request, verb, {})
 
     def _stop_motion(self) -> None:
         self._drag = None
