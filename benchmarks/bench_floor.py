@@ -69,6 +69,9 @@ class EmptySession:
 class DroppingTransport:
     """Receives nothing, drops what it is given."""
 
+    def rejections(self) -> tuple[int, str, str]:
+        return (0, "", "")
+
     def receive(self) -> None:
         return None
 

@@ -60,6 +60,7 @@ class LabClient:
         self._directory = LabDirectory()
         self._keys: LabKeys | None = None
         self._latest: dict[str, zenoh.Subscriber] = {}
+        self._token: zenoh.LivelinessToken | None = None  # this client's, at the lab selected
         self._last: dict[str, dict | None] = {}
         self._callbacks: list[tuple[str, Callable[[dict], None], zenoh.Subscriber]] = []
         self._alive = self._session.liveliness().declare_subscriber(
@@ -99,6 +100,13 @@ class LabClient:
                 self._connected.clear()
         for subscriber in old:
             subscriber.undeclare()
+        if self._token is not None:
+            self._token.undeclare()
+        # Held while this client's link to the lab is up: a control lock it holds is released
+        # when it vanishes (docs/protocol.md, "The control lock").
+        self._token = self._session.liveliness().declare_token(
+            keys.client(client_id(self._session))
+        )
         latest = {
             kind: self._session.declare_subscriber(
                 getattr(keys, kind), zenoh.handlers.RingChannel(capacity)
@@ -188,7 +196,9 @@ class LabClient:
 
     def close(self) -> None:
         subscribers = [*self._callbacks, *self._latest.items()]
-        for subscriber in [self._alive, *(entry[-1] for entry in subscribers)]:
+        tokens = [self._token] if self._token is not None else []
+        self._token = None
+        for subscriber in [*tokens, self._alive, *(entry[-1] for entry in subscribers)]:
             subscriber.undeclare()
         self._callbacks.clear()
         self._latest.clear()
@@ -242,15 +252,20 @@ def query(
     payload: str | bytes,
     timeout: float | None = None,
 ) -> dict:
-    """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. A missing
-    reply becomes {"ok": false, "error": "<verb>: ..."} so callers handle one shape: "no reply
-    within T s" when the timeout ran out, "closed unanswered after t s" when the query ended
-    sooner with no reply (no lab behind the key, or one that dropped it: a full command queue)."""
+    """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. The query's
+    attachment is the client's id, its Zenoh session's id (`client_id`): the server's rate
+    limit and control lock go by it. A missing reply becomes {"ok": false, "error": "<verb>:
+    ..."} so callers handle one shape: "no reply within T s" when the timeout ran out, "closed
+    unanswered after t s" when the query ended sooner with no reply (no lab behind the key, or
+    one that dropped it: a full command queue)."""
     if timeout is None:
         timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
     no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
     start = time.monotonic()
-    for reply in session.get(keys.cmd(verb), payload=payload, timeout=timeout):
+    replies = session.get(
+        keys.cmd(verb), payload=payload, timeout=timeout, attachment=client_id(session)
+    )
+    for reply in replies:
         if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
             error = reply.err.payload.to_string()
             return no_reply if error == "Timeout" else {"ok": False, "error": f"{verb}: {error}"}
@@ -266,6 +281,11 @@ def query(
         )
         return {"ok": False, "error": error}
     return no_reply
+
+
+def client_id(session: zenoh.Session) -> str:
+    """The id a client sends with each command: its Zenoh session's id (32 hex digits)."""
+    return str(session.zid())
 
 
 def find_labs(session: zenoh.Session, timeout: float) -> list[str]:

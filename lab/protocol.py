@@ -16,7 +16,11 @@ from typing import Literal
 # ---------------------------------------------------------------------------------- transport
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
-MAX_PAYLOAD_BYTES = 64 * 1024  # of one command's JSON payload
+# Of one command's JSON payload. The largest valid command (a stack of 64 task names of 128
+# characters) is under 10 KiB; the cap is checked before a payload is read (issue 25).
+MAX_PAYLOAD_BYTES = 16 * 1024
+# A client's id: the attachment of each of its command queries (docs/protocol.md, "Clients").
+CLIENT_ID_PATTERN = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 
 # ---------------------------------------------------------------------------------- key expressions
 # Every key of a sim process is scoped by its lab id, `lab/<id>/...`, so several labs share one
@@ -65,6 +69,16 @@ class LabKeys:
     @property
     def events(self) -> str:
         return f"{self.root}/events"
+
+    def client(self, client_id: str) -> str:
+        """The liveliness token a client holds while its link to the lab is up: the control
+        lock is released when its holder's token vanishes (docs/protocol.md)."""
+        return f"{self.root}/clients/{client_id}"
+
+    @property
+    def clients(self) -> str:
+        """Every client's liveliness token (`client`)."""
+        return f"{self.root}/clients/*"
 
     @property
     def alive(self) -> str:
@@ -295,6 +309,21 @@ class RecordCommand:
     action: str
 
 
+@dataclass(frozen=True)
+class TakeCommand:
+    """Take the control lock (docs/protocol.md, "The control lock"): refused while another
+    client holds it."""
+
+
+@dataclass(frozen=True)
+class ReleaseCommand:
+    """Release the control lock this client holds."""
+
+
+# Verbs any client may send while another holds the control lock: they change nothing in the
+# world (a recording watches it).
+READ_ONLY_VERBS = ("info", "record", "take", "release")
+
 Command = (
     InfoCommand
     | VelocityCommand
@@ -312,4 +341,6 @@ Command = (
     | RecordCommand
     | InternalForceCommand
     | StanceCommand
+    | TakeCommand
+    | ReleaseCommand
 )

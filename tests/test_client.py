@@ -9,8 +9,11 @@ import pytest
 import zenoh
 
 from lab.client import LabClient
-from lab.protocol import LabKeys
+from lab.protocol import MAX_PAYLOAD_BYTES, LabKeys, PushCommand
+from lab.server.intake import ANONYMOUS, BURST, CLIENT_QUEUE
 from lab.server.transport import ServerTransport, server_config
+
+LAB = "client-decoding"
 
 
 def free_port() -> int:
@@ -45,31 +48,79 @@ def test_unanswered_command_becomes_an_error_reply_and_telemetry_wait_times_out(
         transport.close()
 
 
-def test_queries_are_decoded_and_answered_on_their_key() -> None:
+def test_queries_are_validated_off_the_loop_and_answered_on_their_key() -> None:
+    """A valid command reaches `receive` typed, with the client's id; a bad one is answered by
+    the intake thread itself, naming what was wrong, and never reaches `receive`."""
     port = free_port()
-    transport = ServerTransport(server_config(port), "client-decoding")
+    transport = ServerTransport(server_config(port), LAB)
     try:
         with LabClient(f"tcp/127.0.0.1:{port}") as lab:
             session = lab._session
-            push = b'{"body": "base"}'
-            handler = session.get("lab/client-decoding/cmd/push", payload=push, timeout=2.0)
+            push = b'{"body": "base", "force": [0, 10, 0], "duration": 0.1}'
+            replies = lab_query(session, LAB, "push", push, attachment="tester-1")
             request = _receive(transport)
-            assert (request.verb, request.payload, request.error) == (
+            assert (request.verb, request.payload["body"], request.client) == (
                 "push",
-                {"body": "base"},
-                None,
+                "base",
+                "tester-1",
             )
+            assert isinstance(request.command, PushCommand) and request.command.force[1] == 10.0
             transport.reply(request, {"ok": True, "echo": request.payload})
-            reply = next(iter(handler))
+            reply = next(iter(replies))
             assert str(reply.ok.key_expr) == "lab/client-decoding/cmd/push"
-            assert json.loads(reply.ok.payload.to_bytes()) == {"ok": True, "echo": {"body": "base"}}
-            for payload, error in [(b"", None), (b"null", "got null"), (b"[1,", "not valid JSON")]:
-                session.get("lab/client-decoding/cmd/reset", payload=payload, timeout=0.5)
-                request = _receive(transport)
-                assert request.error is None if error is None else error in request.error
-                transport.reply(request, {"ok": error is None})
+            assert json.loads(reply.ok.payload.to_bytes())["echo"]["body"] == "base"
+            refused = [
+                (b"null", "got null"),
+                (b"[1,", "not valid JSON"),
+                (b'{"vx": 9}', "'vx'"),
+                (b"1" * (MAX_PAYLOAD_BYTES + 1), f"{MAX_PAYLOAD_BYTES}-byte cap"),
+            ]
+            for payload, error in refused:
+                answer = json.loads(
+                    next(iter(lab_query(session, LAB, "velocity", payload))).ok.payload.to_bytes()
+                )
+                assert answer["ok"] is False and error in answer["error"], answer
+                assert answer["error"].startswith("velocity:")
+            bad_id = lab_query(session, LAB, "info", b"{}", attachment="not an id!")
+            assert "client id" in json.loads(next(iter(bad_id)).ok.payload.to_bytes())["error"]
+            assert transport.receive() is None
+            assert transport.rejections()[0] == len(refused) + 1
+            lab_query(session, LAB, "reset", b"", attachment=None)  # no attachment: anonymous
+            request = _receive(transport)
+            assert (request.verb, request.payload, request.client) == ("reset", {}, ANONYMOUS)
+            transport.reply(request, {"ok": True})
     finally:
         transport.close()
+
+
+def test_a_client_over_its_rate_or_queue_is_told_so() -> None:
+    port = free_port()
+    transport = ServerTransport(server_config(port), LAB)  # nobody drains: commands wait
+    try:
+        with LabClient(f"tcp/127.0.0.1:{port}") as lab:
+            session = lab._session
+            sent = [
+                lab_query(session, LAB, "pause", b"{}", attachment="flood")
+                for _ in range(BURST * 2)
+            ]
+            answers = [json.loads(r.ok.payload.to_bytes()) for h in sent[CLIENT_QUEUE:] for r in h]
+            errors = [a["error"] for a in answers]
+            assert any("rate limit" in e and "flood" in e for e in errors), errors[-3:]
+            assert any(f"busy: {CLIENT_QUEUE} commands" in e for e in errors), errors[:3]
+            taken = [_receive(transport) for _ in range(CLIENT_QUEUE)]
+            assert {r.client for r in taken} == {"flood"} and transport.receive() is None
+            for request in taken:
+                transport.reply(request, {"ok": True})
+    finally:
+        transport.close()
+
+
+def lab_query(
+    session: zenoh.Session, lab: str, verb: str, payload: bytes, attachment: str | None = "tester"
+) -> zenoh.Handler:
+    """A raw query to `lab/<lab>/cmd/<verb>`, with `attachment` as the client id."""
+    key = f"lab/{lab}/cmd/{verb}"
+    return session.get(key, payload=payload, timeout=2.0, attachment=attachment)
 
 
 def _receive(transport: ServerTransport):

@@ -40,6 +40,8 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "internal_force",
         "record",
         "stance",
+        "take",
+        "release",
     }
 
 

@@ -421,6 +421,9 @@ class _NoTransport:
     def receive(self) -> None:
         return None
 
+    def rejections(self) -> tuple[int, str, str]:
+        return (0, "", "")
+
     def reply(self, request: object, body: dict) -> None: ...
     def publish_telemetry(self, message: dict) -> None: ...
     def publish_state(self, message: dict) -> None: ...

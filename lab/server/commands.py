@@ -39,12 +39,14 @@ from lab.protocol import (
     PauseCommand,
     PushCommand,
     RecordCommand,
+    ReleaseCommand,
     ResetCommand,
     ResumeCommand,
     RobotCommand,
     SceneCommand,
     StackCommand,
     StanceCommand,
+    TakeCommand,
     VelocityCommand,
 )
 
@@ -288,6 +290,8 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "record": _record,
     "internal_force": _internal_force,
     "stance": _stance,
+    "take": _no_fields(TakeCommand),
+    "release": _no_fields(ReleaseCommand),
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)

@@ -3,7 +3,8 @@ publish telemetry, keep live deadline statistics.
 
 One thread runs `SimLoop.run`. Each iteration: sleep until just before the next deadline and spin
 to it (`next += period`, never "sleep one period"), take waiting commands from the transport (a
-bounded number per tick), apply them through `Session.handle` and reply, run the velocity
+bounded number per tick, already decoded and validated off this thread: lab/server/intake.py),
+apply them through `Session.execute` and reply, run the velocity
 deadman, `Session.tick()`, and at most one job beside it where the rates allow: build telemetry
 (over two ticks) or a drawing state on its schedule, publish it (with the events) on a later
 tick.
@@ -16,6 +17,7 @@ import gc
 import math
 import os
 import platform
+import sys
 import threading
 import time
 from bisect import bisect_left
@@ -25,16 +27,18 @@ from dataclasses import dataclass
 from itertools import accumulate
 from typing import Protocol
 
-from lab.protocol import LIMITS, VelocityCommand
-from lab.server.commands import CommandError, parse_command
-from lab.server.transport import Request
+from lab.protocol import LIMITS, RobotCommand, SceneCommand, VelocityCommand
+from lab.server.intake import Request
 
 ON_TIME_TOLERANCE = 0.1  # a tick is on time if it starts <= 10 % of a period after its deadline
 MAX_BEHIND_S = 0.05  # after a longer stall (e.g. a robot switch) re-anchor instead of catching up
 DEADMAN_TIMEOUT_S = 0.5  # a velocity command expires this long after its last refresh...
 DEADMAN_RAMP_S = 0.5  # ...and then ramps linearly to zero over this long
 DEADMAN_UPDATE_S = 0.01  # how often the ramp sends a new velocity to the session
-EVENT_INTERVAL_S = 1.0  # overrun / rejected_command events: at most one per second each
+EVENT_INTERVAL_S = 1.0  # overrun / rejected_command / stall events: at most one per second each
+# Woken this late, the loop stood still (the process stopped by SIGSTOP or a debugger, the
+# machine starved): a `stall` event says for how long. Shorter lateness is an overrun's.
+STALL_S = 0.2
 COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
 STATS_INTERVAL_TICKS = 50  # recompute the percentiles of one loop statistic this often
 FIFO_PRIORITY = 50
@@ -76,6 +80,10 @@ class Session(Protocol):
 
     def tick(self) -> None: ...
     def handle(self, verb: str, payload: object) -> dict: ...
+    def execute(self, verb: str, command: object) -> dict: ...
+    def refuse(self, verb: str, message: str) -> dict: ...
+    def switch_config(self, command: RobotCommand | SceneCommand) -> object: ...
+    def install(self, parts: object) -> object: ...
     def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]: ...
     def drawing_state(self) -> dict: ...
     def pop_events(self) -> list[dict]: ...
@@ -85,10 +93,30 @@ class Transport(Protocol):
     """What the loop needs from `lab.server.transport.ServerTransport`."""
 
     def receive(self) -> Request | None: ...
+    def rejections(self) -> tuple[int, str, str]: ...
     def reply(self, request: Request, body: dict[str, object]) -> None: ...
     def publish_telemetry(self, message: dict[str, object]) -> None: ...
     def publish_state(self, message: dict[str, object]) -> None: ...
     def publish_event(self, message: dict[str, object]) -> None: ...
+
+
+class Built(Protocol):
+    """A finished switch (`lab.server.switch.Built`)."""
+
+    request: Request
+    parts: object
+    error: str | None
+
+
+class Switches(Protocol):
+    """What the loop needs from `lab.server.switch.Switcher`: robot and scene switches built
+    beside it."""
+
+    pending: Request | None
+
+    def start(self, request: Request, config: object) -> None: ...
+    def finished(self) -> Built | None: ...
+    def discard(self, old: object) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -128,6 +156,11 @@ class LoopConfig:
     # virtual deadline behind its neighbours' and its wake-ups still preempt them. Unlike
     # SCHED_FIFO it cannot starve them: they keep their fair share. None leaves it as it is.
     nice: int | None = -10
+    # The interpreter's switch interval (sys.setswitchinterval) while the loop runs in real
+    # time: how long the loop, woken for a tick, waits at most for the GIL when another thread
+    # of the process (the command intake under a flood, a switch being built) holds it. Python's
+    # default, 5 ms, is five periods (issue 25, docs/reliability.md). None leaves it.
+    switch_interval_s: float | None = 2e-4
 
 
 def _geometric_edges(low: float, ratio: float, count: int) -> list[float]:
@@ -478,8 +511,12 @@ class SimLoop:
         transport: Transport,
         config: LoopConfig = LoopConfig(),
         clock: Callable[[], float] = time.monotonic,
+        switcher: Switches | None = None,
     ) -> None:
+        """`switcher` builds robot and scene switches beside the loop; without one the loop
+        runs them itself, stalling for as long (fast mode, tests)."""
         self.session = session
+        self.switcher = switcher
         self.transport = transport
         self.config = config
         self.clock = clock
@@ -503,12 +540,17 @@ class SimLoop:
         self._last_rejection: tuple[str, str] = ("", "")
         self._worst_lateness = 0.0
         self._last_sim_time = 0.0
+        self._stall_events = EventThrottle()
+        self._longest_stall = 0.0  # s, since the last stall event
 
     def run(self, stop: threading.Event) -> None:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
         self.stats.gc.install()
+        interval = sys.getswitchinterval()
         try:
             if not self.config.fast:
+                if self.config.switch_interval_s is not None:
+                    sys.setswitchinterval(self.config.switch_interval_s)
                 lower_timer_slack()
                 if self.wanted_sched == "fifo" and request_fifo():
                     self.stats.sched = "fifo"
@@ -523,6 +565,7 @@ class SimLoop:
             self.error = exc
             stop.set()
         finally:
+            sys.setswitchinterval(interval)
             self.stats.gc.remove()
 
     def _run(self, stop: threading.Event) -> None:
@@ -549,6 +592,9 @@ class SimLoop:
                 missed = math.floor(lateness / period)  # counts them) and serve the current one
                 self.stats.skipped += missed
                 deadline += missed * period
+                if lateness > STALL_S:
+                    self._stall_events.hit()
+                    self._longest_stall = max(self._longest_stall, lateness)
             kind = self._iterate(start)
             end = clock()
             deadline = start if fast else deadline + period
@@ -564,6 +610,8 @@ class SimLoop:
 
     def _iterate(self, now: float) -> str:
         """One tick and the work beside it; which kind of tick it was (TICK_KINDS)."""
+        if self.switcher is not None and self.switcher.pending is not None:
+            self._finish_switch(self.switcher, now)
         self._apply_commands(now)
         decayed = self._deadman.update(now)
         if decayed is not None:
@@ -633,35 +681,48 @@ class SimLoop:
             request = self.transport.receive()
             if request is None:
                 break
-            if request.verb == "velocity" and request.error is None:
+            if isinstance(request.command, VelocityCommand):
                 velocity.append(request)
             else:
                 self._apply(request, now)
-        if velocity:  # latest value: only the newest valid velocity command is applied
-            valid = []
-            for request in velocity:
-                try:
-                    valid.append((request, parse_command("velocity", request.payload)))
-                except CommandError as exc:
-                    self._answer(request, {"ok": False, "error": str(exc)})
-            for request, _ in valid[:-1]:
+        if velocity:  # latest value: only the newest velocity command is applied
+            for request in velocity[:-1]:
                 self._answer(request, {"ok": True, "superseded": True})
-            if valid:
-                self._apply(valid[-1][0], now, valid[-1][1])
+            self._apply(velocity[-1], now)
 
-    def _apply(self, request: Request, now: float, velocity: VelocityCommand | None = None) -> None:
-        if request.error is not None:
-            self._answer(request, {"ok": False, "error": request.error})
+    def _apply(self, request: Request, now: float) -> None:
+        switch = isinstance(request.command, RobotCommand | SceneCommand)
+        if switch and self.switcher is not None:
+            if (pending := self.switcher.pending) is not None:
+                message = (
+                    f"{request.verb}: a {pending.verb} switch is under way; send this one again "
+                    "after its reply"
+                )
+                self._answer(request, self.session.refuse(request.verb, message))
+            else:
+                self.switcher.start(request, self.session.switch_config(request.command))
             return
-        reply = self.session.handle(request.verb, request.payload)
+        reply = self.session.execute(request.verb, request.command)
         if reply.get("ok"):
-            if velocity is not None:
-                self._deadman.refresh(velocity, now)
+            if isinstance(request.command, VelocityCommand):
+                self._deadman.refresh(request.command, now)
             elif request.verb == "info":
                 reply = {**reply, "limits": LIMITS, "loop": self.stats.snapshot()}
             elif request.verb in ("robot", "scene", "reset"):
                 self._deadman.refresh(VelocityCommand(), now)
         self._answer(request, reply)
+
+    def _finish_switch(self, switcher: Switches, now: float) -> None:
+        """Swap in the parts of a switch built beside the loop, and answer its command."""
+        built = switcher.finished()
+        if built is None:
+            return
+        if built.error is not None:
+            self._answer(built.request, self.session.refuse(built.request.verb, built.error))
+            return
+        switcher.discard(self.session.install(built.parts))
+        self._deadman.refresh(VelocityCommand(), now)
+        self._answer(built.request, {"ok": True})
 
     def _answer(self, request: Request, reply: dict[str, object]) -> None:
         if not reply.get("ok"):
@@ -687,6 +748,24 @@ class SimLoop:
                     "max_lateness_us": round(worst, 1),
                 }
             )
+        stalls = self._stall_events.take(now)
+        if stalls:
+            longest, self._longest_stall = self._longest_stall, 0.0
+            self.transport.publish_event(
+                {
+                    "type": "stall",
+                    "t": self._last_sim_time,
+                    "message": f"the loop stood still for {longest:.2f} s (the process was "
+                    "stopped or starved); the periods lost were skipped, not caught up",
+                    "count": stalls,
+                    "seconds": round(longest, 3),
+                    "skipped": self.stats.skipped,
+                }
+            )
+        refused, verb, error = self.transport.rejections()  # by the intake, off this thread
+        if refused:
+            self._rejected_events.pending += refused
+            self._last_rejection = (verb, error)
         rejected = self._rejected_events.take(now)
         if rejected:
             verb, error = self._last_rejection

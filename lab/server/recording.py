@@ -240,6 +240,9 @@ class RecordingTransport:
             self._recorder.close()
             self._recorder = None
 
+    def rejections(self) -> tuple[int, str, str]:
+        return self._transport.rejections()
+
     def reply(self, request: Request, body: dict[str, object]) -> None:
         if self._recorder is not None:
             self._recorder.command(self._session, request.verb, request.payload, body)

@@ -121,6 +121,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="the nice value the loop asks for at SCHED_OTHER (-20..19; below 0 needs "
         f"CAP_SYS_NICE, refused quietly without) (default: {LoopConfig.nice})",
     )
+    p.add_argument(
+        "--switch-interval-ms",
+        type=float,
+        default=LoopConfig.switch_interval_s * 1e3,
+        help="the interpreter's switch interval while the loop runs (ms): how long the loop "
+        "waits at most for the GIL another thread holds; 0: Python's default (5) "
+        f"(default: {LoopConfig.switch_interval_s * 1e3:g})",
+    )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
     p.add_argument("--headless", action="store_true", help="do not start the browser UI")
@@ -135,6 +143,9 @@ def serve_main(argv: list[str]) -> int:
         return 2
     if not 0 <= args.spin_ms <= 1e3 / args.rate:
         print("lab serve: --spin-ms must be between 0 and the period", file=sys.stderr)
+        return 2
+    if args.switch_interval_ms < 0:
+        print("lab serve: --switch-interval-ms must be 0 or positive", file=sys.stderr)
         return 2
     if args.nice is not None and not -20 <= args.nice <= 19:
         print("lab serve: --nice must be -20..19", file=sys.stderr)
@@ -178,6 +189,7 @@ def serve_main(argv: list[str]) -> int:
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
     from lab.server.recording import Recorder, RecordingTransport
+    from lab.server.switch import Switcher
 
     recorder = None
     if args.record:
@@ -201,9 +213,11 @@ def serve_main(argv: list[str]) -> int:
             spin=args.spin,
             slice_s=args.slice_ms * 1e-3 if args.slice_ms else None,
             nice=args.nice,
+            switch_interval_s=args.switch_interval_ms * 1e-3 or None,
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
+        switcher=(switcher := Switcher()),
     )
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -242,6 +256,7 @@ def serve_main(argv: list[str]) -> int:
     finally:
         stop.set()
         thread.join()
+        switcher.close()
         transport.close()
         recording.close()
         if ui is not None:

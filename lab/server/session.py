@@ -32,6 +32,7 @@ from lab.protocol import TaskGains
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server import commands as cmd
+from lab.server.memory import release_free_memory
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
@@ -110,6 +111,58 @@ class Push:
     ends_at: float
 
 
+@dataclass
+class SessionParts:
+    """What a robot and scene make of a session: built by `build_parts` (on any thread: it
+    touches no running session), swapped in by `Session.install`."""
+
+    config: SessionConfig
+    robot: Robot
+    plant: MujocoPlant
+    model: RobotModel
+    controller: NativeController
+    frame_placements: FramePlacements
+    behaviour: Behaviour | None = None
+
+
+def build_parts(config: SessionConfig) -> SessionParts:
+    """Plant, model and controller for `config`; raises KeyError or ValueError on bad names."""
+    if config.robot not in (known := robot_names()):
+        raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
+    if config.scene not in SCENES:
+        raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
+    made_for = SCENE_ROBOTS.get(config.scene, (config.robot,))
+    if config.robot not in made_for:
+        raise ValueError(
+            f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
+            f"not {config.robot!r}"
+        )
+    description = load_description(config.robot)
+    robot = build_robot(description)
+    if config.scene in START_RISE:  # one foot starts on a block
+        robot = with_raised_contact(robot, *START_RISE[config.scene])
+    plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
+    model = RobotModel(robot.model, robot.contacts)
+    gains = dict(description.gains)
+    for name, overrides in config.gains.items():
+        gains[name] = replace(gains.get(name, TaskGains()), **overrides)
+    controller = NativeController(
+        model,
+        Balance(model, robot.q_standing).references,
+        ControllerConfig(
+            stack=Stack.of(config.stack or description.stack),
+            gains=gains,
+            method=config.method,
+            solver=config.solver,
+            formulation=config.formulation,
+            limits=ContactLimits(friction=description.friction),
+            kernel=config.kernel or description.kernel or "native",
+        ),
+        robot.torque_limits,
+    )
+    return SessionParts(config, robot, plant, model, controller, FramePlacements(robot))
+
+
 class Session:
     def __init__(self, config: SessionConfig | None = None) -> None:
         self.config = config or SessionConfig()
@@ -120,52 +173,34 @@ class Session:
         # solver_failure events seen (the soak's report once said 0 beside 35 of them)
         self.qp_failures = 0
         self.behaviour: Behaviour | None = None  # set by _build, replaced by the gait command
-        self._build(self.config)
+        self._install(build_parts(self.config))  # raises on bad names
 
     # ----------------------------------------------------------------------------- set-up
-    def _build(self, config: SessionConfig) -> None:
-        """Create plant, model and controller for `config`; raises on bad names, keeps nothing."""
-        if config.robot not in (known := robot_names()):
-            raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
-        if config.scene not in SCENES:
-            raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
-        made_for = SCENE_ROBOTS.get(config.scene, (config.robot,))
-        if config.robot not in made_for:
-            raise ValueError(
-                f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
-                f"not {config.robot!r}"
-            )
-        description = load_description(config.robot)
-        robot = build_robot(description)
-        if config.scene in START_RISE:  # one foot starts on a block
-            robot = with_raised_contact(robot, *START_RISE[config.scene])
-        plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
-        model = RobotModel(robot.model, robot.contacts)
-        gains = dict(description.gains)
-        for name, overrides in config.gains.items():
-            gains[name] = replace(gains.get(name, TaskGains()), **overrides)
-        controller = NativeController(
-            model,
-            Balance(model, robot.q_standing).references,
-            ControllerConfig(
-                stack=Stack.of(config.stack or description.stack),
-                gains=gains,
-                method=config.method,
-                solver=config.solver,
-                formulation=config.formulation,
-                limits=ContactLimits(friction=description.friction),
-                kernel=config.kernel or description.kernel or "native",
-            ),
-            robot.torque_limits,
+    def _install(self, parts: SessionParts) -> SessionParts:
+        """Replace the running session's parts by `parts` (the robot standing, nothing
+        commanded); the old parts, for the caller to drop where it likes (a thread beside the
+        loop frees them there, lab/server/switch.py)."""
+        old = SessionParts(
+            *(getattr(self, name, None) for name in SessionParts.__dataclass_fields__)
         )
-        # Everything built: only now replace the running session's parts.
-        self.config = config
-        self.robot: Robot = robot
-        self.plant = plant
-        self.model = model
-        self.controller = controller
-        self.frame_placements = FramePlacements(robot)
+        for name in SessionParts.__dataclass_fields__:
+            setattr(self, name, getattr(parts, name))
+        self._output = None
         self._reset_state()
+        return old
+
+    def switch_config(self, command: cmd.RobotCommand | cmd.SceneCommand) -> SessionConfig:
+        """The configuration a `robot` or `scene` command asks for: the live one (the
+        controller's choices kept; a new robot starts with its own stack and gains)."""
+        if isinstance(command, cmd.RobotCommand):
+            return replace(self._live_config(), robot=command.name, stack=None, gains={})
+        return replace(self._live_config(), scene=command.name)
+
+    def install(self, parts: SessionParts) -> SessionParts:
+        """Swap in parts built beside the loop for a switch (`build_parts`); the old parts."""
+        old = self._install(parts)
+        self._event("session_rebuilt", f"robot {self.config.robot} in scene {self.config.scene}")
+        return old
 
     def _reset_state(self, time: float = 0.0) -> None:
         """The robot standing under control at sim time `time` (s), nothing commanded."""
@@ -392,14 +427,28 @@ class Session:
         """Validate and apply one command; never raises. Rejected commands change nothing."""
         try:
             command = cmd.parse_command(verb, {} if payload is None else payload)
+        except cmd.CommandError as error:
+            return self.refuse(verb, str(error))
+        return self.execute(verb, command)
+
+    def execute(self, verb: str, command: cmd.Command) -> dict:
+        """Apply one command already validated by `parse_command` (the sim process validates
+        off the loop: lab/server/intake.py); never raises. What the session refuses (an
+        unknown name, a stack it cannot run) changes nothing."""
+        try:
             reply = self._apply(command)
         except (cmd.CommandError, StackError, KeyError, ValueError) as error:
-            message = str(error.args[0] if isinstance(error, KeyError) and error.args else error)
-            if not message.startswith(f"{verb}:"):  # a name the session does not know, ...
-                message = f"{verb[:64]}: {message}"  # every error reply starts with the verb
-            self._event("rejected_command", message, verb=verb[:64], error=message)
-            return {"ok": False, "error": message}
+            message = error.args[0] if isinstance(error, KeyError) and error.args else str(error)
+            return self.refuse(verb, str(message))
         return {"ok": True, **reply}
+
+    def refuse(self, verb: str, message: str) -> dict:
+        """The reply refusing a command (`message` says why), reported as `rejected_command`;
+        every error reply starts with the verb (a name the session does not know, ...)."""
+        if not message.startswith(f"{verb}:"):
+            message = f"{verb[:64]}: {message}"
+        self._event("rejected_command", message, verb=verb[:64], error=message)
+        return {"ok": False, "error": message}
 
     def _apply(self, command: cmd.Command) -> dict:
         match command:
@@ -411,10 +460,10 @@ class Session:
                 self._push(
                     body, np.array(force), duration, None if point is None else np.array(point)
                 )
-            case cmd.RobotCommand(name=name):
-                self._rebuild(replace(self._live_config(), robot=name, stack=None, gains={}))
-            case cmd.SceneCommand(name=name):
-                self._rebuild(replace(self._live_config(), scene=name))
+            case cmd.RobotCommand() | cmd.SceneCommand():
+                old = self.install(build_parts(self.switch_config(command)))
+                del old  # the old session's parts, freed here...
+                release_free_memory()  # ...and the heap they took given back (memory.py)
             case cmd.HierarchyCommand(
                 method=method, solver=solver, formulation=formulation, kernel=kernel
             ):
@@ -511,10 +560,6 @@ class Session:
             stack=live.stack.as_lists(),
             kernel=live.kernel,
         )
-
-    def _rebuild(self, config: SessionConfig) -> None:
-        self._build(config)
-        self._event("session_rebuilt", f"robot {config.robot} in scene {config.scene}")
 
     # ----------------------------------------------------------------------------- reports
     def info(self) -> dict:

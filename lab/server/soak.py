@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass, field
 
 from lab.controller.tasks.internal_force import SENSED_SOURCES
 from lab.protocol import LIMITS, SWING_HZ_MAX
+from lab.server.commands import CommandError, parse_command
 from lab.server.loop import LoopConfig, SimLoop
 from lab.server.transport import Request, encode
 
@@ -140,11 +141,17 @@ class RandomUser:
 
     # ------------------------------------------------------------ the loop's transport
     def receive(self) -> Request | None:
-        if not self._queue:
-            return None
-        verb, payload = self._queue.pop(0)
-        _count(self.report.commands, verb)
-        return Request(verb, payload, None, None)
+        while self._queue:
+            verb, payload = self._queue.pop(0)
+            _count(self.report.commands, verb)
+            try:  # validated here, as the server's intake thread does
+                return Request(verb, payload, None, None, parse_command(verb, payload))
+            except CommandError:
+                _count(self.report.rejected, verb)
+        return None
+
+    def rejections(self) -> tuple[int, str, str]:
+        return (0, "", "")
 
     def reply(self, request: Request, body: dict[str, object]) -> None:
         encode(body)

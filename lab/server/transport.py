@@ -1,8 +1,10 @@
 """The Zenoh side of the sim process: configuration, the command queryable and the publishers.
 
-No Python runs on Zenoh's threads in the sim process: commands land in a Zenoh ring channel and
-the loop thread takes them out between ticks (`receive`), applies them and replies (`reply`).
-What the loop publishes it encodes itself; a thread of ours (`PutThread`) puts the bytes.
+No Python runs on Zenoh's threads in the sim process: commands land in a Zenoh ring channel, a
+thread of ours (`lab.server.intake.CommandIntake`) takes them out, refuses and answers what is
+wrong (rate, size, JSON, validation) and keeps the valid ones, typed, for the loop thread, which
+takes them between ticks (`receive`), applies them and replies (`reply`). What the loop
+publishes it encodes itself; another thread of ours (`PutThread`) puts the bytes.
 See docs/protocol.md.
 """
 
@@ -10,15 +12,14 @@ import json
 import os
 import queue
 import threading
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import msgspec
 import numpy as np
 import zenoh
 
-from lab.protocol import DEFAULT_ENDPOINT, DEFAULT_PORT, MAX_PAYLOAD_BYTES, LabKeys
+from lab.protocol import DEFAULT_ENDPOINT, DEFAULT_PORT, LabKeys
 from lab.server.access import (
     ENV_CONFIG,
     Credentials,
@@ -29,8 +30,14 @@ from lab.server.access import (
     remote_listen_refusal,
     usrpwd_settings,
 )
+from lab.server.commands import parse_command
+from lab.server.intake import CommandIntake, Request
 
-COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
+# Queries Zenoh keeps for the intake thread; beyond this the oldest get no reply. The intake
+# answers each at once, so this fills only while that thread is starved.
+COMMAND_QUEUE = 256
+INTAKE_STOP_S = 2.0  # how long `close` waits for the intake thread
+MAX_CLIENT_CHANGES = 1024  # clients' liveliness changes kept between two commands (the oldest go)
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
 PUBLISH_BACKLOG = 64
 
@@ -62,11 +69,16 @@ def server_config(
     (a non-empty `listen` replaces the loopback endpoint). `users_file` admits only the users in
     it, `credentials` are presented to whom it connects to (access.py); `base_file` is a Zenoh
     configuration (TLS, access control) these settings are written over. `mode="router"`: the
-    same for `lab router`."""
+    same for `lab router`. Shared memory is off (see below)."""
     settings: dict[str, object] = {
         "mode": mode,
         "listen/endpoints": list(listen) or [f"tcp/127.0.0.1:{port}"],
         "connect/endpoints": list(connect),
+        # No shared memory with local clients: under a flood of 64 KB queries the process
+        # mapped their SHM pools (16 MB each) and kept ~100 MB; without it a bare queryable
+        # took 11 MB (its 256-query channel), bounded (benchmarks/zenoh_flood_memory.py,
+        # docs/reliability.md). Messages here are a few KB: loopback TCP carries them.
+        "transport/shared_memory/enabled": False,
     }
     if users_file is not None or credentials is not None:
         settings["transport/auth/usrpwd"] = usrpwd_settings(users_file, credentials)
@@ -129,33 +141,6 @@ def _config(settings: dict[str, object], base_file: str | Path | None = None) ->
     return config
 
 
-@dataclass(frozen=True)
-class Request:
-    """One received command: the verb from the key, the decoded payload or why it is unreadable."""
-
-    verb: str
-    payload: object
-    error: str | None
-    query: zenoh.Query
-
-
-def decode_query(query: zenoh.Query, keys: LabKeys) -> Request:
-    """Verb from `lab/<id>/cmd/<verb>`; payload parsed as JSON (empty payload = {})."""
-    verb = str(query.key_expr).removeprefix(keys.cmd_prefix)[:64]
-    raw = query.payload.to_bytes() if query.payload is not None else b""
-    if len(raw) > MAX_PAYLOAD_BYTES:
-        return Request(verb, None, f"{verb}: payload larger than {MAX_PAYLOAD_BYTES} bytes", query)
-    if not raw.strip():
-        return Request(verb, {}, None, query)
-    try:
-        payload = json.loads(raw)
-    except (ValueError, RecursionError) as exc:  # bad UTF-8 / JSON, or nesting too deep
-        return Request(verb, None, f"{verb}: payload is not valid JSON ({exc})"[:300], query)
-    if payload is None:
-        return Request(verb, None, f"{verb}: payload must be a JSON object, got null", query)
-    return Request(verb, payload, None, query)
-
-
 class PutThread:
     """Zenoh `put`s on a thread of their own, in the order they were asked for.
 
@@ -198,14 +183,27 @@ class PutThread:
 
 class ServerTransport:
     """The sim process's Zenoh session: one command queryable, three publishers and the
-    liveliness token, all under the lab's keys (`lab/<lab_id>/...`). Messages are encoded by
-    the caller and put by a `PutThread`."""
+    liveliness token, all under the lab's keys (`lab/<lab_id>/...`). Commands are validated by
+    `validate(verb, payload)` (the typed command, or a ValueError naming what is wrong) on the
+    intake thread. Messages are encoded by the caller and put by a `PutThread`."""
 
-    def __init__(self, config: zenoh.Config, lab_id: str) -> None:
+    def __init__(
+        self,
+        config: zenoh.Config,
+        lab_id: str,
+        validate: Callable[[str, object], object] = parse_command,
+    ) -> None:
         self.keys = LabKeys(lab_id)
         self._session = zenoh.open(config)
         self._queryable = self._session.declare_queryable(
             self.keys.cmd("**"), zenoh.handlers.RingChannel(COMMAND_QUEUE)
+        )
+        # Clients' liveliness tokens: the control lock is released when its holder's vanishes.
+        self._clients = self._session.liveliness().declare_subscriber(
+            self.keys.clients, zenoh.handlers.RingChannel(MAX_CLIENT_CHANGES), history=True
+        )
+        self._intake = CommandIntake(
+            self._queryable, self.keys, validate, answer, presence=self._clients
         )
         self._telemetry = self._session.declare_publisher(self.keys.telemetry)
         self._state = self._session.declare_publisher(self.keys.state)
@@ -214,17 +212,15 @@ class ServerTransport:
         self._puts = PutThread()
 
     def receive(self) -> Request | None:
-        """The oldest waiting command, without blocking."""
-        query = self._queryable.try_recv()
-        return None if query is None else decode_query(query, self.keys)
+        """The next valid command (one client after another), without blocking."""
+        return self._intake.take()
+
+    def rejections(self) -> tuple[int, str, str]:
+        """Commands the intake refused since the last call; the verb and error of the last."""
+        return self._intake.rejections()
 
     def reply(self, request: Request, body: dict[str, object]) -> None:
-        try:
-            request.query.reply(request.query.key_expr, encode(body), express=True)
-        except zenoh.ZError:
-            pass  # the querier asked on a key we may not answer (wildcards) or has gone
-        finally:
-            request.query.drop()
+        answer(request.query, body)
 
     def publish_telemetry(self, message: dict[str, object]) -> None:
         self._puts.put(self._telemetry, encode(message))
@@ -237,6 +233,19 @@ class ServerTransport:
 
     def close(self) -> None:
         self._puts.close()
-        for entity in (self._alive, self._queryable, self._telemetry, self._state, self._events):
+        for entity in (self._alive, self._clients, self._telemetry, self._state, self._events):
             entity.undeclare()
+        # The queryable is the intake thread's while it waits in `recv` (undeclaring it then
+        # fails): closing the session closes its channel, which ends the wait.
         self._session.close()
+        self._intake.join(INTAKE_STOP_S)
+
+
+def answer(query: zenoh.Query, body: dict[str, object]) -> None:
+    """Reply `body` (JSON) to `query` on its key and drop it."""
+    try:
+        query.reply(query.key_expr, encode(body), express=True)
+    except zenoh.ZError:
+        pass  # the querier asked on a key we may not answer (wildcards) or has gone
+    finally:
+        query.drop()

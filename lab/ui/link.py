@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import zenoh
 
-from lab.client import open_session, query
+from lab.client import client_id, open_session, query
 from lab.directory import LabDirectory
 from lab.protocol import ALL_LABS_ALIVE, DEFAULT_ENDPOINT, LabKeys
 
@@ -38,6 +38,7 @@ class Link:
         self.directory = LabDirectory()
         self.connected = False
         self._streams: tuple[zenoh.Subscriber, ...] = ()
+        self._token: zenoh.LivelinessToken | None = None  # this UI's, at the lab watched
         if self.keys is not None:
             self.select(self.keys.lab_id)
 
@@ -57,6 +58,12 @@ class Link:
         )
         self._events = self._session.declare_subscriber(keys.events, zenoh.handlers.RingChannel(64))
         self._streams = (self._state, self._telemetry, self._events)
+        if self._token is not None:
+            self._token.undeclare()
+        # held while the link is up: a control lock this UI holds goes when it vanishes
+        self._token = self._session.liveliness().declare_token(
+            keys.client(client_id(self._session))
+        )
         self.keys = keys
         self.connected = self.directory.is_online(lab_id)
 
@@ -105,6 +112,7 @@ class Link:
         return self.connected
 
     def close(self) -> None:
-        for sub in (self._alive, *self._streams):
+        tokens = (self._token,) if self._token is not None else ()
+        for sub in (*tokens, self._alive, *self._streams):
             sub.undeclare()
         self._session.close()
