@@ -57,7 +57,7 @@ using ReferenceArrays = std::array<Doubles, kArrayFields>;
 
 /// Copy the references into the kernel; raises ValueError naming a field of the wrong size.
 void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_height,
-                       const Flags& contact_active) {
+                       const Flags& contact_active, const Flags& swing_tracked) {
   const auto& [com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
                base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
                surface_normal, force_weight, posture_velocity, posture_weight] = a;
@@ -82,6 +82,8 @@ void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_hei
   copy_flat(refs.force_weight, force_weight);
   copy_flat(refs.posture_velocity, posture_velocity);
   copy_flat(refs.posture_weight, posture_weight);
+  refs.swing_tracked = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
+      swing_tracked.data(), static_cast<Eigen::Index>(swing_tracked.size()));
   k.check_references();
 }
 
@@ -140,6 +142,7 @@ class ReferenceReader {
     for (std::size_t i = 0; i < kArrayFields; ++i) names_[i] = interned(kNames[i]);
     active_name_ = interned("contact_active");
     height_name_ = interned("base_height");
+    tracked_name_ = interned("swing_tracked");
     nb::object no_flags = numpy.attr("zeros")(0, "dtype"_a = numpy.attr("bool_"));
     no_flags_ = nb::cast<Flags>(no_flags);
     no_flags_owner_ = no_flags;
@@ -166,8 +169,16 @@ class ReferenceReader {
     nb::object active = refs.attr(active_name_);
     if (!(active_seen_.is_valid() && active.is(active_seen_)))
       active_ = import<Flags>(active, "contact_active", active_seen_);
+    if (!walking_) {
+      tracked_ = no_flags_;
+      tracked_seen_ = nb::object();
+    } else {
+      nb::object tracked = refs.attr(tracked_name_);
+      if (!(tracked_seen_.is_valid() && tracked.is(tracked_seen_)))
+        tracked_ = import<Flags>(tracked, "swing_tracked", tracked_seen_);
+    }
     const double base_height = nb::cast<double>(refs.attr(height_name_));
-    assign_references(k, arrays_, base_height, active_);
+    assign_references(k, arrays_, base_height, active_, tracked_);
   }
 
  private:
@@ -215,6 +226,8 @@ class ReferenceReader {
   std::array<nb::object, kArrayFields> seen_;
   Flags active_;
   nb::object active_seen_;
+  Flags tracked_;
+  nb::object tracked_seen_;
   nb::object type_;
   bool walking_ = false;
   bool sole_ = false;
@@ -225,7 +238,7 @@ class ReferenceReader {
   Doubles empty_;
   nb::object empty_owner_;
   std::array<nb::object, kArrayFields> names_;
-  nb::object active_name_, height_name_;
+  nb::object active_name_, height_name_, tracked_name_;
   Flags no_flags_;
   nb::object no_flags_owner_;
 };
@@ -484,18 +497,19 @@ NB_MODULE(_kernel, m) {
              const Doubles& foot_position, const Doubles& foot_velocity,
              const Doubles& foot_acceleration, const Doubles& surface_normal,
              const Doubles& force_weight, const Doubles& posture_velocity,
-             const Doubles& posture_weight) {
+             const Doubles& posture_weight, const Flags& swing_tracked) {
             assign_references(
                 k,
                 {com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
                  base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
                  surface_normal, force_weight, posture_velocity, posture_weight},
-                base_height, contact_active);
+                base_height, contact_active, swing_tracked);
           },
           "com"_a, "posture"_a, "base_height"_a, "base_rotation"_a, "com_velocity"_a,
           "base_angular_velocity"_a, "contact_active"_a, "normal_force_max"_a,
           "base_linear_velocity"_a, "foot_position"_a, "foot_velocity"_a, "foot_acceleration"_a,
           "surface_normal"_a, "force_weight"_a, "posture_velocity"_a, "posture_weight"_a,
+          "swing_tracked"_a,
           "The fields of References / WalkReferences (empty arrays for the walking fields a "
           "behaviour does not set); raises ValueError naming a field of the wrong size.")
       .def(

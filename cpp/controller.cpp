@@ -151,6 +151,7 @@ void Kernel::check_references() const {
     check_size(refs_.foot_acceleration.size(), {3 * n}, "foot_acceleration");
   }
   check_size(refs_.force_weight.size(), {0, n}, "force_weight");
+  check_size(refs_.swing_tracked.size(), {0, n}, "swing_tracked");
   check_size(refs_.sole_position.size(), {0, 3 * n}, "sole_position");
   if (refs_.sole_position.size()) check_size(refs_.sole_rotation.size(), {9 * n}, "sole_rotation");
   check_size(refs_.leg_swinging.size(), {0, n}, "leg_swinging");

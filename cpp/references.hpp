@@ -28,6 +28,9 @@ struct References {
   Eigen::VectorXd force_weight;      // per contact; NaN: not changing
   Eigen::VectorXd posture_velocity;  // per actuated joint
   Eigen::VectorXd posture_weight;    // per contact's leg
+  // Feet the swing_feet task moves, per contact; empty: those out of contact. A foot in a
+  // contact transition (Kim 2016 §III-F) keeps tracking its reference while its force ramps.
+  Eigen::Array<bool, Eigen::Dynamic, 1> swing_tracked;
 
   // SoleReferences (tasks/sole.py), or empty: each sole's pose target (world position (n, 3) and
   // rotation (n, 3, 3), row-major flat), the legs swinging in joint space and their trajectory

@@ -87,6 +87,7 @@ def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
         getattr(refs, "force_weight", _EMPTY),
         getattr(refs, "posture_velocity", _EMPTY),
         getattr(refs, "posture_weight", _EMPTY),
+        getattr(refs, "swing_tracked", _NO_FLAGS),
     )
 
 
