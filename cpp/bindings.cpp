@@ -358,6 +358,8 @@ struct TickOutcome {
   std::vector<double> residuals, level_seconds;
   int qp_solves = 0;
   std::vector<std::pair<std::string, double>> task_errors;
+  std::vector<std::string> violations;
+  Eigen::VectorXd internal_force_sensed, internal_force_command;
 
   TickOutcome(const lab::Kernel& kernel, const lab::HierarchySolution& solution)
       : ok(solution.ok),
@@ -365,7 +367,10 @@ struct TickOutcome {
         levels(solution.levels),
         residuals(solution.residuals),
         level_seconds(solution.level_seconds),
-        qp_solves(solution.qp_solves) {
+        qp_solves(solution.qp_solves),
+        violations(solution.violations),
+        internal_force_sensed(kernel.internal_force_feedback().first),
+        internal_force_command(kernel.internal_force_feedback().second) {
     kernel.visit_task_errors(
         [&](const std::string& name, double error) { task_errors.emplace_back(name, error); });
   }
@@ -421,6 +426,18 @@ NB_MODULE(_kernel, m) {
                    })
       .def_prop_ro("residuals",
                    [](const TickOutcome& o) { return tuple_of(o.residuals, PyFloat_FromDouble); })
+      .def_ro("internal_force_sensed", &TickOutcome::internal_force_sensed,
+              "The internal force's F_int,act per pair at this tick's rows (Kim eq. 12).")
+      .def_ro("internal_force_command", &TickOutcome::internal_force_command,
+              "The internal force's F_int,cmd per pair at this tick's rows (Kim eq. 12).")
+      .def_prop_ro(
+          "violations",
+          [](const TickOutcome& o) {
+            return tuple_of(o.violations, [](const std::string& line) {
+              return PyUnicode_FromStringAndSize(line.data(), static_cast<Py_ssize_t>(line.size()));
+            });
+          },
+          "wbosc: each constraint of the stack violated at x, one line.")
       .def_prop_ro(
           "level_seconds",
           [](const TickOutcome& o) { return tuple_of(o.level_seconds, PyFloat_FromDouble); })
@@ -528,10 +545,22 @@ NB_MODULE(_kernel, m) {
       .def("set_momentum_gain", &lab::Kernel::set_momentum_gain, "gain"_a,
            "The momentum task's K_h (6 x 9) from lab/controller/momentum.py; raises ValueError "
            "for another size or a non-finite entry.")
-      .def("set_internal_force", &lab::Kernel::set_internal_force, "command"_a, "error"_a,
-           "The internal-force task's F_int,cmd and error per pair of point feet in support "
-           "(InternalForceTask.feedback); raises ValueError for a non-finite entry or sizes that "
-           "do not match.")
+      .def("set_internal_force", &lab::Kernel::set_internal_force, "reference"_a, "source"_a,
+           "The internal-force task's F_int,ref (N) and sensed source (contacts or torques); "
+           "raises ValueError for a non-finite reference or another source.")
+      .def(
+          "set_sensing",
+          [](lab::Kernel& k, const Doubles& foot_forces, const InVector& applied_torques) {
+            k.set_sensing(
+                Eigen::Map<const Eigen::VectorXd>(foot_forces.data(),
+                                                  static_cast<Eigen::Index>(foot_forces.size())),
+                Eigen::Map<const Eigen::VectorXd>(
+                    applied_torques.data(), static_cast<Eigen::Index>(applied_torques.size())));
+          },
+          "foot_forces"_a, "applied_torques"_a,
+          "What the sensors measured over the last step, for the internal force's feedback (Kim "
+          "eqs. 12-13): the terrain's force on each foot (n_contacts x 3, N, world) and the joint "
+          "torques applied (N m); raises ValueError for other sizes or non-finite entries.")
       .def(
           "mirror_model",
           [](lab::Kernel& k, const nb::dict& arrays) {

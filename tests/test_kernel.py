@@ -63,13 +63,31 @@ def momentum_gain(controller: WholeBodyController) -> np.ndarray:
 
 def send_python_feedback(controller: WholeBodyController, kernel) -> None:
     """What NativeController hands the kernel from the Python tasks, for the stack's tasks: the
-    momentum task's K_h of the last rows and the internal force's command and error."""
+    momentum task's K_h of the last rows and the internal force's reference, source and what
+    was sensed (its feedback, Kim eq. 12, runs in the kernel)."""
     names = controller.config.stack.names()
     if "momentum" in names:
         kernel.set_momentum_gain(momentum_gain(controller))
     if "internal_force" in names:
-        task = controller.tasks["internal_force"]
-        kernel.set_internal_force(*task.feedback(controller.robot, controller.references)[1:])
+        send_internal_force(controller, kernel)
+
+
+def send_internal_force(controller: WholeBodyController, kernel) -> None:
+    """The internal-force task's reference, sensed source and sensed values, into the kernel."""
+    task = controller.internal_force
+    kernel.set_internal_force(task.reference, task.source)
+    if task.measured_forces is not None:
+        kernel.set_sensing(task.measured_forces, task.applied_torques)
+
+
+def random_sensing(controller: WholeBodyController, rng: np.random.Generator) -> None:
+    """A random internal-force reference and source, and random sensed foot forces and torques
+    (Kim eqs. 12–13), on the Python controller."""
+    task, model = controller.internal_force, controller.robot
+    task.reference = float(rng.normal(0.0, 5.0))
+    task.set_source(str(rng.choice(["contacts", "torques"])))
+    forces = rng.normal(0.0, 3.0, (len(model.contacts), 3)) + [0.0, 0.0, model.mass * 9.81 / 2]
+    controller.set_sensing(forces, rng.normal(0.0, 2.0, model.na))
 
 
 def random_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -190,12 +208,13 @@ def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
         refs = random_references(model, rng, walk=i % 2 == 0)
         send_references(kernel, refs)
         random_gains(controller, kernel, rng)
+        if i:  # the first state before any sensed step: the command is the reference
+            random_sensing(controller, rng)
+        send_internal_force(controller, kernel)
         for task_name, task in controller.tasks.items():
             python = task.rows(model, refs)  # A, b, error
             if task_name == "momentum":
                 kernel.set_momentum_gain(momentum_gain(controller))
-            if task_name == "internal_force":  # its command, as NativeController hands it over
-                kernel.set_internal_force(python.b, python.error)
             native = kernel.rows(task_name)
             assert_rows_equal(native, python[:2], f"{name} state {i}: task {task_name}")
         for constraint_name, constraint in controller.constraints.items():
