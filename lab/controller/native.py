@@ -31,10 +31,6 @@ else:
 
 KERNELS = ("native", "python")
 NATIVE_METHODS = ("cascade", "weighted", "wbosc")
-_EMPTY = np.zeros(0)
-_EMPTY.flags.writeable = False
-_NO_FLAGS = np.zeros(0, dtype=bool)
-_NO_FLAGS.flags.writeable = False
 
 
 def native_available() -> bool:
@@ -60,35 +56,9 @@ def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
 
 
 def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
-    """Copy the fields of `refs` (References, WalkReferences or SoleReferences) into the
-    kernel."""
-    kernel.set_sole_references(
-        getattr(refs, "sole_position", _EMPTY),
-        getattr(refs, "sole_rotation", _EMPTY),
-        getattr(refs, "leg_swinging", _NO_FLAGS),
-        getattr(refs, "leg_position", _EMPTY),
-        getattr(refs, "leg_velocity", _EMPTY),
-        getattr(refs, "leg_acceleration", _EMPTY),
-    )
-    kernel.set_references(
-        refs.com,
-        refs.posture,
-        refs.base_height,
-        refs.base_rotation,
-        refs.com_velocity,
-        refs.base_angular_velocity,
-        refs.contact_active,
-        refs.normal_force_max,
-        refs.base_linear_velocity,
-        getattr(refs, "foot_position", _EMPTY),
-        getattr(refs, "foot_velocity", _EMPTY),
-        getattr(refs, "foot_acceleration", _EMPTY),
-        getattr(refs, "surface_normal", _EMPTY),
-        getattr(refs, "force_weight", _EMPTY),
-        getattr(refs, "posture_velocity", _EMPTY),
-        getattr(refs, "posture_weight", _EMPTY),
-        getattr(refs, "swing_tracked", _NO_FLAGS),
-    )
+    """Copy the fields of `refs` (References, WalkReferences or SoleReferences) into the kernel:
+    every field `_kernel.reference_fields()` lists, the ones its class lacks as empty."""
+    kernel.set_references(refs)
 
 
 class NativeOutput(ControlOutput):
