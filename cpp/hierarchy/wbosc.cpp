@@ -164,15 +164,23 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
   for (Eigen::Index r = 0; r < ns; ++r) x[nv + pass.support[r]] = pass.forces[r];
 }
 
+/// The first `n` entries of `buffer`, which grows to hold them (and never shrinks: levels of
+/// different sizes share it without allocating).
+Eigen::VectorXd::SegmentReturnType head_of(Eigen::VectorXd& buffer, Eigen::Index n) {
+  if (buffer.size() < n) buffer.resize(n);
+  return buffer.head(n);
+}
+
 /// _violations: one line per constraint of the stack with a row C x − d above tolerance.
 void find_violations(const HierarchyProblem& problem, const Eigen::VectorXd& x,
-                     Eigen::VectorXd& excess, std::vector<std::string>& out) {
+                     Eigen::VectorXd& buffer, std::vector<std::string>& out) {
   out.clear();
   for (std::size_t k = 0; k < problem.levels.size(); ++k) {
     const Level& level = problem.levels[k];
     if (!level.d.size()) continue;
-    excess = level.d;
-    excess.noalias() = level.C * x - excess;
+    auto excess = head_of(buffer, level.d.size());  // C x − d
+    excess.noalias() = level.C * x;
+    excess -= level.d;
     Eigen::Index start = 0;
     for (const auto& [name, count] : level.constraint_rows) {
       const double worst = count ? excess.segment(start, count).maxCoeff() : -INFINITY;
@@ -191,7 +199,7 @@ void find_violations(const HierarchyProblem& problem, const Eigen::VectorXd& x,
 void solve_wbosc(const HierarchyProblem& problem, HierarchySolution& out) {
   thread_local Pass dual, main;
   thread_local std::vector<char> moved;
-  thread_local Eigen::VectorXd bias, x_dual, external, excess;
+  thread_local Eigen::VectorXd bias, x_dual, external, scratch;
   thread_local Eigen::Array<bool, Eigen::Dynamic, 1> changing, support;
   thread_local std::vector<Eigen::Index> leaving;
   const DynamicsTerms& terms = problem.terms;
@@ -227,9 +235,16 @@ void solve_wbosc(const HierarchyProblem& problem, HierarchySolution& out) {
   for (std::size_t k = 0; k < n_levels; ++k) {
     const Level& level = problem.levels[k];
     out.levels[k] = level.b.size() && !moved[k] ? LevelStatus::no_freedom : LevelStatus::exact;
-    out.residuals[k] = level.b.size() ? (level.A * out.x - level.b).norm() : 0.0;
+    if (!level.b.size()) {
+      out.residuals[k] = 0.0;
+      continue;
+    }
+    auto residual = head_of(scratch, level.b.size());  // A x − b
+    residual.noalias() = level.A * out.x;
+    residual -= level.b;
+    out.residuals[k] = residual.norm();
   }
-  find_violations(problem, out.x, excess, out.violations);
+  find_violations(problem, out.x, scratch, out.violations);
   out.qp_solves = 0;
   out.ok = true;
   out.message.clear();
