@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "contact_dynamics.hpp"
+#include "hierarchy/linalg.hpp"  // kBaseRows
 #include "hierarchy/problem.hpp"
 
 namespace lab {
@@ -75,7 +76,7 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
                 const Eigen::Array<bool, Eigen::Dynamic, 1>& flags, Pass& pass,
                 std::vector<char>& moved, LevelClock& clock, Eigen::VectorXd& x) {
   const DynamicsTerms& terms = problem.terms;
-  const Eigen::Index nv = terms.M.rows(), na = nv - 6;
+  const Eigen::Index nv = terms.M.rows(), na = nv - kBaseRows;
   pass.support.clear();
   for (Eigen::Index i = 0; i < flags.size(); ++i)
     if (flags[i]) pass.support.push_back(i);
