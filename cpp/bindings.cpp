@@ -28,17 +28,6 @@ using Doubles = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
 using Flags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using ContactTuple = std::tuple<std::string, std::string, std::string, double, double, double>;
 
-/// Any array of doubles, flattened in C order.
-void copy_flat(Eigen::VectorXd& dst, const Doubles& a) {
-  dst = Eigen::Map<const Eigen::VectorXd>(a.data(), static_cast<Eigen::Index>(a.size()));
-}
-
-void copy_vector3(Eigen::Vector3d& dst, const Doubles& a, const char* what) {
-  if (a.size() != 3)
-    throw std::invalid_argument(std::string("references: ") + what + " needs 3 entries");
-  dst = Eigen::Map<const Eigen::Vector3d>(a.data());
-}
-
 std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tuples) {
   std::vector<lab::ContactSpec> specs;
   for (const auto& [name, frame, kind, radius, half_length, half_width] : tuples) {
@@ -51,152 +40,70 @@ std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tup
   return specs;
 }
 
-/// The array fields of References / WalkReferences, in this order (ReferenceReader::kNames).
-constexpr std::size_t kArrayFields = 14;
-using ReferenceArrays = std::array<Doubles, kArrayFields>;
-
-/// Copy the references into the kernel; raises ValueError naming a field of the wrong size.
-void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_height,
-                       const Flags& contact_active) {
-  const auto& [com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
-               base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
-               surface_normal, force_weight, posture_velocity, posture_weight] = a;
-  lab::References& refs = k.references();
-  copy_vector3(refs.com, com, "com");
-  copy_flat(refs.posture, posture);
-  refs.base_height = base_height;
-  if (base_rotation.size() != 9)
-    throw std::invalid_argument("references: base_rotation needs 3 x 3 entries");
-  refs.base_rotation =
-      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(base_rotation.data());
-  copy_vector3(refs.com_velocity, com_velocity, "com_velocity");
-  copy_vector3(refs.base_angular_velocity, base_angular_velocity, "base_angular_velocity");
-  refs.contact_active = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
-      contact_active.data(), static_cast<Eigen::Index>(contact_active.size()));
-  copy_flat(refs.normal_force_max, normal_force_max);
-  copy_vector3(refs.base_linear_velocity, base_linear_velocity, "base_linear_velocity");
-  copy_flat(refs.foot_position, foot_position);
-  copy_flat(refs.foot_velocity, foot_velocity);
-  copy_flat(refs.foot_acceleration, foot_acceleration);
-  copy_flat(refs.surface_normal, surface_normal);
-  copy_flat(refs.force_weight, force_weight);
-  copy_flat(refs.posture_velocity, posture_velocity);
-  copy_flat(refs.posture_weight, posture_weight);
-  k.check_references();
-}
-
-/// The array fields of SoleReferences (tasks/sole.py) but leg_swinging, in this order
-/// (ReferenceReader::kSoleNames).
-constexpr std::size_t kSoleFields = 5;
-using SoleArrays = std::array<Doubles, kSoleFields>;
-
-/// Copy the sole references into the kernel (empty arrays: not SoleReferences); their sizes are
-/// checked with the other fields' (assign_references, and every solve).
-void assign_sole_references(lab::Kernel& k, const SoleArrays& a, const Flags& leg_swinging) {
-  const auto& [sole_position, sole_rotation, leg_position, leg_velocity, leg_acceleration] = a;
-  lab::References& refs = k.references();
-  copy_flat(refs.sole_position, sole_position);
-  copy_flat(refs.sole_rotation, sole_rotation);
-  refs.leg_swinging = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
-      leg_swinging.data(), static_cast<Eigen::Index>(leg_swinging.size()));
-  copy_flat(refs.leg_position, leg_position);
-  copy_flat(refs.leg_velocity, leg_velocity);
-  copy_flat(refs.leg_acceleration, leg_acceleration);
-}
-
-/// Reads a References (or WalkReferences) object's fields straight from Python each tick: an
-/// array seen on the last tick is read through the buffer already imported (so a behaviour's
-/// in-place change shows), one the behaviour replaced is imported anew. A plain References has
-/// no walking fields: they read as empty.
+/// Reads a references object's fields straight from Python, as lab::kReferenceFields lists them:
+/// an array seen on the last read is read through the buffer already imported (so a behaviour's
+/// in-place change shows), one the behaviour replaced is imported anew. A field the object's class
+/// does not have (a plain References has no walking or sole fields) reads as empty.
 class ReferenceReader {
  public:
-  static constexpr const char* kNames[kArrayFields] = {"com",
-                                                       "posture",
-                                                       "base_rotation",
-                                                       "com_velocity",
-                                                       "base_angular_velocity",
-                                                       "normal_force_max",
-                                                       "base_linear_velocity",
-                                                       "foot_position",
-                                                       "foot_velocity",
-                                                       "foot_acceleration",
-                                                       "surface_normal",
-                                                       "force_weight",
-                                                       "posture_velocity",
-                                                       "posture_weight"};
-  static constexpr std::size_t kWalkingFrom = 7;  // foot_position on: WalkReferences only
-  static constexpr const char* kSoleNames[kSoleFields] = {
-      "sole_position", "sole_rotation", "leg_position", "leg_velocity", "leg_acceleration"};
+  static constexpr std::size_t kFields = lab::kReferenceFields.size();
 
   ReferenceReader() {
-    nb::module_ numpy = nb::module_::import_("numpy");
-    nb::object empty = numpy.attr("zeros")(0);
-    empty_ = nb::cast<Doubles>(empty);
-    empty_owner_ = empty;
-    // The names as interned Python strings: a lookup by C string builds the str every time.
-    const auto interned = [](const char* name) {
-      return nb::steal(PyUnicode_InternFromString(name));
-    };
-    for (std::size_t i = 0; i < kArrayFields; ++i) names_[i] = interned(kNames[i]);
-    active_name_ = interned("contact_active");
-    height_name_ = interned("base_height");
-    nb::object no_flags = numpy.attr("zeros")(0, "dtype"_a = numpy.attr("bool_"));
-    no_flags_ = nb::cast<Flags>(no_flags);
-    no_flags_owner_ = no_flags;
+    for (std::size_t i = 0; i < kFields; ++i)  // interned: a lookup by C string builds the str
+      names_[i] = nb::steal(PyUnicode_InternFromString(lab::kReferenceFields[i].name));
   }
 
+  /// Copy the fields of `refs` into the kernel's references; raises ValueError naming a field
+  /// of the wrong type or size.
   void read(lab::Kernel& k, nb::handle refs) {
     nb::handle type = refs.type();
-    if (!type.is(type_)) {  // a new References class: does it have the walking fields?
+    if (!type.is(type_)) {  // a new class: which of the fields does it have?
       type_ = nb::borrow(type);
-      walking_ = nb::hasattr(refs, "foot_position");
-      sole_ = nb::hasattr(refs, "sole_position");
+      for (std::size_t i = 0; i < kFields; ++i) present_[i] = nb::hasattr(refs, names_[i]);
     }
-    read_sole(k, refs);  // before the rest, whose assignment checks every field's size
-    for (std::size_t i = 0; i < kArrayFields; ++i) {
-      if (i >= kWalkingFrom && !walking_) {
-        arrays_[i] = empty_;
+    lab::References& out = k.references();
+    for (std::size_t i = 0; i < kFields; ++i) {
+      const lab::ReferenceField& field = lab::kReferenceFields[i];
+      bool stored;
+      if (field.type == lab::FieldType::number) {
+        if (!present_[i]) missing(field);
+        const double value = nb::cast<double>(refs.attr(names_[i]));
+        stored = field.set_doubles(out, &value, 1);
+      } else if (!present_[i]) {
         seen_[i] = nb::object();
-        continue;
+        stored = field.type == lab::FieldType::flags ? field.set_flags(out, nullptr, 0)
+                                                     : field.set_doubles(out, nullptr, 0);
+      } else {
+        nb::object value = refs.attr(names_[i]);
+        if (field.type == lab::FieldType::flags) {
+          if (!(seen_[i].is_valid() && value.is(seen_[i])))
+            flags_[i] = import<Flags>(value, field.name, seen_[i]);
+          stored = field.set_flags(out, flags_[i].data(), size(flags_[i]));
+        } else {
+          if (!(seen_[i].is_valid() && value.is(seen_[i])))
+            doubles_[i] = import<Doubles>(value, field.name, seen_[i]);
+          stored = field.set_doubles(out, doubles_[i].data(), size(doubles_[i]));
+        }
       }
-      nb::object value = refs.attr(names_[i]);
-      if (seen_[i].is_valid() && value.is(seen_[i])) continue;  // the same array as last tick
-      arrays_[i] = import<Doubles>(value, kNames[i], seen_[i]);
+      if (!stored)
+        throw std::invalid_argument(std::string("references: ") + field.name + " needs shape (" +
+                                    field.shape + ")");
     }
-    nb::object active = refs.attr(active_name_);
-    if (!(active_seen_.is_valid() && active.is(active_seen_)))
-      active_ = import<Flags>(active, "contact_active", active_seen_);
-    const double base_height = nb::cast<double>(refs.attr(height_name_));
-    assign_references(k, arrays_, base_height, active_);
+    k.check_references();
   }
 
  private:
-  /// The SoleReferences fields (empty for other references).
-  void read_sole(lab::Kernel& k, nb::handle refs) {
-    if (!sole_) {
-      const lab::References& now = k.references();
-      if (!now.sole_position.size() && !now.sole_rotation.size() && !now.leg_swinging.size() &&
-          !now.leg_position.size() && !now.leg_velocity.size() && !now.leg_acceleration.size())
-        return;  // already empty: nothing to copy on the tick of a robot without soles
-      sole_arrays_.fill(empty_);
-      for (auto& seen : sole_seen_) seen = nb::object();
-      leg_swinging_ = no_flags_;
-      leg_swinging_seen_ = nb::object();
-    } else {
-      for (std::size_t i = 0; i < kSoleFields; ++i) {
-        nb::object value = refs.attr(kSoleNames[i]);
-        if (sole_seen_[i].is_valid() && value.is(sole_seen_[i])) continue;
-        sole_arrays_[i] = import<Doubles>(value, kSoleNames[i], sole_seen_[i]);
-      }
-      nb::object swinging = refs.attr("leg_swinging");
-      if (!(leg_swinging_seen_.is_valid() && swinging.is(leg_swinging_seen_)))
-        leg_swinging_ = import<Flags>(swinging, "leg_swinging", leg_swinging_seen_);
-    }
-    assign_sole_references(k, sole_arrays_, leg_swinging_);
+  template <typename Array>
+  static Eigen::Index size(const Array& a) {
+    return static_cast<Eigen::Index>(a.size());
   }
 
-  /// `value` as an array; `seen` keeps it when it was taken without a copy (later ticks then
-  /// read it in place), and is cleared otherwise (a converted copy is made again each tick).
+  [[noreturn]] static void missing(const lab::ReferenceField& field) {
+    throw std::invalid_argument(std::string("references: no field ") + field.name);
+  }
+
+  /// `value` as an array; `seen` keeps it when it was taken without a copy (later reads then
+  /// see it in place), and is cleared otherwise (a converted copy is made again each read).
   template <typename Array>
   static Array import(const nb::object& value, const char* name, nb::object& seen) {
     Array array;
@@ -211,23 +118,11 @@ class ReferenceReader {
     return array;
   }
 
-  ReferenceArrays arrays_;
-  std::array<nb::object, kArrayFields> seen_;
-  Flags active_;
-  nb::object active_seen_;
   nb::object type_;
-  bool walking_ = false;
-  bool sole_ = false;
-  SoleArrays sole_arrays_;
-  std::array<nb::object, kSoleFields> sole_seen_;
-  Flags leg_swinging_;
-  nb::object leg_swinging_seen_;
-  Doubles empty_;
-  nb::object empty_owner_;
-  std::array<nb::object, kArrayFields> names_;
-  nb::object active_name_, height_name_;
-  Flags no_flags_;
-  nb::object no_flags_owner_;
+  std::array<bool, kFields> present_{};
+  std::array<nb::object, kFields> names_, seen_;
+  std::array<Doubles, kFields> doubles_;
+  std::array<Flags, kFields> flags_;
 };
 
 nb::dict problem_dict(const lab::HierarchyProblem& problem) {
@@ -345,6 +240,8 @@ struct TickOutcome {
   std::vector<double> residuals, level_seconds;
   int qp_solves = 0;
   std::vector<std::pair<std::string, double>> task_errors;
+  std::vector<std::string> violations;
+  Eigen::VectorXd internal_force_sensed, internal_force_command;
 
   TickOutcome(const lab::Kernel& kernel, const lab::HierarchySolution& solution)
       : ok(solution.ok),
@@ -352,7 +249,10 @@ struct TickOutcome {
         levels(solution.levels),
         residuals(solution.residuals),
         level_seconds(solution.level_seconds),
-        qp_solves(solution.qp_solves) {
+        qp_solves(solution.qp_solves),
+        violations(solution.violations),
+        internal_force_sensed(kernel.internal_force_feedback().first),
+        internal_force_command(kernel.internal_force_feedback().second) {
     kernel.visit_task_errors(
         [&](const std::string& name, double error) { task_errors.emplace_back(name, error); });
   }
@@ -392,6 +292,21 @@ NB_MODULE(_kernel, m) {
   lab::bind_hierarchy(m);
 #endif
   lab::bind_behaviours(m);
+
+  m.def(
+      "reference_fields",
+      [] {
+        std::vector<std::tuple<std::string, std::string, std::string, std::string>> fields;
+        for (const auto& field : lab::kReferenceFields) {
+          const char* type = field.type == lab::FieldType::number    ? "float"
+                             : field.type == lab::FieldType::doubles ? "float64"
+                                                                     : "bool";
+          fields.emplace_back(field.name, field.declared_by, type, field.shape);
+        }
+        return fields;
+      },
+      "The references' fields the kernel reads (cpp/references.hpp kReferenceFields): (name, "
+      "declaring class, type: float, float64 or bool, shape in the robot's sizes n and na).");
   lab::bind_frame_placements(m);
 
   nb::class_<TickOutcome>(m, "TickOutcome",
@@ -408,6 +323,18 @@ NB_MODULE(_kernel, m) {
                    })
       .def_prop_ro("residuals",
                    [](const TickOutcome& o) { return tuple_of(o.residuals, PyFloat_FromDouble); })
+      .def_ro("internal_force_sensed", &TickOutcome::internal_force_sensed,
+              "The internal force's F_int,act per pair at this tick's rows (Kim eq. 12).")
+      .def_ro("internal_force_command", &TickOutcome::internal_force_command,
+              "The internal force's F_int,cmd per pair at this tick's rows (Kim eq. 12).")
+      .def_prop_ro(
+          "violations",
+          [](const TickOutcome& o) {
+            return tuple_of(o.violations, [](const std::string& line) {
+              return PyUnicode_FromStringAndSize(line.data(), static_cast<Py_ssize_t>(line.size()));
+            });
+          },
+          "wbosc: each constraint of the stack violated at x, one line.")
       .def_prop_ro(
           "level_seconds",
           [](const TickOutcome& o) { return tuple_of(o.level_seconds, PyFloat_FromDouble); })
@@ -477,47 +404,29 @@ NB_MODULE(_kernel, m) {
       .def("set_joint_limits", &lab::Kernel::set_joint_limits, "lower"_a, "upper"_a)
       .def(
           "set_references",
-          [](lab::Kernel& k, const Doubles& com, const Doubles& posture, double base_height,
-             const Doubles& base_rotation, const Doubles& com_velocity,
-             const Doubles& base_angular_velocity, const Flags& contact_active,
-             const Doubles& normal_force_max, const Doubles& base_linear_velocity,
-             const Doubles& foot_position, const Doubles& foot_velocity,
-             const Doubles& foot_acceleration, const Doubles& surface_normal,
-             const Doubles& force_weight, const Doubles& posture_velocity,
-             const Doubles& posture_weight) {
-            assign_references(
-                k,
-                {com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
-                 base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
-                 surface_normal, force_weight, posture_velocity, posture_weight},
-                base_height, contact_active);
-          },
-          "com"_a, "posture"_a, "base_height"_a, "base_rotation"_a, "com_velocity"_a,
-          "base_angular_velocity"_a, "contact_active"_a, "normal_force_max"_a,
-          "base_linear_velocity"_a, "foot_position"_a, "foot_velocity"_a, "foot_acceleration"_a,
-          "surface_normal"_a, "force_weight"_a, "posture_velocity"_a, "posture_weight"_a,
-          "The fields of References / WalkReferences (empty arrays for the walking fields a "
-          "behaviour does not set); raises ValueError naming a field of the wrong size.")
-      .def(
-          "set_sole_references",
-          [](lab::Kernel& k, const Doubles& sole_position, const Doubles& sole_rotation,
-             const Flags& leg_swinging, const Doubles& leg_position, const Doubles& leg_velocity,
-             const Doubles& leg_acceleration) {
-            assign_sole_references(
-                k, {sole_position, sole_rotation, leg_position, leg_velocity, leg_acceleration},
-                leg_swinging);
-          },
-          "sole_position"_a, "sole_rotation"_a, "leg_swinging"_a, "leg_position"_a,
-          "leg_velocity"_a, "leg_acceleration"_a,
-          "The fields of SoleReferences (empty arrays for other references), before "
-          "set_references, which checks every field's size.")
+          [](lab::Kernel& k, nb::handle refs) { reference_reader(k).read(k, refs); }, "refs"_a,
+          "Copy a References (WalkReferences, SoleReferences) object's fields into the kernel, "
+          "as reference_fields() lists them; raises ValueError naming a field of the wrong "
+          "type or size.")
       .def("set_momentum_gain", &lab::Kernel::set_momentum_gain, "gain"_a,
            "The momentum task's K_h (6 x 9) from lab/controller/momentum.py; raises ValueError "
            "for another size or a non-finite entry.")
-      .def("set_internal_force", &lab::Kernel::set_internal_force, "command"_a, "error"_a,
-           "The internal-force task's F_int,cmd and error per pair of point feet in support "
-           "(InternalForceTask.feedback); raises ValueError for a non-finite entry or sizes that "
-           "do not match.")
+      .def("set_internal_force", &lab::Kernel::set_internal_force, "reference"_a, "source"_a,
+           "The internal-force task's F_int,ref (N) and sensed source (contacts or torques); "
+           "raises ValueError for a non-finite reference or another source.")
+      .def(
+          "set_sensing",
+          [](lab::Kernel& k, const Doubles& foot_forces, const InVector& applied_torques) {
+            k.set_sensing(
+                Eigen::Map<const Eigen::VectorXd>(foot_forces.data(),
+                                                  static_cast<Eigen::Index>(foot_forces.size())),
+                Eigen::Map<const Eigen::VectorXd>(
+                    applied_torques.data(), static_cast<Eigen::Index>(applied_torques.size())));
+          },
+          "foot_forces"_a, "applied_torques"_a,
+          "What the sensors measured over the last step, for the internal force's feedback (Kim "
+          "eqs. 12-13): the terrain's force on each foot (n_contacts x 3, N, world) and the joint "
+          "torques applied (N m); raises ValueError for other sizes or non-finite entries.")
       .def(
           "mirror_model",
           [](lab::Kernel& k, const nb::dict& arrays) {

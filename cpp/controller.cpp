@@ -69,9 +69,10 @@ void Kernel::set_stack(const std::vector<std::vector<std::string>>& levels) {
         throw std::invalid_argument("task '" + name + "' appears twice");
       if (auto task = tasks_.find(name); task != tasks_.end())
         level.tasks.emplace_back(name, task->second.get());
-      else if (auto c = constraints_.find(name); c != constraints_.end())
+      else if (auto c = constraints_.find(name); c != constraints_.end()) {
         level.constraints.push_back(c->second.get());
-      else
+        level.constraint_names.push_back(name);
+      } else
         throw UnknownName("the native kernel has no task or constraint '" + name + "'");
     }
     stack.push_back(std::move(level));
@@ -100,9 +101,9 @@ const TaskGains& Kernel::gains(const std::string& task) const {
 }
 
 void Kernel::set_method(const std::string& method) {
-  if (method != "cascade" && method != "weighted")
+  if (method != "cascade" && method != "weighted" && method != "wbosc")
     throw UnknownName("the native kernel has no hierarchy method '" + method +
-                      "' (methods: cascade, weighted)");
+                      "' (methods: cascade, weighted, wbosc)");
   method_ = method;
 }
 
@@ -135,9 +136,20 @@ void Kernel::set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain) {
   lab::set_momentum_gain(*tasks_.at("momentum"), gain);
 }
 
-void Kernel::set_internal_force(const Eigen::Ref<const Eigen::VectorXd>& command,
-                                const Eigen::Ref<const Eigen::VectorXd>& error) {
-  lab::set_internal_force(*tasks_.at("internal_force"), command, error);
+void Kernel::set_internal_force(double reference, const std::string& source) {
+  lab::set_internal_force(*tasks_.at("internal_force"), reference, source);
+}
+
+void Kernel::set_sensing(const Eigen::Ref<const Eigen::VectorXd>& foot_forces,
+                         const Eigen::Ref<const Eigen::VectorXd>& applied_torques) {
+  check_finite(foot_forces, "sensing: foot_forces",
+               3 * static_cast<Eigen::Index>(robot_.contacts.size()));
+  check_finite(applied_torques, "sensing: applied_torques", robot_.na);
+  lab::set_internal_force_sensing(*tasks_.at("internal_force"), foot_forces, applied_torques);
+}
+
+std::pair<const Eigen::VectorXd&, const Eigen::VectorXd&> Kernel::internal_force_feedback() const {
+  return lab::internal_force_feedback(*tasks_.at("internal_force"));
 }
 
 void Kernel::check_references() const {
@@ -151,6 +163,7 @@ void Kernel::check_references() const {
     check_size(refs_.foot_acceleration.size(), {3 * n}, "foot_acceleration");
   }
   check_size(refs_.force_weight.size(), {0, n}, "force_weight");
+  check_size(refs_.swing_tracked.size(), {0, n}, "swing_tracked");
   check_size(refs_.sole_position.size(), {0, 3 * n}, "sole_position");
   if (refs_.sole_position.size()) check_size(refs_.sole_rotation.size(), {9 * n}, "sole_rotation");
   check_size(refs_.leg_swinging.size(), {0, n}, "leg_swinging");
@@ -210,15 +223,32 @@ const HierarchyProblem& Kernel::build_problem() {
       m += rows;
     }
     k = 0;
-    for (Constraint* constraint : stack_[l].constraints) {
+    level.constraint_rows.resize(stack_[l].constraints.size());
+    for (std::size_t c = 0; c < stack_[l].constraints.size(); ++c) {
+      const Constraint* constraint = stack_[l].constraints[c];
       level.C.middleRows(k, constraint->C.rows()) = constraint->C;
       level.d.segment(k, constraint->C.rows()) = constraint->d;
+      level.constraint_rows[c] = {stack_[l].constraint_names[c], constraint->C.rows()};
       k += constraint->C.rows();
     }
     level.weight = weight;
     if (!stack_[l].tasks.empty()) weight /= level_weight_ratio_;
   }
   robot.force_rows_of(refs_.contact_active, problem_.support);
+  if (method_ == "wbosc") {  // its contact-consistent dynamics (controller.py DynamicsTerms)
+    DynamicsTerms& terms = problem_.terms;
+    terms.M = robot.M;
+    terms.h = robot.h;
+    terms.Jc = robot.Jc;
+    terms.drift = robot.Jc_dot_v;
+    // _transition_weights: each row of F of a contact being loaded or unloaded, NaN elsewhere.
+    const auto n = static_cast<Eigen::Index>(robot.contacts.size());
+    terms.transition.resize(refs_.force_weight.size() == n ? robot.nf : 0);
+    if (terms.transition.size())
+      for (Eigen::Index i = 0; i < n; ++i)
+        terms.transition.segment(robot.force_starts[i], robot.contacts[i].force_dim())
+            .setConstant(refs_.force_weight[i]);
+  }
   return problem_;
 }
 
@@ -234,11 +264,14 @@ const TickResult& Kernel::solve() {
   const auto start = Clock::now();
   check_references();
   const HierarchyProblem& problem = build_problem();
+  result_.solution.violations.clear();  // only wbosc reports them
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
   if (method_ == "cascade")
     solve_cascade(problem, result_.solution);
-  else
+  else if (method_ == "weighted")
     solve_weighted(problem, result_.solution);
+  else
+    solve_wbosc(problem, result_.solution);
 #else
   (void)problem;
   throw std::runtime_error("the native hierarchy solvers are not built (cpp/hierarchy)");

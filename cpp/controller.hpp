@@ -53,9 +53,15 @@ class Kernel {
   void set_joint_limits(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper);
   /// The momentum task's K_h (6 × 9), designed on the Python side (lab/controller/momentum.py).
   void set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain);
-  /// The internal-force task's command and error, from the Python task's sensed feedback.
-  void set_internal_force(const Eigen::Ref<const Eigen::VectorXd>& command,
-                          const Eigen::Ref<const Eigen::VectorXd>& error);
+  /// The internal-force task's reference (N) and sensed source (`contacts` or `torques`).
+  void set_internal_force(double reference, const std::string& source);
+  /// What the sensors measured over the last step, for the internal force's feedback (Kim
+  /// eqs. 12–13): the terrain's force on each foot ((n_contacts, 3) flat, N, world) and the joint
+  /// torques applied (N m); throws std::invalid_argument for other sizes or non-finite entries.
+  void set_sensing(const Eigen::Ref<const Eigen::VectorXd>& foot_forces,
+                   const Eigen::Ref<const Eigen::VectorXd>& applied_torques);
+  /// The internal force's F_int,act and F_int,cmd per pair at its last rows.
+  std::pair<const Eigen::VectorXd&, const Eigen::VectorXd&> internal_force_feedback() const;
 
   /// The references of the next ticks; check_references() before using them.
   References& references() { return refs_; }
@@ -100,6 +106,7 @@ class Kernel {
   struct StackLevel {
     std::vector<std::pair<std::string, Task*>> tasks;
     std::vector<Constraint*> constraints;
+    std::vector<std::string> constraint_names;  // of `constraints`, for wbosc's report
   };
 
   Constraint& constraint(const std::string& name);

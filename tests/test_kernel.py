@@ -6,6 +6,7 @@ errors for bad input. Skipped as a whole when the kernel is not built.
 """
 
 import copy
+import dataclasses
 import functools
 import json
 
@@ -27,7 +28,9 @@ from lab.controller.native import (
     native_available,
     send_references,
 )
+from lab.controller.references import References
 from lab.controller.stack import Stack
+from lab.controller.tasks.sole import SoleReferences
 from lab.controller.walk_references import WalkReferences
 from lab.description import ROBOT_NAMES, load_description
 from lab.robot import build_robot
@@ -63,13 +66,32 @@ def momentum_gain(controller: WholeBodyController) -> np.ndarray:
 
 def send_python_feedback(controller: WholeBodyController, kernel) -> None:
     """What NativeController hands the kernel from the Python tasks, for the stack's tasks: the
-    momentum task's K_h of the last rows and the internal force's command and error."""
+    momentum task's K_h of the last rows and the internal force's reference, source and what
+    was sensed (its feedback, Kim eq. 12, runs in the kernel)."""
     names = controller.config.stack.names()
     if "momentum" in names:
         kernel.set_momentum_gain(momentum_gain(controller))
     if "internal_force" in names:
-        task = controller.tasks["internal_force"]
-        kernel.set_internal_force(*task.feedback(controller.robot, controller.references)[1:])
+        send_internal_force(controller, kernel)
+
+
+def send_internal_force(controller: WholeBodyController, kernel) -> None:
+    """The internal-force task's reference, sensed source and sensed values, into the kernel."""
+    task = controller.internal_force
+    kernel.set_internal_force(task.reference, task.source)
+    if task.measured_forces is not None:
+        kernel.set_sensing(task.measured_forces, task.applied_torques)
+
+
+def random_sensing(controller: WholeBodyController, rng: np.random.Generator) -> None:
+    """A random internal-force reference and source, and random sensed foot forces and torques
+    (Kim eqs. 12–13), on the Python controller."""
+    task, model = controller.internal_force, controller.robot
+    task.reference = float(rng.normal(0.0, 5.0))
+    task.set_source(str(rng.choice(["contacts", "torques"])))
+    forces = rng.normal(0.0, 3.0, (len(model.contacts), 3))
+    forces[:, 2] += model.mass * 9.81 / 2
+    controller.set_sensing(forces, rng.normal(0.0, 2.0, model.na))
 
 
 def random_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -80,36 +102,108 @@ def random_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarra
     return q, rng.normal(0.0, 0.5, robot.model.nv)
 
 
-def random_references(model: RobotModel, rng: np.random.Generator, walk: bool) -> WalkReferences:
-    """References with every field set; `walk=False` leaves the walking fields empty."""
-    n = len(model.contacts)
+@dataclasses.dataclass
+class AllReferences(WalkReferences, SoleReferences):
+    """Every field of the references' dataclasses at once, for random draws."""
+
+
+REFERENCE_CLASSES = (References, WalkReferences, SoleReferences)
+
+
+def _rotations(rng: np.random.Generator, count: int) -> np.ndarray:
+    return np.array([pin.rpy.rpyToMatrix(*rng.uniform(-0.3, 0.3, 3)) for _ in range(count)])
+
+
+def _weights(rng: np.random.Generator, n: int, nan: float, zero: float) -> np.ndarray:
+    w = rng.uniform(0.0, 1.0, n)
+    w[rng.random(n) < nan] = np.nan
+    w[rng.random(n) < zero] = 0.0
+    return w
+
+
+def _active(rng: np.random.Generator, n: int) -> np.ndarray:
     active = rng.random(n) < 0.5
     active[rng.integers(n)] = True
-    refs = WalkReferences(
-        com=model.com + rng.normal(0.0, 0.05, 3),
-        posture=model.q[7:] + rng.normal(0.0, 0.1, model.na),
-        base_height=float(model.q[2] + rng.normal(0.0, 0.05)),
-        base_rotation=pin.rpy.rpyToMatrix(*rng.uniform(-0.3, 0.3, 3)),
-        com_velocity=rng.normal(0.0, 0.2, 3),
-        base_angular_velocity=rng.normal(0.0, 0.2, 3),
-        contact_active=active,
-        normal_force_max=rng.uniform(100.0, 900.0, n) if rng.random() < 0.5 else np.zeros(0),
-        base_linear_velocity=rng.normal(0.0, 0.3, 3),
-    )
-    if walk:
-        normals = rng.normal(0.0, 0.3, (n, 3)) + np.array([0.0, 0.0, 1.0])
-        weights = rng.uniform(0.0, 1.0, n)
-        weights[rng.random(n) < 0.4] = np.nan
-        posture_weight = rng.uniform(0.0, 1.0, n)
-        posture_weight[rng.random(n) < 0.3] = 0.0
-        refs.foot_position = model.contact_positions + rng.normal(0.0, 0.05, (n, 3))
-        refs.foot_velocity = rng.normal(0.0, 0.3, (n, 3))
-        refs.foot_acceleration = rng.normal(0.0, 1.0, (n, 3))
-        refs.surface_normal = normals / np.linalg.norm(normals, axis=1, keepdims=True)
-        refs.force_weight = weights
-        refs.posture_velocity = rng.normal(0.0, 0.3, model.na)
-        refs.posture_weight = posture_weight
-    return refs
+    return active
+
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+
+
+# Fields whose values need a structure (rotations, unit normals, weights, positions near the
+# robot's); every other field is drawn by its type and shape alone.
+VALUE_RULES = {
+    "com": lambda m, rng: m.com + rng.normal(0.0, 0.05, 3),
+    "posture": lambda m, rng: m.q[7:] + rng.normal(0.0, 0.1, m.na),
+    "base_height": lambda m, rng: float(m.q[2] + rng.normal(0.0, 0.05)),
+    "base_rotation": lambda m, rng: _rotations(rng, 1)[0],
+    "contact_active": lambda m, rng: _active(rng, len(m.contacts)),
+    "normal_force_max": lambda m, rng: rng.uniform(100.0, 900.0, len(m.contacts)),
+    "foot_position": lambda m, rng: (
+        m.contact_positions + rng.normal(0.0, 0.05, (len(m.contacts), 3))
+    ),
+    "surface_normal": lambda m, rng: _unit(rng.normal(0.0, 0.3, (len(m.contacts), 3)) + UP),
+    "force_weight": lambda m, rng: _weights(rng, len(m.contacts), nan=0.4, zero=0.0),
+    "posture_weight": lambda m, rng: _weights(rng, len(m.contacts), nan=0.0, zero=0.3),
+    "sole_position": lambda m, rng: (
+        m.contact_positions + rng.normal(0.0, 0.05, (len(m.contacts), 3))
+    ),
+    "sole_rotation": lambda m, rng: _rotations(rng, len(m.contacts)),
+    "leg_position": lambda m, rng: m.q[7:] + rng.normal(0.0, 0.1, m.na),
+}
+
+
+def random_references(model: RobotModel, rng: np.random.Generator, walk: bool) -> AllReferences:
+    """References with a random value in every field of the references' dataclasses, drawn by the
+    layout the kernel reads (`_kernel.reference_fields()`: type and shape) and VALUE_RULES;
+    `walk=False` leaves the fields References does not declare at their (empty) defaults."""
+    layout = {name: (kind, shape) for name, _, kind, shape in _kernel.reference_fields()}
+    sizes = {"n": len(model.contacts), "na": model.na}
+    plain = {f.name for f in dataclasses.fields(References)}
+    values = {}
+    for f in dataclasses.fields(AllReferences):
+        kind, shape = layout[f.name]  # a KeyError: a field the kernel does not read
+        if not walk and f.name not in plain:
+            continue
+        if f.name in VALUE_RULES:
+            values[f.name] = VALUE_RULES[f.name](model, rng)
+            continue
+        dims = tuple(sizes[d] if d in sizes else int(d) for d in shape.split(",") if d)
+        if kind == "bool":
+            values[f.name] = rng.random(dims) < 0.5
+        else:
+            values[f.name] = rng.normal(0.0, 0.3, dims)
+    return AllReferences(**values)
+
+
+def test_the_references_have_one_layout_on_both_sides() -> None:
+    """The kernel reads exactly the fields of References, WalkReferences and SoleReferences, each
+    declared by the same class, in declaration order, with the type and number of dimensions of
+    the dataclass's own default (a field on one side only fails here)."""
+    kernel_fields = _kernel.reference_fields()
+    python = []
+    for cls in REFERENCE_CLASSES:
+        for f in dataclasses.fields(cls):
+            if cls is References or f.name not in {g.name for g in dataclasses.fields(References)}:
+                python.append((f, cls.__name__))
+    assert [name for name, *_ in kernel_fields] == [f.name for f, _ in python]
+    for (name, declared_by, kind, shape), (f, cls_name) in zip(kernel_fields, python, strict=True):
+        assert declared_by == cls_name, name
+        dims = [d for d in shape.split(",") if d]
+        if f.type is float or f.type == "float":
+            assert kind == "float" and not dims, name
+            continue
+        if f.default_factory is dataclasses.MISSING:  # required arrays: com, posture
+            assert kind == "float64", name
+            continue
+        default = np.asarray(f.default_factory())
+        assert kind == {"float64": "float64", "bool": "bool"}[default.dtype.name], name
+        assert len(dims) == max(default.ndim, 1), name
+    assert set(VALUE_RULES) <= {name for name, *_ in kernel_fields}
 
 
 def random_gains(controller: WholeBodyController, kernel, rng: np.random.Generator) -> None:
@@ -190,12 +284,13 @@ def test_rows_of_every_task_and_constraint_agree(name: str) -> None:
         refs = random_references(model, rng, walk=i % 2 == 0)
         send_references(kernel, refs)
         random_gains(controller, kernel, rng)
+        if i:  # the first state before any sensed step: the command is the reference
+            random_sensing(controller, rng)
+        send_internal_force(controller, kernel)
         for task_name, task in controller.tasks.items():
             python = task.rows(model, refs)  # A, b, error
             if task_name == "momentum":
                 kernel.set_momentum_gain(momentum_gain(controller))
-            if task_name == "internal_force":  # its command, as NativeController hands it over
-                kernel.set_internal_force(python.b, python.error)
             native = kernel.rows(task_name)
             assert_rows_equal(native, python[:2], f"{name} state {i}: task {task_name}")
         for constraint_name, constraint in controller.constraints.items():

@@ -324,10 +324,14 @@ def test_bad_gains_commands_and_sole_references_raise_clear_errors_and_change_no
     with pytest.raises(ValueError, match="K_h has non-finite entries"):
         kernel.set_momentum_gain(np.full((6, 9), np.nan))
     assert_rows_equal(kernel.rows("momentum"), before, "after the rejected gains")
-    with pytest.raises(ValueError, match="internal_force: the command and error must be finite"):
-        kernel.set_internal_force(np.array([np.nan]), np.zeros(0))
-    with pytest.raises(ValueError, match="as many entries as the command"):
-        kernel.set_internal_force(np.zeros(1), np.zeros(2))
+    with pytest.raises(ValueError, match="internal_force: the reference must be finite"):
+        kernel.set_internal_force(np.nan, "contacts")
+    with pytest.raises(ValueError, match="unknown source 'feet'"):
+        kernel.set_internal_force(1.0, "feet")
+    with pytest.raises(ValueError, match="sensing: foot_forces has 3 entries"):
+        kernel.set_sensing(np.zeros(3), np.zeros(model.na))
+    with pytest.raises(ValueError, match="sensing: applied_torques has non-finite"):
+        kernel.set_sensing(np.zeros((2, 3)), np.full(model.na, np.nan))
     bad = copy.deepcopy(refs)
     bad.sole_position = np.zeros((1, 3))
     with pytest.raises(ValueError, match="sole_position has 3 entries"):

@@ -3,7 +3,7 @@
 Bolt under the foot-line stack of the Kim wedge scenarios (`com_along_feet`, `com_across_feet`,
 `internal_force`), cascade and weighted: x and τ of the two kernels on perturbed standing states,
 the internal force's feedback sensed from the feet's forces and from the joint torques (Kim eqs.
-12–13), computed by the Python task and handed to the kernel every tick.
+12–13), computed by each kernel from the same sensed values.
 """
 
 from pathlib import Path
@@ -12,10 +12,17 @@ import numpy as np
 import pytest
 
 from lab.controller.behaviours.balance import standing_references
+from lab.controller.behaviours.biped_step import BipedStepping
 from lab.controller.controller import WholeBodyController
-from lab.controller.native import NOT_BUILT, NativeController, native_available
+from lab.controller.native import (
+    NOT_BUILT,
+    NativeController,
+    kernel_for,
+    native_available,
+    send_references,
+)
 from lab.server.scenario import load_scenario
-from tests.test_controller import disturbed_state
+from tests.test_controller import controller_for, disturbed_state
 from tests.test_kernel_herzog import assert_ticks_agree, robot_of, stack_controller
 
 pytest.importorskip("lab._kernel", reason="the native kernel is not built (./dev builds it)")
@@ -57,4 +64,38 @@ def test_the_foot_line_stack_with_internal_force_feedback_agrees(method: str, so
         output = assert_ticks_agree(python, native, q, v, f"bolt {method} {source} state {i}")
         assert set(output.task_errors) >= {"com_along_feet", "com_across_feet"}
         assert ("internal_force" in output.task_errors) == (i > 0)
-        np.testing.assert_array_equal(native.internal_force.command, python.internal_force.command)
+        for value in ("sensed", "command"):  # the kernel's feedback, as telemetry reads it
+            np.testing.assert_allclose(
+                getattr(native.internal_force, value),
+                getattr(python.internal_force, value),
+                rtol=0,
+                atol=1e-9,
+            )
+
+
+def test_the_swing_feet_task_tracks_the_feet_biped_step_names_on_both_kernels() -> None:
+    """biped_step keeps the swinging foot in `swing_feet` through the lift and land transitions,
+    while the foot is still in contact (`WalkReferences.swing_tracked`): the kernel's rows are
+    the Python task's at every tick of a step (the C++ task once read the contact flags only)."""
+    controller, robot = controller_for("bolt")
+    model = controller.robot
+    model.update(robot.q_standing, np.zeros(robot.model.nv))
+    stepping = BipedStepping(model, robot.q_standing)
+    kernel = kernel_for(controller)
+    kernel.set_gains("swing_feet", 100.0, 20.0, 1.0)
+    controller.set_gains("swing_feet", 100.0, 20.0, 1.0)
+    kernel.update(robot.q_standing, np.zeros(robot.model.nv))
+    task = controller.tasks["swing_feet"]
+    tracked_in_contact = 0
+    for tick in range(300):
+        stepping.update(1e-3 * tick, model, np.zeros(3), np.ones(2, dtype=bool))
+        refs = stepping.references
+        tracked_in_contact += bool(np.any(refs.swing_tracked & refs.contact_active))
+        send_references(kernel, refs)
+        A, b, _ = task.rows(model, refs)
+        native_A, native_b = kernel.rows("swing_feet")
+        what = f"tick {tick} ({stepping.phase.value})"
+        assert native_A.shape == A.shape, what
+        np.testing.assert_allclose(native_A, A, rtol=0, atol=1e-12, err_msg=what)
+        np.testing.assert_allclose(native_b, b, rtol=0, atol=1e-9, err_msg=what)
+    assert tracked_in_contact >= 20  # both transitions, 20 ms each, were among the ticks

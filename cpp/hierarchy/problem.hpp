@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <chrono>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace lab {
@@ -17,6 +18,20 @@ struct Level {
   Eigen::MatrixXd C;
   Eigen::VectorXd d;
   double weight = 1.0;
+  // (name, number of rows) of each constraint in C, in order: for wbosc, which reports rather
+  // than enforces inequalities.
+  std::vector<std::pair<std::string, Eigen::Index>> constraint_rows;
+};
+
+/// The model terms behind the Newton–Euler rows, for wbosc (problem.py DynamicsTerms):
+/// M q̈ + h − J_cᵀ F = Sᵀ τ, the drift J̇_c v and the weight w ∈ [0, 1] of each row of F whose
+/// contact is being loaded or unloaded (NaN: not changing; empty: none). Filled for wbosc only.
+struct DynamicsTerms {
+  Eigen::MatrixXd M;
+  Eigen::VectorXd h;
+  Eigen::MatrixXd Jc;
+  Eigen::VectorXd drift;
+  Eigen::VectorXd transition;
 };
 
 /// Find x = [qdd, F] with dynamics_A x = dynamics_b exactly (the Newton-Euler rows,
@@ -27,6 +42,7 @@ struct HierarchyProblem {
   Eigen::VectorXd dynamics_b;
   std::vector<Level> levels;
   Eigen::Array<bool, Eigen::Dynamic, 1> support;
+  DynamicsTerms terms;
 };
 
 /// How one level was solved.
@@ -61,6 +77,9 @@ struct HierarchySolution {
   std::vector<double> residuals;      // ||A x - b|| of each level at the returned x
   std::vector<double> level_seconds;  // time spent on each level, over all passes
   int qp_solves = 0;
+  // wbosc: each constraint of the stack violated at x, one line ("level 0 friction: exceeded
+  // by 2.5"); the closed form reports inequalities rather than enforcing them.
+  std::vector<std::string> violations;
 };
 
 /// Seconds spent on each level, accumulated over the passes of a method (solution.py LevelClock).
@@ -94,5 +113,10 @@ void solve_cascade(const HierarchyProblem& problem, HierarchySolution& out);
 HierarchySolution solve_weighted(const HierarchyProblem& problem);
 /// The same into `out`, whose storage is reused.
 void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out);
+
+/// Whole-Body Operational Space Control, closed form (Kim 2016 App. A); reads problem.terms.
+HierarchySolution solve_wbosc(const HierarchyProblem& problem);
+/// The same into `out`, whose storage is reused.
+void solve_wbosc(const HierarchyProblem& problem, HierarchySolution& out);
 
 }  // namespace lab

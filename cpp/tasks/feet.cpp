@@ -13,6 +13,16 @@ Eigen::Array<bool, Eigen::Dynamic, 1> swinging(
 
 bool has_swing(const References& refs) { return refs.foot_position.size() > 0; }
 
+void tracked(const RobotModel& robot, const References& refs,
+             Eigen::Array<bool, Eigen::Dynamic, 1>& out) {
+  const auto& active = refs.contact_active;
+  const bool named = refs.swing_tracked.size() == active.size();
+  out.resize(active.size());
+  for (Eigen::Index i = 0; i < active.size(); ++i)
+    out[i] = robot.contacts[i].kind == ContactKind::point &&
+             (named ? refs.swing_tracked[i] : !active[i]);
+}
+
 namespace {
 
 /// Each point foot out of support tracks its swing trajectory, world axes:
@@ -22,7 +32,7 @@ class SwingFeetTask : public Task {
   void compute(const RobotModel& robot, const References& refs) override {
     Eigen::Index n = 0;
     if (has_swing(refs)) {
-      feet_ = swinging(robot, refs.contact_active);
+      tracked(robot, refs, feet_);
       contact_rows(robot, feet_, index_);
       n = static_cast<Eigen::Index>(index_.size());
     }

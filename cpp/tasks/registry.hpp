@@ -1,6 +1,9 @@
 // The task registry (lab/controller/tasks/__init__.py TASK_TYPES): every task a stack can name.
 #pragma once
 
+#include <string>
+#include <utility>
+
 #include "tasks/base.hpp"
 
 namespace lab {
@@ -23,10 +26,19 @@ TaskRegistry make_tasks();
 /// size or a non-finite entry and keeps the last one.
 void set_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& gain);
 
-/// The internal-force task's command F_int,cmd and error (one entry per pair of point feet in
-/// support, the error possibly empty) from the Python task's feedback (tasks/internal_force.cpp);
-/// throws std::invalid_argument for a non-finite entry or mismatched sizes.
-void set_internal_force(Task& internal_force, const Eigen::Ref<const Eigen::VectorXd>& command,
-                        const Eigen::Ref<const Eigen::VectorXd>& error);
+/// The internal-force task's reference F_int,ref (N) and where F_int,act comes from (`contacts`
+/// or `torques`, tasks/internal_force.cpp); throws std::invalid_argument for a non-finite
+/// reference or another source.
+void set_internal_force(Task& internal_force, double reference, const std::string& source);
+/// What was sensed over the last step for the feedback of Kim eq. 12: the terrain's force on
+/// each foot ((n_contacts, 3) flat, world) and the joint torques applied (sizes checked by the
+/// Kernel).
+void set_internal_force_sensing(Task& internal_force,
+                                const Eigen::Ref<const Eigen::VectorXd>& foot_forces,
+                                const Eigen::Ref<const Eigen::VectorXd>& applied_torques);
+/// F_int,act and F_int,cmd per pair at the task's last rows (empty with fewer than two point
+/// feet in support; F_int,act also before the first sensed step).
+std::pair<const Eigen::VectorXd&, const Eigen::VectorXd&> internal_force_feedback(
+    const Task& internal_force);
 
 }  // namespace lab

@@ -2,9 +2,9 @@
 
 `lab._kernel` (C++, cpp/) computes the same tick as `WholeBodyController.solve` in one call:
 pinocchio's model update on the same model (passed through pinocchio's own serialization), the
-rows of every task and constraint, the `cascade` or `weighted` method, the torques. This class
-keeps the Python controller as the source of truth for the stack, the gains, the limits and the
-references, mirrors them into the kernel, and picks per tick which kernel runs:
+rows of every task and constraint, the `cascade`, `weighted` or `wbosc` method, the torques.
+This class keeps the Python controller as the source of truth for the stack, the gains, the
+limits and the references, mirrors them into the kernel, and picks per tick which kernel runs:
 `config.kernel == "native"` runs the native one when it is built and has every name of the stack
 and the method; otherwise the Python one runs and `kernel_note` says why (never a silent mix).
 """
@@ -30,11 +30,7 @@ else:
     NOT_BUILT = "" if _kernel.has_solvers else "the native kernel was built without its solvers"
 
 KERNELS = ("native", "python")
-NATIVE_METHODS = ("cascade", "weighted")
-_EMPTY = np.zeros(0)
-_EMPTY.flags.writeable = False
-_NO_FLAGS = np.zeros(0, dtype=bool)
-_NO_FLAGS.flags.writeable = False
+NATIVE_METHODS = ("cascade", "weighted", "wbosc")
 
 
 def native_available() -> bool:
@@ -60,34 +56,9 @@ def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
 
 
 def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
-    """Copy the fields of `refs` (References, WalkReferences or SoleReferences) into the
-    kernel."""
-    kernel.set_sole_references(
-        getattr(refs, "sole_position", _EMPTY),
-        getattr(refs, "sole_rotation", _EMPTY),
-        getattr(refs, "leg_swinging", _NO_FLAGS),
-        getattr(refs, "leg_position", _EMPTY),
-        getattr(refs, "leg_velocity", _EMPTY),
-        getattr(refs, "leg_acceleration", _EMPTY),
-    )
-    kernel.set_references(
-        refs.com,
-        refs.posture,
-        refs.base_height,
-        refs.base_rotation,
-        refs.com_velocity,
-        refs.base_angular_velocity,
-        refs.contact_active,
-        refs.normal_force_max,
-        refs.base_linear_velocity,
-        getattr(refs, "foot_position", _EMPTY),
-        getattr(refs, "foot_velocity", _EMPTY),
-        getattr(refs, "foot_acceleration", _EMPTY),
-        getattr(refs, "surface_normal", _EMPTY),
-        getattr(refs, "force_weight", _EMPTY),
-        getattr(refs, "posture_velocity", _EMPTY),
-        getattr(refs, "posture_weight", _EMPTY),
-    )
+    """Copy the fields of `refs` (References, WalkReferences or SoleReferences) into the kernel:
+    every field `_kernel.reference_fields()` lists, the ones its class lacks as empty."""
+    kernel.set_references(refs)
 
 
 class NativeOutput(ControlOutput):
@@ -105,7 +76,12 @@ class NativeOutput(ControlOutput):
         if self._solution is None:
             o = self._outcome
             self._solution = HierarchySolution(
-                self._x, o.levels, o.residuals, o.qp_solves, o.level_seconds
+                self._x,
+                o.levels,
+                o.residuals,
+                o.qp_solves,
+                o.level_seconds,
+                violations=o.violations,
             )
         return self._solution
 
@@ -140,6 +116,7 @@ class NativeController(WholeBodyController):
         self._has_internal_force = False  # and the internal-force task
         self._momentum_pd: tuple | None = None  # (kp, kd) of the PD K_h the kernel holds
         self._momentum_lqr: np.ndarray | None = None  # the scheduled K_h the kernel holds
+        self._internal_force_setting: tuple | None = None  # (reference, source) in the kernel
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
@@ -245,23 +222,25 @@ class NativeController(WholeBodyController):
         if self._native_method != self.config.method:  # a Python str: no crossing to compare
             native.set_method(self.config.method)
             self._native_method = self.config.method
-        if self._has_momentum or self._has_internal_force:
-            if q is not None:  # their Python parts read the model at this tick's state first
+        if self._has_momentum:
+            if q is not None:  # its gain schedule reads the model at this tick's state first
                 native.update(q, v)
                 self.robot.filled_elsewhere()
                 q = v = None
-            if self._has_momentum:
-                self._sync_momentum_gain()
-            if self._has_internal_force:  # its sensed feedback (Kim eq. 12), new every tick
-                _, command, error = self.tasks["internal_force"].feedback(
-                    self.robot, self.references
-                )
-                native.set_internal_force(command, error)
+            self._sync_momentum_gain()
+        if self._has_internal_force:
+            self._sync_internal_force()
         outcome = native.tick_into(self.references, self._tau, self._x, q, v)
         if q is not None:
             self.robot.filled_elsewhere()
         self.kernel_ran = "native"
         self._outcome = outcome
+        if self._has_internal_force:  # what telemetry reads of Kim eq. 12's feedback
+            task = self.tasks["internal_force"]
+            task.sensed, task.command = (
+                outcome.internal_force_sensed,
+                outcome.internal_force_command,
+            )
         if not outcome.ok:
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
         return NativeOutput(self._tau.copy(), self._x.copy(), self.robot.nv, outcome)
@@ -288,6 +267,23 @@ class NativeController(WholeBodyController):
         gain = task.gain(self.robot, refs)
         self._native.set_momentum_gain(gain)
         self._momentum_pd, self._momentum_lqr = None, gain
+
+    def _sync_internal_force(self) -> None:
+        """Hand the kernel the internal force's reference and sensed source when they change
+        (the session's `internal_force` command sets them on the Python task); the feedback of
+        Kim eq. 12 runs in the kernel on what `set_sensing` handed over."""
+        task = self.tasks["internal_force"]
+        setting = (task.reference, task.source)
+        if setting != self._internal_force_setting:
+            self._native.set_internal_force(*setting)
+            self._internal_force_setting = setting
+
+    def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
+        """As WholeBodyController.set_sensing, mirrored into the kernel."""
+        super().set_sensing(foot_forces, applied_torques)
+        if self._native is not None:
+            task = self.tasks["internal_force"]
+            self._native.set_sensing(task.measured_forces, task.applied_torques)
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario

@@ -1,0 +1,79 @@
+// Contact-consistent dynamics (lab/controller/contact_dynamics.py, Kim 2016 App. A, eqs. 27–32).
+#include "contact_dynamics.hpp"
+
+#include <algorithm>
+
+#include "model.hpp"  // BASE_DOF
+
+namespace lab {
+
+// psd_pinv / _psd_pinv_and_null_space: one eigendecomposition of the symmetric part.
+void PsdPinv::compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double scale) {
+  const Eigen::Index n = matrix.rows();
+  if (n == 0) {
+    inverse_.resize(0, 0);
+    rank_ = 0;
+    return;
+  }
+  symmetric_ = 0.5 * (matrix + matrix.transpose());
+  eigen_.compute(symmetric_);
+  const auto& values = eigen_.eigenvalues();  // ascending, as numpy's eigh
+  const double threshold =
+      kContactRankTolerance * std::max(scale < 0.0 ? values[n - 1] : scale, 1e-300);
+  Eigen::Index zero = 0;
+  while (zero < n && !(values[zero] > threshold)) ++zero;
+  rank_ = n - zero;
+  const auto kept = eigen_.eigenvectors().rightCols(rank_);
+  scaled_ = kept * values.tail(rank_).cwiseInverse().asDiagonal();
+  inverse_.noalias() = scaled_ * kept.transpose();
+}
+
+Eigen::Block<const Eigen::MatrixXd, Eigen::Dynamic, Eigen::Dynamic, true> PsdPinv::null_space()
+    const {
+  const auto& vectors = eigen_.eigenvectors();
+  return vectors.leftCols(inverse_.rows() - rank_);
+}
+
+// contact_dynamics.
+void ContactDynamics::compute(const Eigen::Ref<const Eigen::MatrixXd>& M,
+                              const Eigen::Ref<const Eigen::VectorXd>& h,
+                              const Eigen::Ref<const Eigen::MatrixXd>& Js,
+                              const Eigen::Ref<const Eigen::VectorXd>& drift) {
+  const Eigen::Index nv = M.rows(), na = nv - BASE_DOF, ns = Js.rows();
+  if (identity_.rows() != nv) identity_.setIdentity(nv, nv);
+  llt_.compute(M);
+  inertia_inverse = llt_.solve(identity_);  // A⁻¹ (M is symmetric positive definite)
+  const Eigen::MatrixXd& Minv = inertia_inverse;
+  Ns_ = identity_;
+  if (ns) {
+    Minv_JsT_.noalias() = Minv * Js.transpose();
+    scratch_.noalias() = Js * Minv_JsT_;
+    lambda_s_.compute(scratch_);                        // Λ_s = (J_s A⁻¹ J_sᵀ)⁻¹
+    Jbar_.noalias() = Minv_JsT_ * lambda_s_.inverse();  // J̄_s, eq. 31
+    Ns_.noalias() -= Jbar_ * Js;                        // eq. 32
+    Lambda_drift_.noalias() = lambda_s_.inverse() * drift;
+  } else {
+    Jbar_.resize(nv, 0);
+    Lambda_drift_.resize(0);
+  }
+  qdd_of_torque.noalias() = Minv * Ns_.bottomRows(na).transpose();  // A⁻¹ N_sᵀ Uᵀ (eq. 30)
+  force_free = h;  // scratch for N_sᵀ h + J_sᵀ Λ_s J̇_s v
+  qdd_free.noalias() = Ns_.transpose() * force_free;
+  if (ns) qdd_free.noalias() += Js.transpose() * Lambda_drift_;
+  force_free = qdd_free;
+  qdd_free.noalias() = -Minv * force_free;
+  phi.noalias() = Ns_.bottomRows(na) * qdd_of_torque;  // Φ*
+  phi_pinv_.compute(phi);
+  // λ = J̄_sᵀ (Uᵀτ − h) + Λ_s J̇_s v (eq. 29) and F = −λ.
+  force_of_torque = -Jbar_.bottomRows(na).transpose();
+  force_free.noalias() = Jbar_.transpose() * h;
+  force_free -= Lambda_drift_;
+}
+
+void ContactDynamics::contact_consistent_jacobian(const Eigen::Ref<const Eigen::MatrixXd>& J,
+                                                  Eigen::MatrixXd& out) const {
+  JB_.noalias() = J * qdd_of_torque;
+  out.noalias() = JB_ * phi_pinv();
+}
+
+}  // namespace lab
