@@ -12,6 +12,7 @@ import bisect
 import json
 import math
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -21,6 +22,7 @@ import zenoh
 
 from lab.protocol import LabIdError, default_lab_id
 from lab.server.recording import Message, read_recording
+from lab.server.serve import stop_process
 from lab.server.transport import Request, ServerTransport, server_config
 
 SPEED_MAX = 100.0  # times real time
@@ -175,9 +177,12 @@ class ReplayServer:
             publish[message.kind](data)
 
 
-def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = None) -> int:
+def replay_serve_main(
+    path: str, port: int, speed: float, lab_id: str | None = None, ui_port: int | None = None
+) -> int:
     """Serve `path` on 127.0.0.1:`port` as lab `lab_id` (default `<host>-replay`) until SIGINT
-    or SIGTERM; 2 for a recording, a port or a lab id it cannot use."""
+    or SIGTERM, with the browser UI on `ui_port` as `lab serve` starts it (None: headless); 2
+    for a recording, a port or a lab id it cannot use."""
     if not 0.0 < speed <= SPEED_MAX:
         print(f"lab replay: --speed must be in (0, {SPEED_MAX:g}]", file=sys.stderr)
         return 2
@@ -189,17 +194,26 @@ def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = N
     except LabIdError as error:
         print(f"lab replay: --lab-id: {error}", file=sys.stderr)
         return 2
+    ui = None
     try:
         server = ReplayServer(path, transport, speed)
         stop = threading.Event()
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: stop.set())
         duration = server.player.duration
-        print(f"lab replay: {path} ({duration:.1f} s) on Zenoh tcp/127.0.0.1:{port}", flush=True)
+        endpoint = f"tcp/127.0.0.1:{port}"
+        if ui_port is not None:  # the page, as `lab serve` starts it
+            ui = subprocess.Popen(
+                [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--exit-with-parent",
+                 "--port", str(ui_port), "--lab-id", transport.keys.lab_id]
+            )  # fmt: skip
+        print(f"lab replay: {path} ({duration:.1f} s) on Zenoh {endpoint}", flush=True)
         server.run(stop)
     except (OSError, ValueError, KeyError) as error:
         print(f"lab replay: {error}", file=sys.stderr)
         return 2
     finally:
         transport.close()
+        if ui is not None:
+            stop_process(ui)
     return 0
