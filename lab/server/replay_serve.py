@@ -27,6 +27,10 @@ from lab.server.transport import Request, ServerTransport, server_config
 
 SPEED_MAX = 100.0  # times real time
 STEP_S = 0.005  # wall time between two publishing steps
+# s of wall time: a paused or ended playback publishes its newest telemetry and state again this
+# often, so that a page opened later (or a UI process started after a short recording ended)
+# shows where the playback is instead of "Waiting for telemetry".
+HOLD_REFRESH_S = 0.5
 PLAYED_KINDS = ("telemetry", "state", "events")
 VERBS = ("info", "pause", "resume", "speed", "seek")
 
@@ -71,6 +75,10 @@ class Player:
         at or before it, to show at once."""
         self.position = min(max(t, 0.0), self.duration)
         self._next = bisect.bisect_right(self._times, self.position)
+        return self.latest()
+
+    def latest(self) -> list[Message]:
+        """The newest telemetry and drawing state at or before the position, oldest first."""
         latest: dict[str, Message] = {}
         for message in reversed(self.messages[: self._next]):
             if message.kind in ("telemetry", "state") and message.kind not in latest:
@@ -139,7 +147,7 @@ class ReplayServer:
 
     def run(self, stop: threading.Event) -> None:
         """Answer commands and publish what is due every STEP_S until `stop` is set."""
-        last = time.monotonic()
+        last = held = time.monotonic()
         while not stop.wait(STEP_S):
             while (request := self.transport.receive()) is not None:
                 self._answer(request)
@@ -147,6 +155,11 @@ class ReplayServer:
             was_ended = self.player.ended
             self._publish(self.player.advance(now - last))
             last = now
+            if not (self.player.paused or self.player.ended):
+                held = now
+            elif now - held >= HOLD_REFRESH_S:
+                held = now
+                self._publish(self.player.latest())
             if self.player.ended and not was_ended:
                 self.transport.publish_event(
                     {
