@@ -291,9 +291,24 @@ class Plots:
         return shown_csv(self.shown())
 
     def _export_csv(self, event: viser.GuiEvent) -> None:
-        if event.client is not None:
-            event.client.send_file_download("lab-plots.csv", self.csv().encode())
+        text = self.csv()
+        rows = max(0, text.count("\n") - 1)
+        self._deliver(event, "lab-plots.csv", text.encode(), f"{rows} rows of what the charts show")
 
     def _export_png(self, event: viser.GuiEvent) -> None:
-        if event.client is not None:
-            event.client.send_file_download("lab-plots.png", shown_png(self.shown()))
+        drawn = sum(1 for shown in self.shown() if len(shown.data) and len(shown.data[0]))
+        self._deliver(event, "lab-plots.png", shown_png(self.shown()), f"{drawn} charts")
+
+    @staticmethod
+    def _deliver(event: viser.GuiEvent, name: str, content: bytes, what: str) -> None:
+        """Download `content` as `name` in the browser that asked, and say so there. (Without
+        `save_immediately` viser only offers a link in a notification: nothing arrived.)"""
+        if event.client is None:
+            return
+        event.client.send_file_download(name, content, save_immediately=True)
+        event.client.add_notification(
+            f"Exported {name}",
+            f"{what}, {len(content) / 1024:.0f} kB: saved by the browser",
+            auto_close_seconds=6.0,
+            with_close_button=True,
+        )
