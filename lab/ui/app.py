@@ -3,6 +3,11 @@
 It talks to the sim process only through Zenoh (`lab.ui.link`, `lab.protocol`); it reads robot
 descriptions (TOML, URDF visuals) and scene geometry, all plain data, and imports neither the
 controller, pinocchio nor MuJoCo (tests/test_ui_logic.py checks).
+
+Over 400 lines because the render loop, the browsers' control and the command path share the
+app's state (telemetry, info, velocity, ownership); what does not is kept apart: the status
+figures (`status.LiveStatus`), the event log and the server events' kinds (`event_log`), the
+plots, overlays, robot and terrain views, and each browser's panel.
 """
 
 import functools
@@ -10,7 +15,6 @@ import math
 import threading
 import time
 import traceback
-from collections import deque
 from collections.abc import Callable
 from concurrent import futures
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -36,13 +40,7 @@ from lab.ui.phase_portrait_plot import add_phase_portrait_plot
 from lab.ui.plots import Plots
 from lab.ui.recording import RecordingControls
 from lab.ui.robot_view import RobotView
-from lab.ui.status import (
-    LoopFigures,
-    RealtimeFactor,
-    started_warnings,
-    status_markdown,
-    warnings_of,
-)
+from lab.ui.status import LiveStatus, started_warnings
 from lab.ui.terrain_view import TerrainView
 
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
@@ -61,7 +59,6 @@ INFO_CHANGING_VERBS = frozenset(
 # The server zeroes the velocity command on these commands and events (docs/protocol.md).
 MOTION_ENDING_VERBS = frozenset(("reset", "robot", "scene"))
 MOTION_ENDING_EVENTS = frozenset(("reset", "session_rebuilt", "fall", "sim_diverged"))
-CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow tick is judged
 ERROR_RETRY_S = 1.0  # after an exception in the render loop, wait this long before the next frame
 # s (wall): a fall this soon after a hierarchy switch is explained in the log by what it changed
 SWITCH_BLAME_S = 10.0
@@ -150,9 +147,7 @@ class LabApp:
         self._velocity = VelocityCommand()
         self._drag: tuple[str, np.ndarray, np.ndarray] | None = None  # link, local point, pointer
         self._spring = Spring()
-        self._rtf = RealtimeFactor()
-        self._loop_figures = LoopFigures()
-        self._control_us: deque[float] = deque(maxlen=CONTROL_WINDOW)
+        self._live = LiveStatus()  # the status line's recent figures
         self.frames_drawn = 0
         self._draw_fps = 0.0
         self._loader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lab-ui-load")
@@ -291,7 +286,7 @@ class LabApp:
         if self.link.lab_id != self._watched_lab:
             self._watched_lab = self.link.lab_id
             self.telemetry, self._lost_at, self._seen_alive, self._switch = None, None, False, None
-            self._loop_figures = LoopFigures()
+            self._live = LiveStatus()
             self.log.add("info", f"showing lab {self._watched_lab}")
             self.plots.clear()
             self.refresh_info()
@@ -479,14 +474,13 @@ class LabApp:
         batch = self.link.telemetry()
         for tel in batch:
             self.plots.record(tel)
-            self._control_us.append(tel["qp"]["solve_us"])
+            self._live.add(tel)
         if not batch:
             return None
         tel = batch[-1]
         self.telemetry = tel
-        now = time.monotonic()
-        self._rtf.add(now, tel["t"], (self.link.lab_id, tel["robot"], tel["scene"]))
-        self._loop_figures.add(now, tel.get("loop", {}))
+        run = (self.link.lab_id, tel["robot"], tel["scene"])
+        self._live.add_newest(time.monotonic(), tel, run)
         return tel
 
     def _watch_link(self) -> None:
@@ -517,18 +511,7 @@ class LabApp:
             return "Waiting for telemetry from the lab server…"
         if self.robot_view is None:
             return f"**{self.telemetry['robot']}** could not be drawn: see the event log"
-        return status_markdown(
-            self.telemetry,
-            self._rtf.value(),
-            self._draw_fps,
-            self._typical_control_us(),
-            self._loop_figures.window(),
-            self._rtf.run_value(),
-        )
-
-    def _typical_control_us(self) -> float | None:
-        """The median controller time per tick over the last CONTROL_WINDOW messages."""
-        return float(np.median(self._control_us)) if self._control_us else None
+        return self._live.markdown(self.telemetry, self._draw_fps)
 
     def _follow_stack_and_gait(self, info: dict, tel: dict) -> None:
         """Someone else changed the stack or the gait: read `info` anew. A recording's `info`
@@ -565,9 +548,7 @@ class LabApp:
     def _log_status_changes(self, tel: dict) -> None:
         """A warning of the status line (slow ticks, fallbacks, a fall) into the log when it
         starts."""
-        now = warnings_of(
-            tel, self._typical_control_us(), self._rtf.value(), self._loop_figures.window()
-        )
+        now = self._live.warnings(tel)
         for kind, text in started_warnings(now, self._warnings):
             self.log.add("warning", f"t {tel['t']:.2f} s · {text}", kind=kind)
         self._warnings = set(now)

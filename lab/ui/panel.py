@@ -6,6 +6,10 @@ controls and a notice while the controlling one edits. Every edit goes through `
 which enforces ownership and reports rejected commands; the widgets then show what the server
 acknowledged (the host calls `show_info` with the fresh `info` reply). The panel knows its host
 only through `PanelHost` (the app implements it), never the app itself.
+
+Over 400 lines: the widgets of one browser and their callbacks; the folders with their own job
+live apart (`balance_controls`, `internal_force_controls`, `scene_setup`, `lab_picker`,
+`recording`), as do the pure rules (`joystick`, `stack_edit`, `guard_rails`, `numbers`).
 """
 
 from __future__ import annotations

@@ -9,6 +9,7 @@ ticks were. A figure beyond its target is marked (bold, with the target), never 
 """
 
 import math
+import statistics
 from collections import deque
 from dataclasses import dataclass
 
@@ -21,6 +22,7 @@ COLLAPSED_ON_TIME = 0.5  # fewer recent ticks on time than this: a warning, not 
 # The controller's share of the loop period: beyond it the rest of the tick (MuJoCo's step,
 # sensing, telemetry) no longer fits and ticks overrun ("control 972 µs (ok)" at 11 % on time).
 CONTROL_SHARE = 0.6
+CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow tick is judged
 
 
 def control_budget_us(tel: dict) -> float:
@@ -233,3 +235,37 @@ def _ratio(first: tuple[float, float], last: tuple[float, float]) -> float:
     """Sim time over wall time between two (wall s, sim s) samples."""
     (w0, t0), (w1, t1) = first, last
     return (t1 - t0) / (w1 - w0) if w1 > w0 else math.nan
+
+
+class LiveStatus:
+    """The status line's figures over the last seconds, fed every telemetry message: the
+    controller's typical time per tick (median of the last CONTROL_WINDOW), the real-time factor
+    and the loop's deadline figures."""
+
+    def __init__(self) -> None:
+        self.rtf = RealtimeFactor()
+        self.loop = LoopFigures()
+        self._control_us: deque[float] = deque(maxlen=CONTROL_WINDOW)
+
+    def add(self, tel: dict) -> None:
+        """One telemetry message (any, for the controller's time)."""
+        self._control_us.append(tel["qp"]["solve_us"])
+
+    def add_newest(self, wall: float, tel: dict, run: tuple) -> None:
+        """The newest message of a batch, received at `wall` (monotonic s), of run `run`."""
+        self.rtf.add(wall, tel["t"], run)
+        self.loop.add(wall, tel.get("loop", {}))
+
+    def control_us(self) -> float | None:
+        return statistics.median(self._control_us) if self._control_us else None
+
+    def warnings(self, tel: dict) -> dict:
+        """`warnings_of` with the recent figures."""
+        return warnings_of(tel, self.control_us(), self.rtf.value(), self.loop.window())
+
+    def markdown(self, tel: dict, fps: float) -> str:
+        """`status_markdown` with the recent figures."""
+        window = self.loop.window()
+        return status_markdown(
+            tel, self.rtf.value(), fps, self.control_us(), window, self.rtf.run_value()
+        )
