@@ -829,3 +829,41 @@ def test_lab_replay_serve_starts_the_page_with_floor_timeline_and_controls_greye
         context.close()
         replay.terminate()
         replay.wait()
+
+
+def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(browser, tmp_path) -> None:
+    """Picking Kim's split wedges offers the set-up they were made for; *Use it* installs WBOSC
+    with the internal force (0.51 m g, K_F 1) and shows its controls and chart, and Bolt holds
+    on the wedges, across a Reset too (it fell on every Reset)."""
+    serve = LabServe(tmp_path / "serve.log", "--robot", "bolt")
+    context = browser.new_context(viewport=VIEWPORT)
+    try:
+        with serve.client() as lab:
+            serve.wait_ui()
+            pg = context.new_page()
+            pg.set_default_timeout(PAGE_TIMEOUT_MS)
+            errors = console_errors(pg)
+            pg.goto(serve.url)
+            pg.get_by_text("You hold control").wait_for()
+            wait_drawn(pg, "bolt")
+            choose(pg, "Scene", "split_wedges")
+            pg.get_by_text("Scene split_wedges was made for this set-up").first.wait_for()
+            press(pg, "Use it")
+            mass = lab.command("info")["mass"]
+            held = lab.wait_telemetry(
+                lambda m: (
+                    m["hierarchy"]["method"] == "wbosc" and m["internal_force"]["reference"] > 0.0
+                ),
+                timeout=UI_ACTION_TIMEOUT_S,
+            )
+            assert held["internal_force"]["reference"] == pytest.approx(0.51 * mass * 9.81, 0.01)
+            pg.get_by_text("Internal force (Kim 2016)").first.wait_for()
+            pg.get_by_text("Internal force between the feet").first.wait_for()  # its chart
+            press(pg, "Reset")
+            lab.wait_telemetry(lambda m: m["t"] < 0.5, timeout=60.0, since_last_read=True)
+            after = lab.wait_telemetry(lambda m: m["t"] > 2.0 or m["fell"], timeout=120.0)
+            assert not after["fell"] and after["hierarchy"]["method"] == "wbosc", after["t"]
+            assert not errors, errors
+    finally:
+        context.close()
+        serve.stop()
