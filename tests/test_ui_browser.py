@@ -832,9 +832,10 @@ def test_lab_replay_serve_starts_the_page_with_floor_timeline_and_controls_greye
 
 
 def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(browser, tmp_path) -> None:
-    """Picking Kim's split wedges offers the set-up they were made for; *Use it* installs WBOSC
-    with the internal force (0.51 m g, K_F 1) and shows its controls and chart, and Bolt holds
-    on the wedges, across a Reset too (it fell on every Reset)."""
+    """Reset after stepping stands, on the default stack. Picking Kim's split wedges offers the
+    set-up they were made for; *Use it* installs WBOSC with the internal force (0.51 m g, K_F 1)
+    and shows its controls and chart, and Bolt holds on the wedges, across a Reset too (it fell
+    on every Reset)."""
     serve = LabServe(tmp_path / "serve.log", "--robot", "bolt")
     context = browser.new_context(viewport=VIEWPORT)
     try:
@@ -846,6 +847,14 @@ def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(browser, tm
             pg.goto(serve.url)
             pg.get_by_text("You hold control").wait_for()
             wait_drawn(pg, "bolt")
+            default = lab.command("info")["stack"]
+            choose(pg, "Gait", "biped_step")  # brings kim_stepping, which has no CoM task
+            lab.wait_telemetry(lambda m: m["gait"] == "biped_step", timeout=UI_ACTION_TIMEOUT_S)
+            press(pg, "Reset")  # back to standing on a stack that stands: Bolt fell at 1.4 s
+            stand = lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=60.0)
+            assert stand["stack"] == default, stand["stack"]
+            stood = lab.wait_telemetry(lambda m: m["t"] > 2.5 or m["fell"], timeout=120.0)
+            assert not stood["fell"]
             choose(pg, "Scene", "split_wedges")
             pg.get_by_text("Scene split_wedges was made for this set-up").first.wait_for()
             press(pg, "Use it")
