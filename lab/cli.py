@@ -61,11 +61,18 @@ def _replay(argv: list[str]) -> int:
     parser.add_argument(
         "--lab-id", help="with --serve: the lab id its keys are scoped by (default: <host>-replay)"
     )
+    parser.add_argument(
+        "--ui-port", type=int, default=8080, help="with --serve: HTTP port of the browser UI"
+    )
+    parser.add_argument(
+        "--headless", action="store_true", help="with --serve: do not start the browser UI"
+    )
     args = parser.parse_args(argv)
     if args.serve:
         from lab.server.replay_serve import replay_serve_main
 
-        return replay_serve_main(args.recording, args.port, args.speed, args.lab_id)
+        ui_port = None if args.headless else args.ui_port
+        return replay_serve_main(args.recording, args.port, args.speed, args.lab_id, ui_port)
     try:
         check = replay(args.recording)
     except (OSError, ValueError, KeyError) as error:

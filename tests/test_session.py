@@ -240,6 +240,7 @@ def test_a_fall_is_detected_and_turns_the_torques_off_until_reset() -> None:
     checks outcomes: the fall, the torques, the clock, the joints' speed, no divergence."""
     session = Session(SessionConfig(robot="solo12"))
     session.handle("push", {"body": "base_link", "force": [0.0, 80.0, 0.0], "duration": 2.0})
+    assert session.handle("velocity", {"vx": 0.2, "vy": 0.0, "yaw_rate": 0.1})["ok"]
     times = []
     for _ in range(2000):
         session.tick()
@@ -255,6 +256,8 @@ def test_a_fall_is_detected_and_turns_the_torques_off_until_reset() -> None:
     assert np.all(session.tau == 0.0)
     telemetry = session.telemetry()
     assert telemetry["pushes"] == [] and not session.plant.mj_data.xfrc_applied.any()
+    # the velocity command ended too: a robot reset to standing must not walk off
+    assert telemetry["command"] == {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
     # Telemetry follows the fallen robot (it read the state of the fall's tick before): the
     # model holds the state before the last step: one step apart at < 1.5 m/s (below).
     q, v = session.plant.state()
@@ -475,3 +478,24 @@ def test_a_session_dropped_frees_its_native_parts_at_once() -> None:
         assert [ref() for ref in alive] == [None] * len(alive)
     finally:
         gc.enable()
+
+
+def test_reset_after_stepping_stands_on_the_robots_default_stack() -> None:
+    """Bolt under biped_step runs kim_stepping (no CoM task): Reset returns to standing with
+    the default stack, gains and method, and Bolt stands (it fell 1.4 s after every Reset).
+    A stack the user chose stays."""
+    session = Session(SessionConfig(robot="bolt"))
+    default = session.controller.config.stack.as_lists()
+    assert session.handle("gait", {"name": "biped_step"})["ok"]
+    assert session.controller.config.method == "wbosc"
+    run(session, 0.3)
+    reply = session.handle("reset")
+    assert reply["ok"] and reply["stack"] == default
+    assert session.controller.config.method == "cascade" and session.behaviour.name == "stand"
+    assert "default stack" in session.pop_events()[-1]["message"]
+    run(session, 3.0)
+    assert not session.fell
+    chosen = [["friction", "torque_limits"], ["contact"], ["com", "base_orientation", "posture"]]
+    assert session.handle("stack", {"levels": chosen})["ok"]
+    assert session.handle("reset") == {"ok": True}
+    assert session.controller.config.stack.as_lists() == chosen

@@ -6,7 +6,6 @@ numbers, then a switch to every robot and every scene the dropdowns offer, ANYma
 
 import math
 import re
-import socket
 import subprocess
 import sys
 import time
@@ -15,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from browser import CHROMIUM, CHROMIUM_ARGS, LabServe
+from browser import CHROMIUM, CHROMIUM_ARGS, LabServe, serves_http
 from ports import free_port
 
 from lab.client import LabClient
@@ -23,6 +22,7 @@ from lab.description import ROBOT_NAMES, load_description
 from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.server.recording import read_recording
 from lab.stack_presets import load_stack_preset
+from lab.ui.panel import default_push_newtons
 
 playwright_api = pytest.importorskip("playwright.sync_api")
 
@@ -70,6 +70,7 @@ def page(browser, serve: LabServe, lab: LabClient):
     pg.set_default_timeout(PAGE_TIMEOUT_MS)
     frames: list[float] = []
     pg.on("websocket", lambda ws: ws.on("framereceived", lambda _: frames.append(time.monotonic())))
+    pg.console_errors = console_errors(pg)
     serve.wait_ui()
     pg.goto(serve.url)
     pg.get_by_text("You hold control").wait_for()
@@ -99,6 +100,14 @@ def wait_dark_pixels(pg, predicate, timeout: float = 30.0) -> int:
         pg.wait_for_timeout(500)
         n = dark_pixels(pg)
     return n
+
+
+def console_errors(pg) -> list[str]:
+    """The page's console errors and uncaught exceptions, collected from now on."""
+    errors: list[str] = []
+    pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    pg.on("pageerror", lambda e: errors.append(f"uncaught: {e}"))
+    return errors
 
 
 def press(pg, button: str) -> None:
@@ -173,6 +182,8 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
 def test_push_button_moves_the_base_in_the_pushed_direction(
     page, lab: LabClient, serve: LabServe
 ) -> None:
+    type_number(slider_box(page, "Magnitude [N]"), "150")  # twice ANYmal's default
+    type_number(slider_box(page, "Duration [ms]"), "200")
     tel = lab.wait_telemetry(lambda m: not m["fell"], timeout=5.0)
     yaw_ok = abs(tel["base"]["quaternion"][2]) < 0.1  # heading ~ world x: "left" is world +y
     assert yaw_ok, tel["base"]["quaternion"]
@@ -299,16 +310,20 @@ def test_trot_from_the_gait_dropdown_walks_forward(page, lab: LabClient) -> None
     tel = lab.wait_telemetry(lambda m: m["gait"] == "trot", timeout=UI_ACTION_TIMEOUT_S)
     assert "swing_feet" in {name for level in tel["stack"] for name in level}  # walking stack
     page.get_by_text("swing_feet").first.wait_for()  # the stack editor shows it
-    page.evaluate("document.activeElement && document.activeElement.blur()")
+    # The dropdown just used keeps the focus (a searchable box): the hotkeys work all the same.
+    assert page.evaluate("document.activeElement.tagName") == "INPUT"
     page.keyboard.press("i")  # velocity hotkeys: two taps, 0.3 m/s forward
     page.keyboard.press("i")
     start = lab.wait_telemetry(lambda m: m["command"]["vx"] > 0.25, timeout=UI_ACTION_TIMEOUT_S)
     walked = lab.wait_telemetry(heading_speed(1.0, start), timeout=60.0)
     assert walked["gait"] == "trot" and not walked["fell"]
-    page.keyboard.press("x")
-    press(page, "Reset")
+    press(page, "Reset")  # no X first: Reset ends the walk, and the page stops resending it
     # Only a reset turns trot into stand ("t < 1" could pass unseen by a starved test process).
-    lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=UI_ACTION_TIMEOUT_S)
+    reset = lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=UI_ACTION_TIMEOUT_S)
+    assert reset["command"] == {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
+    time.sleep(1.5)  # the page resent a non-zero command every 0.2 s, so it never ended
+    assert lab.latest_telemetry()["command"]["vx"] == 0.0
+    page.get_by_text("vx +0.00 m/s").first.wait_for()
 
 
 def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
@@ -481,6 +496,50 @@ def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pu
     lab.command("reset")
 
 
+def test_the_event_log_keeps_pushes_and_refusals_and_shows_one_kind(page) -> None:
+    """The pushes and refused numbers of the tests above are all kept, each kind on its own,
+    and the loop's overruns (if any) take one line, not one per report."""
+    expect = playwright_api.expect
+    choose(page, "Show", "push")
+    shown = page.get_by_text("Events (push), newest first").first.locator("xpath=..")
+    expect(shown).to_contain_text("pushed forward: 500 N for 300 ms", timeout=PAGE_TIMEOUT_MS)
+    assert "below the limit" not in shown.inner_text()
+    choose(page, "Show", "refusal")
+    shown = page.get_by_text("Events (refusal), newest first").first.locator("xpath=..")
+    expect(shown).to_contain_text("kp = -5 is below the limit 0", timeout=PAGE_TIMEOUT_MS)
+    assert "pushed forward" not in shown.inner_text()
+    choose(page, "Show", "all")
+    text = event_log(page)
+    assert "pushed forward: 500 N" in text, text
+    assert "· overrun:" not in text and text.count("⚠ overrun:") <= 1, text  # one line at most
+
+
+def test_export_csv_and_png_deliver_what_the_charts_show(page, lab: LabClient) -> None:
+    """Both buttons download a file (they offered only a link in a notification: nothing
+    arrived) and the page says what was exported."""
+    import io
+
+    from PIL import Image
+
+    with page.expect_download(timeout=PAGE_TIMEOUT_MS) as csv:
+        press(page, "Export CSV")
+    assert csv.value.suggested_filename == "lab-plots.csv"
+    lines = Path(csv.value.path()).read_text().splitlines()
+    contacts = lab.command("info")["contacts"]
+    assert (
+        lines[0].startswith('"t [s]",') and f'"Contact normal force [N]: {contacts[0]}"' in lines[0]
+    )
+    times = [float(line.split(",", 1)[0]) for line in lines[1:]]
+    assert len(times) > 50 and times == sorted(times), lines[:3]  # a window at ~100 Hz
+    page.get_by_text("Exported lab-plots.csv").first.wait_for()
+    with page.expect_download(timeout=PAGE_TIMEOUT_MS) as png:
+        press(page, "Export PNG")
+    assert png.value.suggested_filename == "lab-plots.png"
+    figure = Image.open(io.BytesIO(Path(png.value.path()).read_bytes()))
+    assert figure.format == "PNG" and figure.height > 5 * figure.width / 7  # a panel per chart
+    page.get_by_text("Exported lab-plots.png").first.wait_for()
+
+
 def test_the_record_button_records_the_live_session_to_mcap(page, lab, serve) -> None:
     page.get_by_text("Recording", exact=True).first.click()  # open the folder
     press(page, "Record")
@@ -495,7 +554,7 @@ def test_the_record_button_records_the_live_session_to_mcap(page, lab, serve) ->
 
 def ui_alive(page, serve: LabServe) -> None:
     """The UI process serves HTTP, streams to the page, and logged no error of its own."""
-    socket.create_connection(("127.0.0.1", serve.ui_port), timeout=5.0).close()
+    assert serves_http(serve.ui_port)
     n0 = len(page.ws_frames)
     page.wait_for_timeout(1500)
     assert len(page.ws_frames) > n0, "the page gets no more updates"
@@ -534,9 +593,13 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
     wait_drawn(page, robot)
     if robot == "bolt":  # the page says how Bolt stands and how to make it step
         page.get_by_text("Bolt stands on its two point feet").first.wait_for()
+    box = slider_box(page, "Magnitude [N]")
+    if dropdown == "Robot":  # the push offered is a share of this robot's weight
+        wanted = str(int(default_push_newtons(lab.command("info")["mass"])))
+        playwright_api.expect(box).to_have_value(wanted, timeout=PAGE_TIMEOUT_MS)
     pushes.seen.clear()
     press(page, "forward")
-    pushes.wait(100.0)
+    pushes.wait(float(box.input_value()))
     ui_alive(page, serve)
 
 
@@ -555,13 +618,21 @@ def test_every_robot_and_scene_switches_draws_takes_a_push_and_the_ui_lives(
     assert (info["robots"], info["scenes"]) == (list(ROBOT_NAMES), list(SCENES))
     robots, scenes = offered(page, "Robot"), offered(page, "Scene")
     assert (robots, scenes) == (list(ROBOT_NAMES), list(SCENES))
-    type_number(slider_box(page, "Magnitude [N]"), "100")  # the box keeps it across switches
     walk = [("Robot", r, r) for r in robots if r != "anymal"] + [("Robot", "anymal", "anymal")]
     walk += [("Scene", s, "anymal") for s in scenes if s != "flat" and for_anymal(s)]
     walk += [("Scene", "flat", "anymal")]
     for dropdown, value, robot in walk:
         with subtests.test(dropdown=dropdown, value=value):
             switch_draw_push(page, lab, serve, pushes, dropdown, value, robot)
+
+
+def test_the_shared_page_logged_no_console_error_and_no_traceback(page, serve) -> None:
+    """Everything the page did above, robot and scene switches included: no error in the
+    browser's console ("Tried to update non-existent component" was), no traceback in the
+    output of `lab serve` (sim and UI processes; "deque mutated during iteration" was)."""
+    assert not page.console_errors, page.console_errors[:5]
+    output = serve.log.read_text(errors="replace")
+    assert "Traceback" not in output and "UI error" not in event_log(page), output[-4000:]
 
 
 def test_a_page_whose_sim_process_dies_says_disconnected_and_recovers(browser, tmp_path) -> None:
@@ -583,7 +654,7 @@ def test_a_page_whose_sim_process_dies_says_disconnected_and_recovers(browser, t
         pg = context.new_page()
         pg.set_default_timeout(PAGE_TIMEOUT_MS)
         end = time.monotonic() + LOAD_TIMEOUT_MS / 1000
-        while time.monotonic() < end and not _serves(ui_port):
+        while time.monotonic() < end and not serves_http(ui_port):
             time.sleep(0.3)
         pg.goto(f"http://127.0.0.1:{ui_port}")
         running = pg.get_by_text("anymal on", exact=False).first
@@ -611,9 +682,197 @@ def test_a_page_whose_sim_process_dies_says_disconnected_and_recovers(browser, t
                 process.stop()
 
 
-def _serves(port: int) -> bool:
+# Per registered uPlot chart (viser's testpoint): its title, whether it shows, its x data and x
+# scale, where its first series' first finite sample is, and a sum of that series (it changes).
+READ_TIME_AXES = """() => Object.values(window.__viserTestpoints?.uplots ?? {}).map(e => {
+  const u = e.chart, xs = u.data[0], ys = u.data[1] ?? [];
+  const first = ys.findIndex(v => Number.isFinite(v));
+  return {title: u.root.querySelector('.u-title')?.textContent ?? '', n: xs.length,
+          visible: u.root.offsetParent !== null,
+          x0: xs[0] ?? null, x1: xs[xs.length - 1] ?? null,
+          first: first >= 0 ? xs[first] : null,
+          sum: ys.reduce((a, v) => Number.isFinite(v) ? a + v : a, 0),
+          min: u.scales.x?.min ?? null, max: u.scales.x?.max ?? null};
+})"""
+PLOT_WINDOW_S = 10.0  # the page's default window
+PLOT_LAG_S = 3.0  # s of sim time a drawn chart may trail the newest telemetry on a loaded machine
+
+
+def _following(charts: list[dict], before: list[dict], t_now: float) -> list[str]:
+    """Why the time charts (read now and, `before`, a moment earlier) do not show the last
+    window's samples up to the newest, `t_now` s of sim time after a reset; [] when they do.
+    Their time axis reads seconds before the newest sample: [-window, 0]."""
+    timed = [c for c in charts if c["visible"] and not c["title"].startswith("CoM phase")]
+    if len(timed) < 5:
+        return [f"only {len(timed)} time charts drawn: {charts}"]
+    earlier = {c["title"]: c for c in before}
+    window = PLOT_WINDOW_S
+    shown = min(PLOT_WINDOW_S, t_now) - PLOT_LAG_S  # s of samples each chart must show at least
+    wrong = []
+    for c in timed:
+        if c["n"] < 10 or c["first"] is None:
+            wrong.append(f"{c['title']}: {c['n']} points, first sample {c['first']}")
+        elif c["x1"] != 0 or c["x0"] < -PLOT_WINDOW_S or [c["min"], c["max"]] != [-window, 0]:
+            wrong.append(f"{c['title']}: data {c['x0']}..{c['x1']} s, axis {c['min']}..{c['max']}")
+        elif c["first"] > -shown:
+            wrong.append(f"{c['title']}: samples from {c['first']:.2f} s only, at t {t_now:.2f}")
+        elif earlier.get(c["title"], {}).get("sum") == c["sum"]:
+            wrong.append(f"{c['title']}: not redrawn")
+    return wrong
+
+
+def test_plots_opened_before_the_lab_follow_the_data_across_a_switch_and_a_reset(
+    browser, tmp_path
+) -> None:
+    """A page open before the sim process starts; the lab switches robot, then resets: every
+    time chart then holds the last window's samples (from the reset on) and its time axis spans
+    exactly them (the axis stuck on a 1 s slice 35 s behind, or at -10,530 s after a reset).
+    No console error and no UI traceback on the way."""
+    port, ui_port = free_port(), free_port()
+    with (tmp_path / "ui.log").open("wb") as out:
+        ui = subprocess.Popen(
+            [sys.executable, "-m", "lab.ui", "--port", str(ui_port), "--connect",
+             f"tcp/127.0.0.1:{port}"],
+            stdout=out, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+    context = browser.new_context(viewport=VIEWPORT)
+    sim = None
     try:
-        socket.create_connection(("127.0.0.1", port), timeout=0.5).close()
-    except OSError:
-        return False
-    return True
+        pg = context.new_page()
+        pg.set_default_timeout(PAGE_TIMEOUT_MS)
+        errors = console_errors(pg)
+        end = time.monotonic() + LOAD_TIMEOUT_MS / 1000
+        while time.monotonic() < end and not serves_http(ui_port):
+            time.sleep(0.3)  # (an HTTP probe: a bare TCP one makes a handshake traceback)
+        pg.goto(f"http://127.0.0.1:{ui_port}")
+        pg.get_by_text("WBC lab").first.wait_for()  # open before the lab starts
+        sim = LabServe(tmp_path / "sim.log", "--headless", port=port)
+        with sim.client() as lab:
+            lab.wait_telemetry(lambda m: m["t"] > 2.0, timeout=60.0)
+            assert lab.command("robot", name="solo12")["ok"]
+            lab.wait_telemetry(lambda m: m["robot"] == "solo12" and m["t"] > 2.0, timeout=60.0)
+            assert lab.command("reset")["ok"]
+            lab.wait_telemetry(lambda m: m["t"] < 1.0, timeout=60.0, since_last_read=True)
+            lab.wait_telemetry(lambda m: m["t"] > 4.0, timeout=60.0)
+            end = time.monotonic() + 60.0
+            wrong, before = ["not read"], pg.evaluate(READ_TIME_AXES)
+            while wrong and time.monotonic() < end:
+                pg.wait_for_timeout(1000)
+                t_now, charts = lab.latest_telemetry()["t"], pg.evaluate(READ_TIME_AXES)
+                wrong, before = _following(charts, before, t_now), charts
+        assert not wrong, wrong
+        assert not errors, errors
+    finally:
+        context.close()
+        ui.terminate()
+        ui.wait()
+        if sim is not None:
+            sim.stop()
+    log = (tmp_path / "ui.log").read_text(errors="replace")
+    assert "Traceback" not in log, log[-3000:]
+
+
+def floor_fraction(pg) -> float:
+    """The share of the 3-D view's pixels that are terrain or grid grey (neither the white
+    background nor the robot's dark meshes)."""
+    import io
+
+    from PIL import Image
+
+    box = pg.locator("canvas").first.bounding_box()
+    shot = np.asarray(Image.open(io.BytesIO(pg.screenshot())).convert("L"))
+    view = shot[150:, int(box["x"]) : int(box["x"] + box["width"])]
+    return float(((view > 150) & (view < 249)).mean())
+
+
+def test_lab_replay_serve_starts_the_page_with_floor_timeline_and_controls_greyed(
+    browser, tmp_path
+) -> None:
+    """`lab replay FILE --serve` starts the page as `lab serve` does: the recorded robot on its
+    floor (drawn although the recording ended before the page opened), the timeline at the top,
+    and the controls that cannot act on a recording greyed out, with the reason."""
+    record = tmp_path / "stand.mcap"
+    run = [sys.executable, "-m", "lab", "run", "scenarios/anymal_stand_cascade.toml"]
+    subprocess.run([*run, "--duration", "1", "--record", str(record)], check=True, timeout=300)
+    port, ui_port = free_port(), free_port()
+    with (tmp_path / "replay.log").open("wb") as out:
+        replay = subprocess.Popen(
+            [sys.executable, "-m", "lab", "replay", str(record), "--serve", "--port", str(port),
+             "--ui-port", str(ui_port)],
+            stdout=out, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+    context = browser.new_context(viewport=VIEWPORT)
+    try:
+        end = time.monotonic() + LOAD_TIMEOUT_MS / 1000
+        while time.monotonic() < end and not serves_http(ui_port):
+            assert replay.poll() is None, (tmp_path / "replay.log").read_text()
+            time.sleep(0.3)
+        pg = context.new_page()
+        pg.set_default_timeout(PAGE_TIMEOUT_MS)
+        errors = console_errors(pg)
+        pg.goto(f"http://127.0.0.1:{ui_port}")
+        pg.get_by_text("A recording").first.wait_for()
+        pg.get_by_text("Timeline [s]").first.wait_for()  # in the Replay folder, expanded
+        assert pg.get_by_label("Gait", exact=True).first.is_disabled()
+        assert pg.get_by_label("Robot", exact=True).first.is_disabled()
+        assert pg.get_by_role("button", name="forward", exact=True).count() == 0
+        gait = pg.get_by_label("Gait", exact=True).first.input_value()
+        assert gait == "stand" and "anymal" in pg.get_by_text("anymal on").first.inner_text()
+        shown = wait_dark_pixels(pg, lambda n: n > 300, timeout=LOAD_TIMEOUT_MS / 1000)
+        assert shown > 300  # the robot
+        end = time.monotonic() + 60.0
+        while floor_fraction(pg) < 0.3 and time.monotonic() < end:
+            pg.wait_for_timeout(500)
+        assert floor_fraction(pg) >= 0.3, "no floor drawn"
+        assert not errors, errors
+    finally:
+        context.close()
+        replay.terminate()
+        replay.wait()
+
+
+def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(browser, tmp_path) -> None:
+    """Reset after stepping stands, on the default stack. Picking Kim's split wedges offers the
+    set-up they were made for; *Use it* installs WBOSC with the internal force (0.51 m g, K_F 1)
+    and shows its controls and chart, and Bolt holds on the wedges, across a Reset too (it fell
+    on every Reset)."""
+    serve = LabServe(tmp_path / "serve.log", "--robot", "bolt")
+    context = browser.new_context(viewport=VIEWPORT)
+    try:
+        with serve.client() as lab:
+            serve.wait_ui()
+            pg = context.new_page()
+            pg.set_default_timeout(PAGE_TIMEOUT_MS)
+            errors = console_errors(pg)
+            pg.goto(serve.url)
+            pg.get_by_text("You hold control").wait_for()
+            wait_drawn(pg, "bolt")
+            default = lab.command("info")["stack"]
+            choose(pg, "Gait", "biped_step")  # brings kim_stepping, which has no CoM task
+            lab.wait_telemetry(lambda m: m["gait"] == "biped_step", timeout=UI_ACTION_TIMEOUT_S)
+            press(pg, "Reset")  # back to standing on a stack that stands: Bolt fell at 1.4 s
+            stand = lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=60.0)
+            assert stand["stack"] == default, stand["stack"]
+            stood = lab.wait_telemetry(lambda m: m["t"] > 2.5 or m["fell"], timeout=120.0)
+            assert not stood["fell"]
+            choose(pg, "Scene", "split_wedges")
+            pg.get_by_text("Scene split_wedges was made for this set-up").first.wait_for()
+            press(pg, "Use it")
+            mass = lab.command("info")["mass"]
+            held = lab.wait_telemetry(
+                lambda m: (
+                    m["hierarchy"]["method"] == "wbosc" and m["internal_force"]["reference"] > 0.0
+                ),
+                timeout=UI_ACTION_TIMEOUT_S,
+            )
+            assert held["internal_force"]["reference"] == pytest.approx(0.51 * mass * 9.81, 0.01)
+            pg.get_by_text("Internal force (Kim 2016)").first.wait_for()
+            pg.get_by_text("Internal force between the feet").first.wait_for()  # its chart
+            press(pg, "Reset")
+            lab.wait_telemetry(lambda m: m["t"] < 0.5, timeout=60.0, since_last_read=True)
+            after = lab.wait_telemetry(lambda m: m["t"] > 2.0 or m["fell"], timeout=120.0)
+            assert not after["fell"] and after["hierarchy"]["method"] == "wbosc", after["t"]
+            assert not errors, errors
+    finally:
+        context.close()
+        serve.stop()

@@ -18,15 +18,23 @@ from lab.ui.balance_controls import GAIN_ERRORS, GAIN_RATES, BalanceControls, ga
 from lab.ui.camera import followed, recentred
 from lab.ui.colors import friction_usage, usage_colour
 from lab.ui.drag_push import Spring, spring_force
-from lab.ui.event_log import EventLog
+from lab.ui.event_log import CATEGORIES, EventLog, log_server_event
 from lab.ui.gaits import gait_options
-from lab.ui.guard_rails import error_growth, stack_risks
+from lab.ui.guard_rails import error_growth, stack_risks, standing_risks
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
+from lab.ui.panel import default_push_newtons
 from lab.ui.plot_buffer import RollingBuffer
 from lab.ui.plot_export import Shown, shown_csv, shown_png
-from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
+from lab.ui.status import (
+    LoopFigures,
+    LoopWindow,
+    RealtimeFactor,
+    started_warnings,
+    status_markdown,
+    warnings_of,
+)
 
 STACK = [["contacts"], ["base_orientation", "com"], ["posture"]]
 
@@ -127,6 +135,9 @@ def test_rolling_buffer_window_ring_and_rewind():
     assert t[0] >= 2.99 - 1.0 - 1e-9 and t[-1] == pytest.approx(2.99)
     assert len(t) <= 50 and np.all(np.diff(t) > 0)
     np.testing.assert_allclose(y1, -y0)
+    n = len(b)
+    b.append(2.95, [7, 7])  # out of order (a telemetry message overtaken): dropped, kept sorted
+    assert len(b) == n and b.arrays()[0][-1] == pytest.approx(2.99)
     b.append(0.5, [1, 1])  # clock rewound by a reset
     assert len(b) == 1
     with pytest.raises(ValueError, match="expected 2"):
@@ -224,6 +235,8 @@ def test_event_log_is_newest_first_and_counts_repeats() -> None:
     assert [e.text for e in log.entries()] == ["w2", "w1", "w0"]  # bounded
     with pytest.raises(ValueError, match="'loud'"):
         log.add("loud", "x")
+    with pytest.raises(ValueError, match="'noise'"):
+        log.add("info", "x", category="noise")
 
 
 def test_a_warning_that_comes_and_goes_keeps_one_line_and_pushes_nothing_out() -> None:
@@ -240,6 +253,61 @@ def test_a_warning_that_comes_and_goes_keeps_one_line_and_pushes_nothing_out() -
         "kp = -5 is below the limit 0",
     ]
     assert "(×50)" in log.markdown().splitlines()[2]
+
+
+def test_overruns_take_one_line_with_count_and_rate_and_the_session_is_kept_by_kind() -> None:
+    """An hour of overrun reports (one a second, as the loop sends them) keeps one line, updated
+    in place; the pushes, refusals, falls and resets of that hour all stay, filterable."""
+    log = EventLog()
+    events = {"push": 0, "refusal": 0, "fall": 0, "reset": 0}
+    for k in range(3600):
+        event = {"type": "overrun", "t": k, "message": "3 tick(s) overran", "count": 3}
+        log_server_event(log, event, wall=1000.0 + k)
+        if k % 60 == 0:
+            log.add("info", f"pushed forward: 50 N #{k}", wall=1000.0 + k, category="push")
+            log_server_event(log, {"type": "rejected_command", "t": k, "message": "kp"})
+            log_server_event(log, {"type": "fall", "t": k, "message": "the robot fell"})
+            log_server_event(log, {"type": "reset", "t": k, "message": "reset"})
+            for category in events:
+                events[category] += 1
+    (overrun,) = log.recurring()
+    assert (overrun.count, overrun.events) == (3 * 3600, 3600)
+    assert overrun.rate(now=1000.0 + 3599) == pytest.approx(3.0)  # 3 ticks a second lately
+    assert overrun.rate(now=1000.0 + 3700) == 0.0  # and none once they stopped
+    text = log.markdown(now=1000.0 + 3599)
+    assert text.count("overrun") == 1 and "10,800 since" in text and "3.0/s" in text
+    for category, n in events.items():
+        assert len(log.entries(category)) == n, category
+        shown = log.markdown(category)
+        assert f"Events ({category}), newest first ({n} kept)" in shown
+        others = [c for c in CATEGORIES if c not in (category, "info")]
+        assert all(e.category == category for e in log.entries(category)), others
+    assert len(log.entries()) == sum(events.values())
+
+
+def test_events_of_many_threads_never_break_the_log() -> None:
+    """Browser callbacks add while the render loop renders (it read "deque mutated during
+    iteration")."""
+    import threading
+
+    log = EventLog()
+    stop = threading.Event()
+
+    def add() -> None:
+        k = 0
+        while not stop.is_set():
+            log.add("info", f"line {k}", category="push")
+            k += 1
+
+    writer = threading.Thread(target=add)
+    writer.start()
+    try:
+        for _ in range(300):
+            log.markdown()
+            log.entries("push")
+    finally:
+        stop.set()
+        writer.join()
 
 
 def test_realtime_factor_restarts_with_the_sim_clock() -> None:
@@ -314,6 +382,47 @@ def test_status_line_warns_of_a_controller_warning_and_the_log_gets_it_once() ->
     assert "nullspace (qdd_force)/daqp · native kernel" in status_markdown(
         _telemetry(kernel="native", kernel_note=""), rtf=1.0, fps=30.0
     )
+
+
+def test_the_live_on_time_figure_is_over_the_last_seconds_and_marked_below_its_target() -> None:
+    """Under `nullspace` the session figure read 73.9 % while 1.9 % of recent ticks were on
+    time: the status line shows both, the recent one marked, and warns of the collapse."""
+    figures = LoopFigures(window_s=5.0)
+    ticks, on_time = 100_000, 73_900  # the session so far
+    for k in range(100):  # 10 s of telemetry, 1.9 % of the new ticks on time, 2 overruns a second
+        ticks, on_time = ticks + 100, on_time + 1.9
+        loop = {"ticks": ticks, "on_time_fraction": on_time / ticks, "overruns": 2 * (k // 10)}
+        figures.add(0.1 * k, loop)
+    window = figures.window()
+    assert window is not None and window.seconds == pytest.approx(5.0)
+    assert window.on_time_fraction == pytest.approx(0.019)
+    assert window.overruns == 10
+    tel = _telemetry(loop={"rate_hz": 1000.0, "realtime": True, **loop})
+    text = status_markdown(tel, rtf=0.5, fps=30.0, loop=window, run_rtf=0.97)
+    assert "on-time **1.9 %** last 5 s, **67.4 %** session (target 98 %)" in text
+    assert "RTF **0.50** last 5 s, 0.97 run" in text
+    assert set(warnings_of(tel, loop=window)) == {"overrun", "collapsed"}
+    assert "10 tick(s) overran the 1 ms period in the last 5 s" in text
+    quiet = LoopWindow(5.0, 5000, 0.995, 0)
+    calm = status_markdown(_telemetry(), rtf=1.0, fps=30.0, loop=quiet, run_rtf=1.0)
+    assert "on-time 99.5 % last 5 s" in calm and "**" not in calm.split("\n")[1]
+    figures.add(11.0, {"ticks": 10, "on_time_fraction": 1.0, "overruns": 0})  # a new sim process
+    assert figures.window() is None
+
+
+def test_a_control_time_beyond_its_share_of_the_period_is_marked_never_ok() -> None:
+    """ "control 972 µs (ok)" was shown at 11 % on time: beyond 60 % of the period it is marked."""
+    tel = _telemetry(qp={"status": "ok", "solve_us": 972.0, "failures": 0})
+    text = status_markdown(tel, rtf=1.0, fps=30.0)
+    assert "control 972 µs (**over 600 µs**)" in text and "(ok)" not in text
+    assert "control 400 µs (ok)" in status_markdown(_telemetry(), rtf=1.0, fps=30.0)
+
+
+def test_the_push_default_is_a_share_of_the_robots_weight() -> None:
+    assert default_push_newtons(2.5) == 4.0  # Solo12 fell at 30 N (the old default was 150 N)
+    assert default_push_newtons(50.0) == 74.0
+    assert default_push_newtons(1e4) == 600.0  # the slider's top
+    assert default_push_newtons(0.1) == 1.0  # and its bottom
 
 
 @pytest.fixture(scope="module")
@@ -443,6 +552,18 @@ def test_guard_rails_warn_of_a_stack_without_contact_or_without_tasks() -> None:
     assert "every task is off" in nothing
 
 
+def test_the_page_warns_of_a_stack_unlikely_to_stand() -> None:
+    tasks = ["contact", "com", "posture", "swing_feet"]
+    standing = [["friction"], ["contact"], ["com"], ["posture"]]
+    assert standing_risks(standing, tasks, "stand") == []
+    (risk,) = standing_risks([["friction", "posture"], ["contact"], ["com"]], tasks, "stand")
+    assert risk.startswith("posture above the contact task")
+    stepping = [["friction"], ["contact"], ["swing_feet"], ["com"]]
+    assert standing_risks(stepping, tasks, "biped_step") == []
+    assert "stepping stack" in standing_risks(stepping, tasks, "stand")[0]
+    assert "no contact task" in standing_risks([["com"]], tasks, "stand")[0]
+
+
 def test_a_fall_after_a_switch_names_the_tasks_that_lost_most() -> None:
     def tel(errors: dict[str, float]) -> dict:
         return {
@@ -555,6 +676,17 @@ def test_the_plots_forget_a_lab_left_behind(viser_server) -> None:
         plots.record(message(t, 80.0))
     plots.draw()
     assert qp.shown[0].tolist() == [7.0, 7.01] and qp.shown[1].tolist() == [80.0, 80.0]
+    forces = plots.charts[0]
+    handle = forces._handle
+    x_range = handle.scales["x"]["range"]
+    assert x_range == (-10.0, 0.0) and handle.data[0].tolist() == pytest.approx([-0.01, 0.0])
+    renamed = message(7.02, 80.0)  # another robot's feet: the same chart, its series replaced
+    renamed["contacts"] = [{**renamed["contacts"][0], "name": "fl"}] * 2
+    plots.record(renamed)
+    plots.record({**renamed, "t": 7.03})
+    plots.draw()
+    assert forces._handle is handle and handle.visible
+    assert [s["label"] for s in handle.series[1:]] == ["fl", "fl"] and len(handle.data) == 3
 
 
 def test_the_momentum_gain_is_shown_as_a_table_row_per_error() -> None:
@@ -624,3 +756,79 @@ def test_a_push_button_pushes_the_robot_the_way_it_names_and_herzog_names_the_ot
                 np.testing.assert_allclose(force, expected, atol=1e-9, err_msg=f"{path}: {line}")
                 checked += 1
     assert checked == 3 * 7 * 4  # three scenarios, 7 points, 4 pushes each
+
+
+class _SessionHost:
+    """A command host that applies commands to an in-process session (the sim process's way)."""
+
+    def __init__(self, session) -> None:
+        self.session = session
+        self.sent: list[tuple[str, dict]] = []
+
+    def guard(self, callback):
+        return callback
+
+    def send(self, client, verb: str, payload: dict) -> dict:
+        self.sent.append((verb, payload))
+        return self.session.handle(verb, payload)
+
+
+def test_the_internal_force_folder_sets_the_reference_and_its_gain(viser_server) -> None:
+    """Kim's Fig. 6 from the page: shown while the internal_force task runs (Bolt's default
+    stack has it), the reference and K_F reach the session; a bad number sends nothing."""
+    from types import SimpleNamespace
+
+    from lab.server.session import Session, SessionConfig
+    from lab.ui.internal_force_controls import InternalForceControls
+
+    session = Session(SessionConfig(robot="bolt"))
+    host = _SessionHost(session)
+    folder = InternalForceControls(host, viser_server.gui, order=99)
+    folder.show_info(session.info())
+    assert folder.folder.visible
+    click = SimpleNamespace(client=object())
+    folder.reference.value, folder.gain.value = "-20", "1e9"
+    folder._apply(click)
+    assert host.sent == [] and "K_F = 1e+09 is above the limit 100000" in folder.note.content
+    folder.gain.value = "2.5"
+    folder._apply(click)
+    assert [verb for verb, _ in host.sent] == ["internal_force", "gains"]
+    assert session.controller.internal_force.reference == -20.0
+    gains = next(t for t in session.info()["tasks"] if t["name"] == "internal_force")
+    assert gains["kp"] == 2.5 and folder.note.content.startswith("✔ reference -20 N, K_F 2.5")
+    assert session.handle("robot", {"name": "anymal"})["ok"]
+    folder.show_info(session.info())
+    assert not folder.folder.visible  # no internal_force task in ANYmal's stack
+
+
+def test_each_scene_set_up_is_accepted_and_bolt_holds_on_the_wedges_across_a_reset() -> None:
+    """The set-ups the page offers name scenes, presets and robots that exist, the session
+    takes every command of them, and with Kim's (WBOSC, internal force 0.51 m g, K_F 1) Bolt
+    stands on the split wedges, and again after a Reset (it fell on every Reset without)."""
+    from lab.scenes import SCENE_ROBOTS, SCENES
+    from lab.scenes.setups import SCENE_SETUPS
+    from lab.server.session import Session, SessionConfig
+    from lab.stack_presets import PRESET_NAMES
+
+    for scene, setup in SCENE_SETUPS.items():
+        assert scene in SCENES and set(setup.robots) <= set(ROBOT_NAMES), scene
+        assert setup.preset is None or setup.preset in PRESET_NAMES
+    talos = Session(SessionConfig(robot="talos", scene="block"))
+    assert "talos" in SCENE_ROBOTS["block"]
+    for verb, payload in SCENE_SETUPS["block"].commands(talos.model.mass):
+        assert talos.handle(verb, payload)["ok"], (verb, payload)
+    bolt = Session(SessionConfig(robot="bolt", scene="split_wedges"))
+    commands = SCENE_SETUPS["split_wedges"].commands(bolt.model.mass)
+    assert commands[-1] == (
+        "internal_force",
+        {"reference": round(0.51 * bolt.model.mass * 9.81, 2)},
+    )
+    for verb, payload in commands:
+        assert bolt.handle(verb, payload)["ok"], (verb, payload)
+    for _ in range(2):
+        start = bolt.time
+        while bolt.time - start < 1.5 and not bolt.fell:
+            bolt.tick()
+        assert not bolt.fell, bolt.time
+        assert bolt.handle("reset")["ok"]
+    assert bolt.controller.config.method == "wbosc"  # Reset keeps the set-up

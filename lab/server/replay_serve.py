@@ -12,6 +12,7 @@ import bisect
 import json
 import math
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -21,10 +22,15 @@ import zenoh
 
 from lab.protocol import LabIdError, default_lab_id
 from lab.server.recording import Message, Recording, RecordingError, read_recording
+from lab.server.serve import stop_process
 from lab.server.transport import Request, ServerTransport, server_config
 
 SPEED_MAX = 100.0  # times real time
 STEP_S = 0.005  # wall time between two publishing steps
+# s of wall time: a paused or ended playback publishes its newest telemetry and state again this
+# often, so that a page opened later (or a UI process started after a short recording ended)
+# shows where the playback is instead of "Waiting for telemetry".
+HOLD_REFRESH_S = 0.5
 PLAYED_KINDS = ("telemetry", "state", "events")
 VERBS = ("info", "pause", "resume", "speed", "seek")
 
@@ -69,6 +75,10 @@ class Player:
         at or before it, to show at once."""
         self.position = min(max(t, 0.0), self.duration)
         self._next = bisect.bisect_right(self._times, self.position)
+        return self.latest()
+
+    def latest(self) -> list[Message]:
+        """The newest telemetry and drawing state at or before the position, oldest first."""
         latest: dict[str, Message] = {}
         for message in reversed(self.messages[: self._next]):
             if message.kind in ("telemetry", "state") and message.kind not in latest:
@@ -147,7 +157,7 @@ class ReplayServer:
 
     def run(self, stop: threading.Event) -> None:
         """Answer commands and publish what is due every STEP_S until `stop` is set."""
-        last = time.monotonic()
+        last = held = time.monotonic()
         while not stop.wait(STEP_S):
             while (request := self.transport.receive()) is not None:
                 self._answer(request)
@@ -155,6 +165,11 @@ class ReplayServer:
             was_ended = self.player.ended
             self._publish(self.player.advance(now - last))
             last = now
+            if not (self.player.paused or self.player.ended):
+                held = now
+            elif now - held >= HOLD_REFRESH_S:
+                held = now
+                self._publish(self.player.latest())
             if self.player.ended and not was_ended:
                 self.transport.publish_event(
                     {
@@ -185,9 +200,12 @@ class ReplayServer:
             publish[message.kind](data)
 
 
-def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = None) -> int:
+def replay_serve_main(
+    path: str, port: int, speed: float, lab_id: str | None = None, ui_port: int | None = None
+) -> int:
     """Serve `path` on 127.0.0.1:`port` as lab `lab_id` (default `<host>-replay`) until SIGINT
-    or SIGTERM; 2 for a recording, a port or a lab id it cannot use."""
+    or SIGTERM, with the browser UI on `ui_port` as `lab serve` starts it (None: headless); 2
+    for a recording, a port or a lab id it cannot use."""
     if not 0.0 < speed <= SPEED_MAX:
         print(f"lab replay: --speed must be in (0, {SPEED_MAX:g}]", file=sys.stderr)
         return 2
@@ -208,17 +226,26 @@ def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = N
     except LabIdError as error:
         print(f"lab replay: --lab-id: {error}", file=sys.stderr)
         return 2
+    ui = None
     try:
         server = ReplayServer(recording, transport, speed)
         stop = threading.Event()
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: stop.set())
         duration = server.player.duration
-        print(f"lab replay: {path} ({duration:.1f} s) on Zenoh tcp/127.0.0.1:{port}", flush=True)
+        endpoint = f"tcp/127.0.0.1:{port}"
+        if ui_port is not None:  # the page, as `lab serve` starts it
+            ui = subprocess.Popen(
+                [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--exit-with-parent",
+                 "--port", str(ui_port), "--lab-id", transport.keys.lab_id]
+            )  # fmt: skip
+        print(f"lab replay: {path} ({duration:.1f} s) on Zenoh {endpoint}", flush=True)
         server.run(stop)
     except (OSError, ValueError, KeyError) as error:
         print(f"lab replay: {error}", file=sys.stderr)
         return 2
     finally:
         transport.close()
+        if ui is not None:
+            stop_process(ui)
     return 0

@@ -260,14 +260,15 @@ def serve_main(argv: list[str]) -> int:
         transport.close()
         recording.close()
         if ui is not None:
-            _stop_process(ui)
+            stop_process(ui)
     if loop.error is not None:
         print(f"lab serve: the sim loop stopped: {loop.error!r}", file=sys.stderr)
         return 1
     return 0
 
 
-def _stop_process(process: subprocess.Popen) -> None:
+def stop_process(process: subprocess.Popen) -> None:
+    """Terminate `process` (the UI), killing it if it does not end within UI_STOP_TIMEOUT_S."""
     process.terminate()
     try:
         process.wait(UI_STOP_TIMEOUT_S)

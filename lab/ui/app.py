@@ -3,6 +3,11 @@
 It talks to the sim process only through Zenoh (`lab.ui.link`, `lab.protocol`); it reads robot
 descriptions (TOML, URDF visuals) and scene geometry, all plain data, and imports neither the
 controller, pinocchio nor MuJoCo (tests/test_ui_logic.py checks).
+
+Over 400 lines because the render loop, the browsers' control and the command path share the
+app's state (telemetry, info, velocity, ownership); what does not is kept apart: the status
+figures (`status.LiveStatus`), the event log and the server events' kinds (`event_log`), the
+plots, overlays, robot and terrain views, and each browser's panel.
 """
 
 import functools
@@ -10,7 +15,6 @@ import math
 import threading
 import time
 import traceback
-from collections import deque
 from collections.abc import Callable
 from concurrent import futures
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -24,18 +28,19 @@ import zenoh
 from lab.description import load_description
 from lab.protocol import VelocityCommand
 from lab.ui.drag_push import Spring, spring_force
-from lab.ui.event_log import EventLog
+from lab.ui.event_log import ALL, CATEGORIES, EventLog, log_server_event
 from lab.ui.guard_rails import error_growth
+from lab.ui.hotkeys import install_hotkey_script
 from lab.ui.internal_force_plot import add_internal_force_plot
 from lab.ui.link import Link
 from lab.ui.overlays import OVERLAYS, Overlays
 from lab.ui.ownership import ControlOwnership
-from lab.ui.panel import ControlPanel
+from lab.ui.panel import HOTKEYS, STOP_HOTKEY, ControlPanel
 from lab.ui.phase_portrait_plot import add_phase_portrait_plot
 from lab.ui.plots import Plots
 from lab.ui.recording import RecordingControls
 from lab.ui.robot_view import RobotView
-from lab.ui.status import RealtimeFactor, started_warnings, status_markdown, warnings_of
+from lab.ui.status import LiveStatus, started_warnings
 from lab.ui.terrain_view import TerrainView
 
 FRAME_S = 1.0 / 60.0  # render loop period: state arrives at ~60 Hz
@@ -51,7 +56,9 @@ DRAG_PUSH_S = 0.25  # duration of each drag push; refreshed every REFRESH_S whil
 INFO_CHANGING_VERBS = frozenset(
     ("stack", "gains", "hierarchy", "robot", "scene", "reset", "pause", "resume", "gait")
 )
-CONTROL_WINDOW = 50  # telemetry messages (0.5 s at 100 Hz) over which a slow tick is judged
+# The server zeroes the velocity command on these commands and events (docs/protocol.md).
+MOTION_ENDING_VERBS = frozenset(("reset", "robot", "scene"))
+MOTION_ENDING_EVENTS = frozenset(("reset", "session_rebuilt", "fall", "sim_diverged"))
 ERROR_RETRY_S = 1.0  # after an exception in the render loop, wait this long before the next frame
 # s (wall): a fall this soon after a hierarchy switch is explained in the log by what it changed
 SWITCH_BLAME_S = 10.0
@@ -140,8 +147,7 @@ class LabApp:
         self._velocity = VelocityCommand()
         self._drag: tuple[str, np.ndarray, np.ndarray] | None = None  # link, local point, pointer
         self._spring = Spring()
-        self._rtf = RealtimeFactor()
-        self._control_us: deque[float] = deque(maxlen=CONTROL_WINDOW)
+        self._live = LiveStatus()  # the status line's recent figures
         self.frames_drawn = 0
         self._draw_fps = 0.0
         self._loader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lab-ui-load")
@@ -154,8 +160,13 @@ class LabApp:
 
         gui = self.server.gui
         self.status = gui.add_markdown("Waiting for the lab server…", order=0)
+        install_hotkey_script(gui, "".join(HOTKEYS) + STOP_HOTKEY)
         with gui.add_folder("Event log", order=7):
+            self.log_filter = gui.add_dropdown(
+                "Show", (ALL, *CATEGORIES), initial_value=ALL, hint="one kind of event only"
+            )
             self.log_view = gui.add_markdown(self.log.markdown())
+        self.log_filter.on_update(lambda _: self._show_log(force=True))
         with gui.add_folder("Overlays", order=10):
             for name in OVERLAYS:
                 box = gui.add_checkbox(name, name != "friction cones")
@@ -165,8 +176,8 @@ class LabApp:
         # controls docked right of it, so that both stay in sight, the robot between them.
         self.plot_panel = gui.add_panel()
         plots_tab = self.plot_panel.add_tab("Plots", viser.Icon.CHART_LINE)
-        self.plots = Plots(gui, plots_tab, self.guard)
-        self.plots.charts.append(add_internal_force_plot(gui, plots_tab))
+        self.plots = Plots(gui, plots_tab, self.guard, self.server.atomic)
+        self.plots.charts.append(add_internal_force_plot(gui, plots_tab, self.server.atomic))
         self.plots.charts += add_phase_portrait_plot(gui, plots_tab)
         self.plot_panel.dock_left()
         self.plot_panel.set_width(PLOT_PANEL_PX)
@@ -193,11 +204,19 @@ class LabApp:
         """An exception in the UI process: into the event log and the UI's output, not fatal."""
         print(f"lab ui: error in {where}:", flush=True)
         traceback.print_exception(error)
-        self.report("error", f"UI error in {where}: {type(error).__name__}: {error}")
+        text = f"UI error in {where}: {type(error).__name__}: {error}"
+        self.report("error", text, category="fault")
 
-    def report(self, level: str, text: str, client: viser.ClientHandle | None = None) -> None:
-        """Add a line to the page's event log; with `client`, also pop it up in that browser."""
-        self.log.add(level, text)
+    def report(
+        self,
+        level: str,
+        text: str,
+        client: viser.ClientHandle | None = None,
+        category: str | None = None,
+    ) -> None:
+        """Add a line to the page's event log (in `category`; by default a refusal for an error
+        or warning, else info); with `client`, also pop it up in that browser."""
+        self.log.add(level, text, category=category or ("info" if level == "info" else "refusal"))
         if client is not None:
             colour = {"error": "red", "warning": "yellow"}.get(level, "blue")
             title = text.split(":", 1)[0] if ":" in text else level.capitalize()
@@ -205,10 +224,10 @@ class LabApp:
                 title, text, color=colour, auto_close_seconds=8.0, with_close_button=True
             )
 
-    def _show_log(self) -> None:
-        if self.log.version != self._log_shown:
+    def _show_log(self, force: bool = False) -> None:
+        if force or self.log.version != self._log_shown:
             self._log_shown = self.log.version
-            self.log_view.content = self.log.markdown()
+            self.log_view.content = self.log.markdown(self.log_filter.value)
 
     # ---- browsers and control ----------------------------------------------------------------
     def _connect(self, client: viser.ClientHandle) -> None:
@@ -267,6 +286,7 @@ class LabApp:
         if self.link.lab_id != self._watched_lab:
             self._watched_lab = self.link.lab_id
             self.telemetry, self._lost_at, self._seen_alive, self._switch = None, None, False, None
+            self._live = LiveStatus()
             self.log.add("info", f"showing lab {self._watched_lab}")
             self.plots.clear()
             self.refresh_info()
@@ -275,6 +295,15 @@ class LabApp:
             panels = list(self.panels.values())
         for panel in panels:
             panel.labs.show(labs, self.link.lab_id)
+
+    def _zero_velocity(self) -> None:
+        """Forget the velocity command (the server zeroed it: Reset, a switch, a fall) so that
+        the page stops resending it, and show zero in every panel."""
+        self._velocity, self._drag = VelocityCommand(), None
+        with self._lock:
+            panels = list(self.panels.values())
+        for panel in panels:
+            panel.zero_velocity()
 
     def _stop_motion(self) -> None:
         self._drag = None
@@ -288,6 +317,11 @@ class LabApp:
         if not self.ownership.is_owner(client.client_id):
             self.notify_error(client, verb, "this browser is read-only: press Take control")
             return None
+        if verb in MOTION_ENDING_VERBS:  # the server zeroes the velocity: so does the page
+            self._zero_velocity()
+            pending = self._pending  # a refresh on its way must not arrive after the command
+            if pending is not None:
+                futures.wait([pending], SWITCH_WAIT_S)
         sent = time.monotonic()
         before, info = self.telemetry, self.info
         reply = self.link.request(verb, payload)
@@ -440,12 +474,13 @@ class LabApp:
         batch = self.link.telemetry()
         for tel in batch:
             self.plots.record(tel)
-            self._control_us.append(tel["qp"]["solve_us"])
+            self._live.add(tel)
         if not batch:
             return None
         tel = batch[-1]
         self.telemetry = tel
-        self._rtf.add(time.monotonic(), tel["t"], (self.link.lab_id, tel["robot"], tel["scene"]))
+        run = (self.link.lab_id, tel["robot"], tel["scene"])
+        self._live.add_newest(time.monotonic(), tel, run)
         return tel
 
     def _watch_link(self) -> None:
@@ -461,7 +496,7 @@ class LabApp:
             self.refresh_info()
         else:
             self._lost_at = time.time()
-            self.log.add("error", DISCONNECTED)
+            self.log.add("error", DISCONNECTED, category="fault")
 
     def _status_text(self) -> str:
         if self._lost_at is not None:
@@ -476,22 +511,25 @@ class LabApp:
             return "Waiting for telemetry from the lab server…"
         if self.robot_view is None:
             return f"**{self.telemetry['robot']}** could not be drawn: see the event log"
-        return status_markdown(
-            self.telemetry, self._rtf.value(), self._draw_fps, self._typical_control_us()
-        )
+        return self._live.markdown(self.telemetry, self._draw_fps)
 
-    def _typical_control_us(self) -> float | None:
-        """The median controller time per tick over the last CONTROL_WINDOW messages."""
-        return float(np.median(self._control_us)) if self._control_us else None
+    def _follow_stack_and_gait(self, info: dict, tel: dict) -> None:
+        """Someone else changed the stack or the gait: read `info` anew. A recording's `info`
+        is the one recorded at its start: its stack and gait are then taken from telemetry
+        (asked again every frame, the gait dropdown disagreed with the status line)."""
+        if "replay" not in info:
+            self.refresh_info()
+            return
+        self.info = {**info, "stack": tel["stack"], "gait": tel["gait"]}
+        with self._lock:
+            panels = list(self.panels.values())
+        for panel in panels:
+            panel.show_info(self.info)
 
     def _handle_events(self) -> None:
         for event in self.link.events():
             kind = event.get("type", "?")
-            level = "info" if kind in ("session_rebuilt", "reset", "preset") else "warning"
-            if kind in ("fall", "solver_failure", "rejected_command", "sim_diverged"):
-                level = "error"
-            message = event.get("message", kind)
-            self.log.add(level, f"t {event.get('t', float('nan')):.2f} s · {kind}: {message}")
+            log_server_event(self.log, event)
             if kind == "fall" and self._switch is not None and self.telemetry is not None:
                 switched, what, before = self._switch
                 if time.monotonic() - switched < SWITCH_BLAME_S:
@@ -500,14 +538,17 @@ class LabApp:
                         f"the fall came {time.monotonic() - switched:.1f} s after the hierarchy "
                         f"switch {what}; task errors that grew most: "
                         f"{error_growth(before, self.telemetry)}",
+                        category="fall",
                     )
+            if kind in MOTION_ENDING_EVENTS:
+                self._zero_velocity()
             if kind in ("session_rebuilt", "reset"):
                 self.refresh_info()
 
     def _log_status_changes(self, tel: dict) -> None:
         """A warning of the status line (slow ticks, fallbacks, a fall) into the log when it
         starts."""
-        now = warnings_of(tel, self._typical_control_us(), self._rtf.value())
+        now = self._live.warnings(tel)
         for kind, text in started_warnings(now, self._warnings):
             self.log.add("warning", f"t {tel['t']:.2f} s · {text}", kind=kind)
         self._warnings = set(now)
@@ -558,14 +599,18 @@ class LabApp:
             return False
         if tel is not None:
             self._log_status_changes(tel)
-            if tel["robot"] == self._robot_name and tel["scene"] != self._scene_name:
-                self._scene_name = tel["scene"]  # taken first: a failing scene is not retried
-                self._load_scene(tel["scene"])
+        # From the newest telemetry, not this frame's: a recording that ended before a browser
+        # came sends no more, and its scene (the floor) was never drawn.
+        latest = self.telemetry
+        robot, scene = (None, None) if latest is None else (latest["robot"], latest["scene"])
+        if robot is not None and robot == self._robot_name and scene != self._scene_name:
+            self._scene_name = scene  # taken first: a failing scene is not retried
+            self._load_scene(scene)
         if tel is not None and self.overlays is not None and now - clock.overlay >= OVERLAY_S:
             clock.overlay = now
             info = self.info
             if info is not None and (tel["stack"], tel["gait"]) != (info["stack"], info["gait"]):
-                self.refresh_info()  # someone else changed the stack or the gait
+                self._follow_stack_and_gait(info, tel)
             view = self.robot_view  # a view built but not yet posed has no frames to look up
             if tel["robot"] == self._robot_name and view is not None and view.drawn:
                 self.overlays.update(tel)

@@ -19,6 +19,28 @@ def stack_risks(levels: Sequence[Sequence[str]]) -> list[str]:
     return []
 
 
+def standing_risks(levels: Sequence[Sequence[str]], tasks: Sequence[str], gait: str) -> list[str]:
+    """Why the acknowledged stack `levels` is unlikely to hold the robot under `gait` ([] when
+    nothing is obviously wrong); `tasks` names the tasks (the other names are constraints,
+    which belong above the contacts)."""
+    risks = stack_risks(levels)
+    if risks:
+        return risks
+    contact = next(k for k, level in enumerate(levels) if CONTACT_TASK in level)
+    above = [name for level in levels[:contact] for name in level if name in tasks]
+    if above:
+        risks.append(
+            f"{', '.join(above)} above the {CONTACT_TASK} task: the feet may slip or lift to "
+            "serve it (the contacts belong at the top, under the physical limits only)"
+        )
+    if gait == "stand" and any("swing_feet" in level for level in levels):
+        risks.append(
+            "a stepping stack (swing_feet) with the stand gait: made for walking, it may not "
+            "stand (Bolt fell under kim_stepping); choose the gait or *Default stack*"
+        )
+    return risks
+
+
 def error_growth(before: dict, after: dict, top: int = 3) -> str:
     """Which tasks lost most between two telemetry messages (before a hierarchy switch and at a
     fall after it): the `top` largest growths of task error, with their level."""

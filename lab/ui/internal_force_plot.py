@@ -3,11 +3,12 @@ reference F_int,ref, the sensed F_int (eq. 13 or the contact forces) and the com
 from telemetry's `internal_force`. It shows while the `internal_force` task is in the stack;
 with a foot in the air the sensed value and the command are gaps."""
 
+import contextlib
 import math
 
 import viser
 
-from lab.ui.plots import Chart, ChartSpec, Container
+from lab.ui.plots import Atomic, Chart, ChartSpec, Container
 
 LABELS = ("reference", "sensed", "command (eq. 12)")
 
@@ -37,7 +38,9 @@ INTERNAL_FORCE = ChartSpec(
 )
 
 
-def add_internal_force_plot(gui: viser.GuiApi, folder: Container) -> Chart:
-    """The chart in `folder` (a folder or tab) of `gui`; feed it with `record(telemetry)`, show
-    with `draw`."""
-    return Chart(gui, folder, INTERNAL_FORCE)
+def add_internal_force_plot(
+    gui: viser.GuiApi, folder: Container, atomic: Atomic = contextlib.nullcontext
+) -> Chart:
+    """The chart in `folder` (a folder or tab) of `gui` (`atomic`: the server's); feed it with
+    `record(telemetry)`, show with `draw`."""
+    return Chart(gui, folder, INTERNAL_FORCE, atomic)

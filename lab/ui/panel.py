@@ -6,6 +6,10 @@ controls and a notice while the controlling one edits. Every edit goes through `
 which enforces ownership and reports rejected commands; the widgets then show what the server
 acknowledged (the host calls `show_info` with the fresh `info` reply). The panel knows its host
 only through `PanelHost` (the app implements it), never the app itself.
+
+Over 400 lines: the widgets of one browser and their callbacks; the folders with their own job
+live apart (`balance_controls`, `internal_force_controls`, `scene_setup`, `lab_picker`,
+`recording`), as do the pure rules (`joystick`, `stack_edit`, `guard_rails`, `numbers`).
 """
 
 from __future__ import annotations
@@ -22,10 +26,12 @@ from lab.ui import stack_edit
 from lab.ui.balance_controls import BalanceControls
 from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
-from lab.ui.guard_rails import stack_risks
+from lab.ui.guard_rails import stack_risks, standing_risks
+from lab.ui.internal_force_controls import InternalForceControls
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.lab_picker import add_lab_picker
 from lab.ui.numbers import NumberError, NumberRange, format_number
+from lab.ui.scene_setup import offer_scene_setup
 
 
 class PanelHost(Protocol):
@@ -46,8 +52,15 @@ class PanelHost(Protocol):
 
     def set_velocity(self, client: viser.ClientHandle, cmd: VelocityCommand) -> None: ...
 
-    def report(self, level: str, text: str, client: viser.ClientHandle | None = None) -> None:
-        """A line in the event log, popped up in `client`'s browser when given."""
+    def report(
+        self,
+        level: str,
+        text: str,
+        client: viser.ClientHandle | None = None,
+        category: str | None = None,
+    ) -> None:
+        """A line in the event log (in `category`, lab/ui/event_log.py), popped up in
+        `client`'s browser when given."""
 
     def notify_error(self, client: viser.ClientHandle, verb: str, error: str) -> None: ...
 
@@ -73,13 +86,24 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
     "U": ("turn left", "yaw_rate", 1),
     "O": ("turn right", "yaw_rate", -1),
 }
+STOP_HOTKEY = "X"
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
 ROBOT_NOTES = {  # shown under the Robot dropdown while that robot runs
     "bolt": "Bolt stands on its two point feet by leaning its CoM to balance about the line "
     "between them (docs/controller.md): a push across that line fells it standing. Choose the "
     "biped_step gait to step: it walks where the velocity steers it and steps out of pushes.",
 }
-PUSH_FORCE_RANGE = NumberRange("Magnitude", 10.0, 600.0, "N")  # the slider's range
+REPLAY_NOTE = (
+    "**A recording** (`lab replay --serve`): play, pause, speed and seek it in *Replay* above. "
+    "The robot, scene, controller, gait, velocity, push, balance and stack controls cannot act on "
+    "a recording: they are greyed out (button rows hidden)."
+)
+PUSH_FORCE_RANGE = NumberRange("Magnitude", 1.0, 600.0, "N")  # the slider's range
+# The push a robot gets by default: a share of its weight for a short time (150 N for every robot
+# felled Solo12, 2.5 kg, which falls at 30 N).
+PUSH_WEIGHT_SHARE = 0.15
+PUSH_DEFAULT_MS = 100.0
+GRAVITY = 9.81
 PUSH_MS_RANGE = NumberRange("Duration", 20.0, 1000.0, "ms")
 # Viser sends a typed number at most every 50 ms and a click in that window replaces the pending
 # number (its throttle keeps only the newest message): a click this soon after a typed update may
@@ -93,6 +117,13 @@ def push_force(direction: str, magnitude: float, yaw: float) -> list[float]:
     hx, hy = PUSH_DIRECTIONS[direction]
     c, s = np.cos(yaw), np.sin(yaw)
     return [magnitude * (c * hx - s * hy), magnitude * (s * hx + c * hy), 0.0]
+
+
+def default_push_newtons(mass_kg: float) -> float:
+    """The push magnitude offered for a robot of `mass_kg`: PUSH_WEIGHT_SHARE of its weight,
+    whole newtons, inside the slider's range."""
+    newtons = round(PUSH_WEIGHT_SHARE * mass_kg * GRAVITY)
+    return float(min(max(newtons, PUSH_FORCE_RANGE.lo), PUSH_FORCE_RANGE.hi))
 
 
 def _levels_markdown(levels: list[list[str]], selected: str, disabled: list[str]) -> str:
@@ -114,10 +145,14 @@ class ControlPanel:
         self.velocity = VelocityCommand()
         self._yaw_from_slider = 0.0
         self._last_level: dict[str, int] = {}
+        self._shown_robot: str | None = None  # the robot whose defaults the widgets hold
         gui = client.gui
         self._controls: list = []
 
         self.banner = gui.add_markdown("", order=1)
+        self.replay_note = gui.add_markdown(REPLAY_NOTE, order=1.5, visible=False)
+        self._owner: int | None = None  # the browser holding control, as last shown
+        self._replay = False  # the lab is a recording (`lab replay --serve`): nothing acts
         self.take = gui.add_button("Take control", icon=viser.Icon.HAND_GRAB, order=2)
         self.take.on_click(app.guard(lambda _: app.take_control(client.client_id)))
         self.labs = add_lab_picker(app, client, order=2.5)
@@ -150,9 +185,7 @@ class ControlPanel:
         self.robot.on_update(
             app.guard(lambda e: self._switch(e, "robot", {"name": self.robot.value}))
         )
-        self.scene.on_update(
-            app.guard(lambda e: self._switch(e, "scene", {"name": self.scene.value}))
-        )
+        self.scene.on_update(app.guard(self._switch_scene))
         self.method.on_update(app.guard(self._hierarchy))
         self.kernel.on_update(app.guard(self._hierarchy))
         default_stack.on_click(app.guard(lambda _: self._default_stack()))
@@ -181,15 +214,15 @@ class ControlPanel:
         for key, (label, axis, direction) in HOTKEYS.items():
             cmd = gui.add_command(f"Velocity: {label}", hotkey=key)
             cmd.on_trigger(app.guard(lambda _, a=axis, d=direction: self._tap(a, d)))
-        stop_key = gui.add_command("Velocity: stop", hotkey="X")
+        stop_key = gui.add_command("Velocity: stop", hotkey=STOP_HOTKEY)
         stop_key.on_trigger(app.guard(lambda _: self.stop()))
 
         with gui.add_folder("Push", order=5):
             self.push_force = gui.add_slider(
-                "Magnitude [N]", PUSH_FORCE_RANGE.lo, PUSH_FORCE_RANGE.hi, 10.0, 150.0
+                "Magnitude [N]", PUSH_FORCE_RANGE.lo, PUSH_FORCE_RANGE.hi, 1.0, 10.0
             )
             self.push_ms = gui.add_slider(
-                "Duration [ms]", PUSH_MS_RANGE.lo, PUSH_MS_RANGE.hi, 10.0, 200.0
+                "Duration [ms]", PUSH_MS_RANGE.lo, PUSH_MS_RANGE.hi, 10.0, PUSH_DEFAULT_MS
             )
             pushes = gui.add_button_group("Push", tuple(PUSH_DIRECTIONS))
             self.push_note = gui.add_markdown("")
@@ -201,8 +234,11 @@ class ControlPanel:
 
         self.balance = BalanceControls(app, gui, order=5.5)
         self._controls += self.balance.controls
+        self.internal_force = InternalForceControls(app, gui, order=5.6)
+        self._controls += self.internal_force.controls
         with gui.add_folder("Task stack", order=6):
             self.stack_view = gui.add_markdown("")
+            self.stack_risk = gui.add_markdown("", visible=False)
             self.task = gui.add_dropdown("Task", ("…",))
             moves = gui.add_button_group("Move", ("▲ level", "▼ level", "new ▲", "new ▼"))
             self.enabled = gui.add_checkbox("Enabled", True)
@@ -241,6 +277,10 @@ class ControlPanel:
 
     # ---- ownership -------------------------------------------------------------------------
     def show_ownership(self, owner: int | None) -> None:
+        """Enable the controls for the browser holding control, unless the lab is a recording
+        (then every control but the lab picker is greyed out, button rows hidden: viser cannot
+        disable those, and the note above says why)."""
+        self._owner = owner
         mine = owner == self.client.client_id
         if mine:
             self.banner.content = "**You hold control** of the robot."
@@ -251,12 +291,14 @@ class ControlPanel:
                 f"**Read-only**: browser #{owner} holds control. Press *Take control* to drive."
             )
         self.take.visible = not mine
+        acts = mine and not self._replay
         for handle in self._controls:
             if isinstance(handle, viser.GuiButtonGroupHandle):
-                handle.visible = mine  # viser cannot disable a button group: hide it instead
+                handle.visible = acts  # viser cannot disable a button group: hide it instead
             else:
-                handle.disabled = not mine
-        self.pad.visible = mine
+                handle.disabled = not (mine if handle is self.labs.dropdown else acts)
+        self.pad.visible = acts
+        self.replay_note.visible = self._replay
 
     # ---- info / telemetry -----------------------------------------------------------------------
     def show_info(self, info: dict) -> None:
@@ -280,9 +322,18 @@ class ControlPanel:
             self.task.value = current
         if info["stack_presets"]:
             self.preset.options = tuple(info["stack_presets"])
+        if ("replay" in info) != self._replay:  # a recording, or a live lab again
+            self._replay = "replay" in info
+            self.show_ownership(self._owner)
+        if info["robot"] != self._shown_robot:  # another robot: its defaults, no stale notes
+            self._shown_robot = info["robot"]
+            self.push_note.content = self.gains_note.content = ""
+            self.push_force.value = default_push_newtons(info.get("mass", 0.0))
+            self.push_ms.value = PUSH_DEFAULT_MS
         note = ROBOT_NOTES.get(info["robot"], "")
         self.robot_note.content, self.robot_note.visible = note, bool(note)
         self.balance.show_info(info)
+        self.internal_force.show_info(info)
         self._show_task()
 
     def _show_task(self) -> None:
@@ -302,6 +353,9 @@ class ControlPanel:
                 handle.visible = has
                 if has:
                     handle.value = format_number(task[key])
+        risks = standing_risks(levels, list(tasks), info["gait"])
+        self.stack_risk.content = "\n\n".join(f"⚠ {risk}" for risk in risks)
+        self.stack_risk.visible = bool(risks)
         # last: once the editor marks the task, the fields above show it (the browser tests wait
         # for the mark before they type or click)
         self.stack_view.content = _levels_markdown(levels, name, disabled)
@@ -339,6 +393,16 @@ class ControlPanel:
         if event.client_id is not None:
             self.app.send(self.client, verb, payload)
 
+    def _switch_scene(self, event: viser.GuiEvent) -> None:
+        """Switch the scene, then offer the set-up it was made for (`scene_setup.py`)."""
+        if event.client_id is None:
+            return
+        scene = self.scene.value
+        reply = self.app.send(self.client, "scene", {"name": scene})
+        info = self.app.info
+        if reply is not None and reply.get("ok") and info is not None:
+            offer_scene_setup(self.app, self.client, scene, info["robot"], info.get("mass", 0.0))
+
     def _hierarchy(self, event: viser.GuiEvent) -> None:
         if event.client_id is not None:
             payload = {
@@ -354,7 +418,9 @@ class ControlPanel:
         info = self.app.info
         if info is not None:
             self.app.send(self.client, "robot", {"name": info["robot"]})
-            self.app.report("info", f"{info['robot']} reset with its default stack and gains")
+            self.app.report(
+                "info", f"{info['robot']} reset with its default stack and gains", category="reset"
+            )
 
     def _choose_gait(self, event: viser.GuiEvent) -> None:
         if event.client_id is None:
@@ -395,10 +461,15 @@ class ControlPanel:
         self._set_velocity(cmd)
 
     def stop(self) -> None:
+        self.zero_velocity()
+        self._set_velocity(VelocityCommand())
+
+    def zero_velocity(self) -> None:
+        """Show a zero velocity command (without sending one): the next tap starts from 0."""
         self._yaw_from_slider = 0.0
         self.yaw.value = 0.0
         self.pad.position = (0.0, 0.0, 0.0)
-        self._set_velocity(VelocityCommand())
+        self.velocity = VelocityCommand()
 
     def _slider_changed(self, event: viser.GuiEvent, limits: NumberRange) -> None:
         """A typed slider number above the slider's maximum: the browser clamps it on leaving the
@@ -421,10 +492,13 @@ class ControlPanel:
             self._typed_at[event.target.label] = time.monotonic()
             self.gains_note.content = ""
 
-    def note(self, where: viser.GuiMarkdownHandle, level: str, text: str) -> None:
-        """A message under the widgets it is about, in the event log, and popped up."""
+    def note(
+        self, where: viser.GuiMarkdownHandle, level: str, text: str, category: str | None = None
+    ) -> None:
+        """A message under the widgets it is about, in the event log (in `category`), and
+        popped up."""
         where.content = f"{'⚠' if level != 'info' else '✔'} {text}"
-        self.app.report(level, text, self.client if level != "info" else None)
+        self.app.report(level, text, self.client if level != "info" else None, category)
 
     def _settled(self, *labels: str) -> bool:
         """False (and a message) when a number field changed too recently to be trusted."""
@@ -464,6 +538,7 @@ class ControlPanel:
                 self.push_note,
                 "info",
                 f"pushed {direction}: {magnitude:g} N for {duration_ms:g} ms",
+                category="push",
             )
 
     def _show_value(self, handle: viser.GuiInputHandle, value: float | str) -> None:

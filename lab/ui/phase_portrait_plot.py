@@ -61,7 +61,7 @@ class PhasePortrait:
             if self.labels:
                 self.labels, self.prediction = (), np.zeros((0, 2))
                 self.path.clear()
-                self._remove()
+                self._hide()
             return
         if not self.labels:  # the first message, or the plots were cleared (`Plots.clear`)
             self.path.clear()
@@ -96,16 +96,18 @@ class PhasePortrait:
                     legend={"show": True},
                 )
         else:
+            if not self._handle.visible:
+                self._handle.visible = True
             self._handle.data = data
             if (shown, shown_x) != (self._y_range, self._x_range):
                 self._handle.scales = scales  # the chart is not rebuilt, its zoom stays
         self._y_range, self._x_range = shown, shown_x
 
-    def _remove(self) -> None:
+    def _hide(self) -> None:
+        """Hide the chart (kept for the next stepping: removing it logged console errors,
+        `plots.Chart`)."""
         if self._handle is not None:
-            self._handle.remove()
-            self._handle = None
-            self._y_range = self._x_range = None
+            self._handle.visible = False
 
 
 def _series(axis: int) -> tuple[uplot.Series, ...]:

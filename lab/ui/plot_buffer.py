@@ -2,12 +2,19 @@
 
 import numpy as np
 
+# s: a sample this much older than the newest is a rewound clock (Reset, a scene switch); a
+# sample less old arrived out of order (a telemetry message that the sim process's put thread
+# let a newer one overtake) and is dropped. Clearing on it emptied every chart now and then,
+# leaving a slice of a second drawn, or none.
+REWIND_S = 0.5
+
 
 class RollingBuffer:
     """The last `window` seconds of `n` channels sampled at irregular times.
 
-    Appending a time earlier than the newest sample (a reset rewound the clock) clears the buffer.
-    Storage is a fixed ring of `capacity` samples, so memory does not grow.
+    Appending a time more than REWIND_S before the newest sample (a reset rewound the clock)
+    clears the buffer; a time before the newest by less is out of order and dropped, so the
+    times stay sorted. Storage is a fixed ring of `capacity` samples, so memory does not grow.
     """
 
     def __init__(self, n: int, window: float = 10.0, capacity: int = 2048) -> None:
@@ -29,8 +36,11 @@ class RollingBuffer:
         if values.shape != (self.n,):
             raise ValueError(f"expected {self.n} values, got shape {values.shape}")
         cap = len(self._t)
-        if self._count and t < self._t[(self._start + self._count - 1) % cap]:
+        newest = self._t[(self._start + self._count - 1) % cap] if self._count else -np.inf
+        if t < newest - REWIND_S:
             self.clear()
+        elif t <= newest:
+            return
         i = (self._start + self._count) % cap
         self._t[i] = t
         self._y[i] = values

@@ -8,8 +8,10 @@ the window shown, so a longer window shows the past at once. While paused, the c
 they show (uPlot's drag-to-zoom then holds: a redraw resets it) and recording goes on.
 """
 
+import contextlib
 import math
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,8 +125,16 @@ CHARTS = (
 )
 
 
+def window_points(data: tuple[np.ndarray, ...], max_points: int) -> tuple[np.ndarray, ...]:
+    """What a chart is sent for `data` (t, series…; sorted): times as seconds before the newest
+    sample, at most `max_points` per series, the newest kept."""
+    t = data[0]
+    index = np.arange(len(t) - 1, -1, -max(1, -(-len(t) // max_points)))[::-1]
+    return (t[index] - t[-1], *(series[index] for series in data[1:]))
+
+
 def _series(labels: tuple[str, ...], title: str) -> tuple[uplot.Series, ...]:
-    out: list[uplot.Series] = [{"label": "t [s]"}]
+    out: list[uplot.Series] = [{"label": "t − t_now [s]"}]
     for i, label in enumerate(labels):
         s: uplot.Series = {"label": label, "stroke": PALETTE[i % len(PALETTE)], "width": 1.5}
         if title.startswith("CoP") and i >= 2:  # polygon bounds: thin dashed, x grey, y blue
@@ -133,9 +143,25 @@ def _series(labels: tuple[str, ...], title: str) -> tuple[uplot.Series, ...]:
     return tuple(out)
 
 
+Atomic = Callable[[], AbstractContextManager]  # messages sent inside are applied together
+
+
 class Chart:
-    def __init__(self, gui: viser.GuiApi, container: Container, spec: ChartSpec) -> None:
+    """One live chart. Its uPlot element is made once and kept: new series (robot switch,
+    stack edit) replace its series and data in one atomic update, and a chart with nothing to
+    show is hidden. Viser's client applies a websocket batch's GUI updates after the batch's
+    removals: a chart removed and added anew logged "Tried to update non-existent component"
+    whenever a data update of the old one was in the same batch as its removal."""
+
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        container: Container,
+        spec: ChartSpec,
+        atomic: Atomic = contextlib.nullcontext,
+    ) -> None:
         self._gui = gui
+        self._atomic = atomic
         self._container = container
         self.spec = spec
         self.title = spec.title
@@ -143,6 +169,7 @@ class Chart:
         self.buffer: RollingBuffer | None = None
         self.shown: tuple[np.ndarray, ...] = ()  # (t, series…) last drawn, full resolution
         self._handle: viser.GuiUplotHandle | None = None
+        self._relabelled = False  # the handle shows series other than `labels`
         self._sent_scales: dict[str, uplot.Scale] = {}
 
     def record(self, tel: dict) -> None:
@@ -151,53 +178,57 @@ class Chart:
             self.labels = labels
             self.buffer = RollingBuffer(len(labels), MAX_WINDOW_S, BUFFER_SAMPLES)
             self.shown = ()
-            if self._handle is not None:
-                self._handle.remove()
-                self._handle = None
+            self._relabelled = self._handle is not None
         if labels:
             self.buffer.append(tel["t"], self.spec.values_of(tel))
 
     def draw(self, window_s: float) -> None:
         """Show the last `window_s` of data (at most MAX_POINTS points per series)."""
+        if not self.labels and self._handle is not None and self._handle.visible:
+            self._handle.visible = False  # nothing to show (e.g. its task left the stack)
         if self.buffer is None or not self.labels or len(self.buffer) < 2:
             return
         data = self.buffer.arrays()
-        first = np.searchsorted(data[0], data[0][-1] - window_s)
-        data = tuple(a[first:] for a in data)
-        self.shown = data  # full resolution: what an export writes
-        step = max(1, len(data[0]) // MAX_POINTS)
-        data = tuple(np.ascontiguousarray(a[::step]) for a in data)
-        scales = self._scales(data)
+        first = np.searchsorted(data[0], data[0][-1] - window_s, side="right")
+        self.shown = tuple(a[first:] for a in data)  # full resolution: what an export writes
+        data = window_points(self.shown, MAX_POINTS)
+        scales = self._scales(data, window_s)
         if self._handle is None:
             with self._container:
                 self._handle = self._add(data, scales)
+        elif self._relabelled:
+            with self._atomic():  # series, data and scales of one count, applied together
+                self._handle.series = _series(self.labels, self.title)
+                self._handle.data = data
+                self._handle.scales = scales
+                self._handle.visible = True
+            self._relabelled = False
         else:
             self._handle.data = data
             if scales != self._sent_scales:
-                self._handle.scales = scales  # the chart is not rebuilt
+                self._handle.scales = scales
         self._sent_scales = scales
 
-    def _scales(self, data: tuple[np.ndarray, ...]) -> dict[str, uplot.Scale]:
-        """uPlot's scales for `data`: its own y ranging, or with a NaN gap the y range computed
-        here (`plot_range.py`: uPlot's would be NaN and the chart empty)."""
-        scales: dict[str, uplot.Scale] = {"x": {"time": False}}
+    def _scales(self, data: tuple[np.ndarray, ...], window_s: float) -> dict[str, uplot.Scale]:
+        """uPlot's scales for `data`: x fixed at [-window_s, 0] (seconds before the newest
+        sample), y computed here (`plot_range.py`; uPlot's own range of a series with a NaN gap
+        is NaN, and the chart empty), at least ±`min_span` and GAP_SPAN of the largest |value|.
+
+        With absolute times on a free x axis, viser's client kept the axis by its position
+        relative to the data's extent, recomputed at every update from the axis last committed;
+        under load it read an axis not yet committed and the error added up (an axis 35 s behind
+        the data, -10,530 s after a Reset, or none). A fixed x range is pinned by the client and
+        never recomputed; it changes with the window only."""
         values = np.concatenate(data[1:])
-        if np.isnan(values).any():
-            finite = np.abs(values[np.isfinite(values)])
-            floor = GAP_SPAN * float(finite.max()) if finite.size else 1.0
-            shown = self._sent_scales.get("y", {}).get("range")
-            current = shown if isinstance(shown, tuple) else None
-            shown = axis_range(values, current, max(2.0 * self.spec.min_span, floor, 1e-9))
-            scales["y"] = {"auto": False, "range": shown}
-        elif self.spec.min_span:
-            span = self.spec.min_span  # uPlot soft range: widened to ±span unless data exceeds it
-            scales["y"] = {
-                "range": {
-                    "min": {"pad": 0.1, "soft": -span, "mode": 1},
-                    "max": {"pad": 0.1, "soft": span, "mode": 1},
-                }
-            }
-        return scales
+        finite = np.abs(values[np.isfinite(values)])
+        floor = GAP_SPAN * float(finite.max()) if finite.size else 1.0
+        shown = self._sent_scales.get("y", {}).get("range")
+        current = shown if isinstance(shown, tuple) else None
+        shown = axis_range(values, current, max(2.0 * self.spec.min_span, floor, 1e-9))
+        return {
+            "x": {"time": False, "auto": False, "range": (-window_s, 0.0)},
+            "y": {"auto": False, "range": shown},
+        }
 
     def _add(
         self, data: tuple[np.ndarray, ...], scales: dict[str, uplot.Scale]
@@ -217,7 +248,11 @@ class Plots:
     """The charts with their controls: pause, window length, CSV export of what is shown."""
 
     def __init__(
-        self, gui: viser.GuiApi, container: Container, guard: Callable = lambda f: f
+        self,
+        gui: viser.GuiApi,
+        container: Container,
+        guard: Callable = lambda f: f,
+        atomic: Atomic = contextlib.nullcontext,
     ) -> None:
         with container:
             self.paused = gui.add_checkbox(
@@ -230,7 +265,7 @@ class Plots:
             png = gui.add_button("Export PNG", hint="the shown window of every chart, as a figure")
         csv.on_click(guard(self._export_csv))
         png.on_click(guard(self._export_png))
-        self.charts = [Chart(gui, container, spec) for spec in CHARTS]
+        self.charts = [Chart(gui, container, spec, atomic) for spec in CHARTS]
 
     def record(self, tel: dict) -> None:
         for chart in self.charts:
@@ -256,9 +291,24 @@ class Plots:
         return shown_csv(self.shown())
 
     def _export_csv(self, event: viser.GuiEvent) -> None:
-        if event.client is not None:
-            event.client.send_file_download("lab-plots.csv", self.csv().encode())
+        text = self.csv()
+        rows = max(0, text.count("\n") - 1)
+        self._deliver(event, "lab-plots.csv", text.encode(), f"{rows} rows of what the charts show")
 
     def _export_png(self, event: viser.GuiEvent) -> None:
-        if event.client is not None:
-            event.client.send_file_download("lab-plots.png", shown_png(self.shown()))
+        drawn = sum(1 for shown in self.shown() if len(shown.data) and len(shown.data[0]))
+        self._deliver(event, "lab-plots.png", shown_png(self.shown()), f"{drawn} charts")
+
+    @staticmethod
+    def _deliver(event: viser.GuiEvent, name: str, content: bytes, what: str) -> None:
+        """Download `content` as `name` in the browser that asked, and say so there. (Without
+        `save_immediately` viser only offers a link in a notification: nothing arrived.)"""
+        if event.client is None:
+            return
+        event.client.send_file_download(name, content, save_immediately=True)
+        event.client.add_notification(
+            f"Exported {name}",
+            f"{what}, {len(content) / 1024:.0f} kB: saved by the browser",
+            auto_close_seconds=6.0,
+            with_close_button=True,
+        )

@@ -97,13 +97,16 @@ class RecordingControls:
             self._timeline.value = min(replay["t"], self._timeline.max)
 
     def _build_replay(self, duration: float) -> None:
+        """The timeline and playback controls, in their own folder at the top of the panel
+        (in the collapsed Recording folder far below, nobody found them)."""
+        self._folder.visible = False  # a recording is not recorded again
+        self._folder = self._gui.add_folder("Replay", order=0.5, expand_by_default=True)
         with self._folder:
             self._timeline = self._gui.add_slider(
                 "Timeline [s]", 0.0, max(duration, TIMELINE_STEP_S), TIMELINE_STEP_S, 0.0
             )
             self._play = self._gui.add_button_group("Playback", ("Play", "Pause"))
             self._speed = self._gui.add_dropdown("Speed ×", SPEEDS, initial_value="1")
-        self._folder.expand_by_default = True
         self._timeline.on_update(self._guard(self._seek))
         self._play.on_click(self._guard(self._play_pause))
         self._speed.on_update(self._guard(self._set_speed))
