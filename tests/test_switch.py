@@ -126,8 +126,10 @@ def test_the_loop_keeps_ticking_the_old_robot_while_a_switch_is_built() -> None:
     assert loop.error is None, repr(loop.error)
     assert transport.reply_body == {"ok": True}
     assert session.config.robot == "bolt"
-    # the old robot was ticked while the new one was built (a switch takes 0.3-1 s here, 75-250
-    # ticks at 250 Hz; before, the loop stood still for all of it), then the new one
+    # the old robot was ticked while the new one was built, then the new one; before, the loop
+    # stood still for the whole switch (0.3-1 s here). How many ticks fit depends on the
+    # machine: MuJoCo's MjSpec.compile holds the GIL for ~350 ms in one call (75-250 ticks at
+    # 250 Hz on a quiet machine, 16 on one at load 20)
     during = ticks.count("solo12") - 20
-    assert during >= 20, during
+    assert during >= 3, during
     assert ticks[-1] == "bolt"
