@@ -39,6 +39,7 @@ SCENARIO_KEYS = {
     "metrics",
     "limits",
     "terrain_seed",
+    "expect",  # the expected outcome (checked by `lab run` once the checker lands)
 }
 CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
 RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now
