@@ -131,3 +131,13 @@ def test_bolt_steps_and_turns_on_native_ticks() -> None:
     assert session.controller.kernel_ran == "native"
     assert not session.behaviour._native_stale  # the native stepping tick ran
     assert not session.fell and session.behaviour.steps >= 10
+
+
+def test_lab_bench_has_a_bolt_stepping_row_on_the_native_tick() -> None:
+    """`lab bench`'s Bolt row with gait biped_step: it says its gait, ran the native kernel
+    (the stepping tick included) and did not fall in 1 s of walking and turning."""
+    from lab.server.bench import bench_one
+
+    row = bench_one("bolt", "cascade", 1.0, "native", "biped_step")
+    assert (row["gait"], row["kernel"], row["fell"]) == ("biped_step", "native", False)
+    assert row["kernel_us"] is not None
