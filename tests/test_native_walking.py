@@ -6,6 +6,7 @@ import functools
 
 import numpy as np
 import pytest
+from native_ticks import recording, tick_native_and_mixed
 
 from lab.controller.behaviours import walking as walking_module
 from lab.controller.behaviours.gait import GAITS, LegState
@@ -17,7 +18,6 @@ pytest.importorskip("lab._kernel", reason="the native kernel is not built (./dev
 
 TOL = 1e-9  # relative to 1 + |value|: the same steps, another float order
 RECORDED_TICKS = 700  # a trot cycle (0.6 s on ANYmal) and more: lift-offs and touchdowns
-SWITCH_BLOCK = 37  # ticks per kernel in the walking that alternates Python and native ticks
 CONFIGURE_AT = 300  # a new step height mid-stride: the native state is read again
 NUMB_FROM = 150  # the crawl feels no ground from this tick on
 
@@ -29,14 +29,7 @@ def recorded_trot() -> tuple:
     session = Session(SessionConfig(robot="anymal", kernel="python"))
     session.handle("gait", {"name": "trot"})
     session.handle("velocity", {"vx": 0.4, "vy": 0.05, "yaw_rate": 0.3})
-    calls = []
-    update = session.behaviour.update
-
-    def record(t, robot, command, touching) -> None:
-        calls.append((t, robot.q.copy(), robot.v.copy(), command.copy(), touching.copy()))
-        update(t, robot, command, touching)
-
-    session.behaviour.update = record
+    calls = recording(session)
     for _ in range(RECORDED_TICKS):
         session.tick()
     assert not session.fell
@@ -127,14 +120,7 @@ def test_the_native_walking_tick_agrees_with_python(gait: str, footholds: str) -
         python.update(t, model, command, touching)
         events += states != [leg.state for leg in python.scheduler.legs]
         reaching += any(leg.state is LegState.REACHING for leg in python.scheduler.legs)
-        on_native = (tick // SWITCH_BLOCK) % 2 == 1
-        if not on_native:
-            mixed.update(t, model, command, touching)
-        model.filled_elsewhere()  # as after the native kernel's update: the native tick runs
-        native.update(t, model, command, touching)
-        if on_native:
-            mixed.update(t, model, command, touching)
-        assert not native._native_stale, "the native tick did not run"
+        tick_native_and_mixed(tick, model, native, mixed, t, command, touching)
         assert_same_walking(native, python, tick)
         assert_same_walking(mixed, python, tick)
     assert events >= 4  # legs lifted off and landed

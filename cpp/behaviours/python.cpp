@@ -1,5 +1,5 @@
-// Python bindings of the behaviours' hot parts: LegPostureReference and Walking call them on
-// native ticks.
+// Python bindings of the behaviours' hot parts: LegPostureReference, Walking and BipedStepping
+// call them on native ticks.
 #include "behaviours/python.hpp"
 
 #include <nanobind/ndarray.h>
@@ -7,8 +7,10 @@
 #include <nanobind/stl/vector.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "behaviours/biped_step.hpp"
 #include "behaviours/leg_posture.hpp"
 #include "behaviours/walking.hpp"
 
@@ -62,12 +64,13 @@ using Doubles = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
 using Flags = nb::ndarray<bool, nb::c_contig, nb::device::cpu>;
 
 /// `owner.name` as a C-contiguous array of `size` entries (taken in place, never copied);
-/// raises ValueError naming the field otherwise.
+/// raises ValueError naming the behaviour (`who`) and the field otherwise.
 template <typename Array>
-Array field(nb::handle owner, const char* name, std::size_t size) {
+Array field(nb::handle owner, const char* name, std::size_t size,
+            const char* who = "native walking") {
   Array array;
   if (!nb::try_cast(owner.attr(name), array, false) || array.size() != size)
-    throw nb::value_error((std::string("native walking: ") + name + " must be a C-contiguous " +
+    throw nb::value_error((std::string(who) + ": " + name + " must be a C-contiguous " +
                            "array of " + std::to_string(size) + " entries of its type")
                               .c_str());
   return array;
@@ -277,6 +280,173 @@ class WalkingBinding {
   double base_height_ = 0.0, damping_ = 0.0;
 };
 
+// ------------------------------------------------------------------------------- BipedStepping
+constexpr const char* kBiped = "native biped_step";
+constexpr const char* kPhaseNames[] = {"dual", "lift_transition", "lift", "land",
+                                       "land_transition"};  // biped_step.py Phase's values
+// SteppingTimes' fields by name.
+constexpr std::pair<const char*, double SteppingTimes::*> kTimes[] = {
+    {"dual", &SteppingTimes::dual},
+    {"transition", &SteppingTimes::transition},
+    {"lift", &SteppingTimes::lift},
+    {"land", &SteppingTimes::land},
+    {"step_height", &SteppingTimes::step_height},
+    {"reversal_time", &SteppingTimes::reversal_time},
+    {"impact_velocity_change", &SteppingTimes::impact_velocity_change},
+    {"replan_from", &SteppingTimes::replan_from},
+    {"reach", &SteppingTimes::reach},
+    {"lateral_offset", &SteppingTimes::lateral_offset},
+    {"min_width", &SteppingTimes::min_width},
+    {"max_width", &SteppingTimes::max_width},
+    {"min_swing", &SteppingTimes::min_swing},
+    {"max_lateral_speed", &SteppingTimes::max_lateral_speed},
+    {"min_lateral_speed", &SteppingTimes::min_lateral_speed},
+    {"max_swing", &SteppingTimes::max_swing},
+};
+
+/// The native tick of a Python `BipedStepping` (biped_step.py), as WalkingBinding for Walking:
+/// `update` loads the Python object's state when told it changed (or on a new robot model),
+/// runs lab::BipedStepping::update on the model's and the references' arrays in place, and
+/// writes the state back (the scalars that changed, the arrays in place).
+class BipedSteppingBinding {
+ public:
+  void update(nb::handle stepping, nb::handle robot, double t,
+              nb::ndarray<const double, nb::shape<3>, nb::c_contig, nb::device::cpu> command,
+              nb::ndarray<const bool, nb::shape<2>, nb::c_contig, nb::device::cpu> touching,
+              bool reload) {
+    if (reload || !robot.is(robot_)) load(stepping, robot);
+    before_ = core_;
+    const BipedModel model{
+        Eigen::Map<const Eigen::VectorXd>(q_.data(), static_cast<Eigen::Index>(q_.size())),
+        Eigen::Map<const RowMatrix3>(model_rotation_.data()),
+        Eigen::Map<const RowMatrixX3>(contact_positions_.data(), 2, 3),
+        Eigen::Map<const Eigen::Vector3d>(model_com_.data()),
+        Eigen::Map<const Eigen::Vector3d>(com_velocity_.data())};
+    BipedReferences refs{contact_active_.data(),
+                         swing_tracked_.data(),
+                         Eigen::Map<Eigen::Vector2d>(force_weight_.data()),
+                         rows3(foot_position_),
+                         rows3(foot_velocity_),
+                         rows3(foot_acceleration_),
+                         vector(posture_),
+                         Eigen::Map<RowMatrix3>(base_rotation_.data()),
+                         Eigen::Map<Eigen::Vector3d>(base_angular_velocity_.data()),
+                         Eigen::Map<Eigen::Vector3d>(com_.data()),
+                         base_height_};
+    core_.update(t, model, command.data(), touching.data(), refs);
+    base_height_ = refs.base_height;
+    write_back(stepping);
+  }
+
+ private:
+  void load(nb::handle stepping, nb::handle robot) {
+    const std::size_t nq = nb::len(nb::object(robot.attr("q")));
+    if (nq < 7) throw nb::value_error("native biped_step: the model needs a floating base");
+    q_ = field<Doubles>(robot, "q", nq, kBiped);
+    model_rotation_ = field<Doubles>(robot, "base_rotation", 9, kBiped);
+    contact_positions_ = field<Doubles>(robot, "contact_positions", 6, kBiped);
+    model_com_ = field<Doubles>(robot, "com", 3, kBiped);
+    com_velocity_ = field<Doubles>(robot, "com_velocity", 3, kBiped);
+    nb::object refs = stepping.attr("references");
+    contact_active_ = field<Flags>(refs, "contact_active", 2, kBiped);
+    swing_tracked_ = field<Flags>(refs, "swing_tracked", 2, kBiped);
+    force_weight_ = field<Doubles>(refs, "force_weight", 2, kBiped);
+    foot_position_ = field<Doubles>(refs, "foot_position", 6, kBiped);
+    foot_velocity_ = field<Doubles>(refs, "foot_velocity", 6, kBiped);
+    foot_acceleration_ = field<Doubles>(refs, "foot_acceleration", 6, kBiped);
+    posture_ = field<Doubles>(refs, "posture", nq - 7, kBiped);
+    base_angular_velocity_ = field<Doubles>(refs, "base_angular_velocity", 3, kBiped);
+    com_ = field<Doubles>(refs, "com", 3, kBiped);
+    base_height_ = nb::cast<double>(refs.attr("base_height"));
+    // The references' base rotation becomes an array this binding writes in place (a Python
+    // tick replaces it).
+    refs.attr("base_rotation") = nb::module_::import_("numpy").attr("eye")(3);
+    base_rotation_ = field<Doubles>(refs, "base_rotation", 9, kBiped);
+    liftoff_ = field<Doubles>(stepping, "liftoff", 3, kBiped);
+    target_ = field<Doubles>(stepping, "target", 2, kBiped);
+    plan_ = field<Doubles>(stepping, "plan", kPlanFields, kBiped);
+    Doubles sides = field<Doubles>(stepping, "sides", 2, kBiped);
+
+    BipedStepping& b = core_;
+    nb::object times = stepping.attr("times");
+    const std::size_t declared = nb::len(nb::module_::import_("dataclasses").attr("fields")(times));
+    if (declared != std::size(kTimes))
+      throw nb::value_error("native biped_step: SteppingTimes' fields differ from the kernel's");
+    for (const auto& [name, member] : kTimes) b.times.*member = nb::cast<double>(times.attr(name));
+    b.height = nb::cast<double>(stepping.attr("height"));
+    b.com_height = nb::cast<double>(stepping.attr("com_height"));
+    b.yaw = nb::cast<double>(stepping.attr("yaw"));
+    nb::object since = stepping.attr("since");
+    b.started = !since.is_none();
+    b.since = b.started ? nb::cast<double>(since) : 0.0;
+    b.t = b.started ? nb::cast<double>(stepping.attr("t")) : 0.0;
+    for (int k = 0; k < 3; ++k) b.command(k) = nb::cast<double>(stepping.attr("command")[k]);
+    b.sides = Eigen::Map<Eigen::Vector2d>(sides.data());
+    b.swing = nb::cast<int>(stepping.attr("swing"));
+    if (b.swing != 0 && b.swing != 1) throw nb::value_error("native biped_step: swing is 0 or 1");
+    nb::object phases = nb::module_::import_("lab.controller.behaviours.biped_step").attr("Phase");
+    const std::string phase = nb::cast<std::string>(stepping.attr("phase").attr("value"));
+    for (int k = 0; k < 5; ++k) {
+      phases_[k] = phases(kPhaseNames[k]);
+      if (phase == kPhaseNames[k]) b.phase = static_cast<StepPhase>(k);
+    }
+    b.liftoff = Eigen::Map<Eigen::Vector3d>(liftoff_.data());
+    b.target = Eigen::Map<Eigen::Vector2d>(target_.data());
+    b.swing_start = nb::cast<double>(stepping.attr("swing_start"));
+    b.swing_t0 = nb::cast<double>(stepping.attr("swing_t0"));
+    b.swing_u0 = nb::cast<double>(stepping.attr("swing_u0"));
+    b.swing_duration = nb::cast<double>(stepping.attr("swing_duration"));
+    b.shortened = nb::cast<long>(stepping.attr("shortened"));
+    b.lengthened = nb::cast<long>(stepping.attr("lengthened"));
+    b.steps = nb::cast<long>(stepping.attr("steps"));
+    b.plans = nb::cast<long>(stepping.attr("plans"));
+    std::copy(plan_.data(), plan_.data() + kPlanFields, b.plan.begin());
+    refs_ = refs;
+    robot_ = nb::borrow(robot);
+  }
+
+  /// The state into the Python objects: t, the heading and the base height every tick, the
+  /// rest when it changed.
+  void write_back(nb::handle stepping) {
+    const BipedStepping &b = core_, &then = before_;
+    stepping.attr("t") = b.t;
+    stepping.attr("yaw") = b.yaw;
+    if (b.command != then.command)
+      stepping.attr("command") = nb::make_tuple(b.command(0), b.command(1), b.command(2));
+    refs_.attr("base_height") = base_height_;
+    if (b.since != then.since || b.phase != then.phase || b.swing != then.swing ||
+        b.steps != then.steps || !then.started) {
+      stepping.attr("since") = b.since;
+      stepping.attr("phase") = phases_[static_cast<int>(b.phase)];
+      stepping.attr("swing") = b.swing;
+      stepping.attr("steps") = b.steps;
+    }
+    Eigen::Map<Eigen::Vector3d>(liftoff_.data()) = b.liftoff;
+    if (b.swing_start != then.swing_start) stepping.attr("swing_start") = b.swing_start;
+    if (b.plans != then.plans) {
+      Eigen::Map<Eigen::Vector2d>(target_.data()) = b.target;
+      std::copy(b.plan.begin(), b.plan.end(), plan_.data());
+      stepping.attr("plans") = b.plans;
+    }
+    if (b.swing_t0 != then.swing_t0 || b.swing_duration != then.swing_duration) {
+      stepping.attr("swing_t0") = b.swing_t0;
+      stepping.attr("swing_u0") = b.swing_u0;
+      stepping.attr("swing_duration") = b.swing_duration;
+      stepping.attr("shortened") = b.shortened;
+      stepping.attr("lengthened") = b.lengthened;
+    }
+  }
+
+  BipedStepping core_, before_;
+  nb::object robot_, refs_;
+  nb::object phases_[5];
+  Doubles q_, model_rotation_, contact_positions_, model_com_, com_velocity_;
+  Flags contact_active_, swing_tracked_;
+  Doubles force_weight_, foot_position_, foot_velocity_, foot_acceleration_, posture_,
+      base_rotation_, base_angular_velocity_, com_, liftoff_, target_, plan_;
+  double base_height_ = 0.0;
+};
+
 }  // namespace
 
 void bind_behaviours(nb::module_& m) {
@@ -297,6 +467,14 @@ void bind_behaviours(nb::module_& m) {
            "references' arrays in place; `reload`: the Python object's state changed since the "
            "last call (a Python tick, configure, continue_from) and is read first. The walking "
            "state is written back to the Python objects.");
+  nb::class_<BipedSteppingBinding>(
+      m, "BipedStepping", "The native tick of a Python BipedStepping (biped_step.py), in one call.")
+      .def(nb::init<>())
+      .def("update", &BipedSteppingBinding::update, nb::arg("stepping"), nb::arg("robot"),
+           nb::arg("t"), nb::arg("command"), nb::arg("touching"), nb::arg("reload"),
+           "BipedStepping.update's steps in C++ (cpp/behaviours/biped_step.cpp, pipm.cpp) on "
+           "the model's and the references' arrays in place; `reload`: the Python object's "
+           "state changed since the last call and is read first. The state is written back.");
 }
 
 }  // namespace lab

@@ -1,4 +1,4 @@
-"""`lab bench`: controller tick and headless real-time factor per robot, method and kernel.
+"""`lab bench`: controller tick and headless real-time factor per robot, gait, method and kernel.
 
 A benchmark, not a test: it prints medians and p99 for a person to read and record in
 docs/performance.md. Each run stands the robot for a while, pushes it sideways (so that the QPs
@@ -7,7 +7,9 @@ the same run, and the table gives native/python of the medians. `tick` is what t
 per control period (model update, behaviour, controller); `solve` is the controller alone
 (`controller.solve()`, the native kernel's whole tick from q, v and references), repeated at
 the final state. `kernel` is the native kernel's own model update + rows + solve per tick, timed
-inside it (no Python around it).
+inside it (no Python around it). `gait` is `stand` (the default behaviour) or, on Bolt,
+`biped_step`: Kim's stepping stack under the benched method, walking at 0.2 m/s while turning at
+0.3 rad/s, its footsteps replanned every tick from 80 % of each lift.
 """
 
 import argparse
@@ -24,6 +26,8 @@ METHODS = ("cascade", "weighted", "wbosc")
 # wbosc is Kim 2016's method for point-foot bipeds: it enforces no inequality, so it stands
 # Bolt and no other robot of the lab.
 WBOSC_ROBOTS = ("bolt",)
+GAITS = {"bolt": ("stand", "biped_step")}  # the others: stand
+STEERING = {"vx": 0.2, "yaw_rate": 0.3}  # the velocity command of a walking row
 KERNELS = ("python", "native")
 PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fraction of the weight
 # Bolt on its foot line under wbosc (which enforces no inequality) falls 0.33 s after a push of
@@ -37,8 +41,16 @@ def _stats(us: np.ndarray) -> dict[str, float]:
     return {"p50": float(np.median(us)), "p99": float(np.percentile(us, 99))}
 
 
-def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -> dict:
+def bench_one(
+    robot: str, method: str, seconds: float, kernel: str = "python", gait: str = "stand"
+) -> dict:
     session = Session(SessionConfig(robot=robot, method=method, kernel=kernel))
+    if gait != "stand":  # the gait brings its stack; the benched method replaces the preset's
+        for verb, payload in (("gait", {"name": gait}), ("hierarchy", {"method": method})):
+            reply = session.handle(verb, payload)
+            if not reply["ok"]:
+                raise ValueError(f"lab bench: {robot} {gait} {method}: {reply['error']}")
+        session.velocity = np.array([STEERING["vx"], 0.0, STEERING["yaw_rate"]])
     weight = session.model.mass * 9.81
     ticks = round(seconds / session.config.timestep)
     control_us = np.zeros(ticks)
@@ -64,6 +76,7 @@ def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -
         solve_us[i] = (time.perf_counter() - start) * 1e6
     return {
         "robot": robot,
+        "gait": gait,
         "method": method,
         "kernel": controller.kernel_ran,
         "ticks": ticks,
@@ -88,8 +101,9 @@ def bench_main(argv: list[str]) -> int:
         print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
         args.kernels = ["python"]
     rows = [
-        bench_one(r, m, args.seconds, k)
+        bench_one(r, m, args.seconds, k, g)
         for r in args.robots
+        for g in GAITS.get(r, ("stand",))
         for m in args.methods
         if m != "wbosc" or r in WBOSC_ROBOTS
         for k in args.kernels
@@ -98,27 +112,29 @@ def bench_main(argv: list[str]) -> int:
         print(json.dumps({"controller_tick": rows}))
         return 0
     print(
-        f"{'robot':8} {'method':9} {'kernel':7} {'tick p50 µs':>12} {'tick p99 µs':>12} "
-        f"{'solve p50 µs':>13} {'solve p99 µs':>13} {'kernel p50/p99 µs':>18} {'RTF':>6}  fell"
+        f"{'robot':8} {'gait':10} {'method':9} {'kernel':7} {'tick p50 µs':>12} "
+        f"{'tick p99 µs':>12} {'solve p50 µs':>13} {'solve p99 µs':>13} "
+        f"{'kernel p50/p99 µs':>18} {'RTF':>6}  fell"
     )
     for row in rows:
         tick, solve, inside = row["controller_us"], row["solve_us"], row["kernel_us"]
         kernel = f"{inside['p50']:.0f} / {inside['p99']:.0f}" if inside else "-"
         print(
-            f"{row['robot']:8} {row['method']:9} {row['kernel']:7} {tick['p50']:12.0f} "
+            f"{row['robot']:8} {row['gait']:10} {row['method']:9} {row['kernel']:7} "
+            f"{tick['p50']:12.0f} "
             f"{tick['p99']:12.0f} {solve['p50']:13.1f} {solve['p99']:13.1f} {kernel:>18} "
             f"{row['realtime_factor']:6.2f}  {row['fell']}"
         )
-    pairs = {(r["robot"], r["method"], r["kernel"]): r for r in rows}
+    pairs = {(r["robot"], r["gait"], r["method"], r["kernel"]): r for r in rows}
     for robot in args.robots:
-        for method in args.methods:
+        for gait, method in ((g, m) for g in GAITS.get(robot, ("stand",)) for m in args.methods):
             python, native = (
-                pairs.get((robot, method, "python")),
-                pairs.get((robot, method, "native")),
+                pairs.get((robot, gait, method, "python")),
+                pairs.get((robot, gait, method, "native")),
             )
             if python and native:
                 print(
-                    f"native/python {robot:8} {method:9} tick "
+                    f"native/python {robot:8} {gait:10} {method:9} tick "
                     f"{native['controller_us']['p50'] / python['controller_us']['p50']:.2f}  solve "
                     f"{native['solve_us']['p50'] / python['solve_us']['p50']:.2f}"
                 )

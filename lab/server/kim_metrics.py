@@ -8,8 +8,9 @@ reference, and the largest foot slide.
 - `stepping`: the steps of a stepping behaviour (touchdowns) and how long it stepped; the
   largest errors of the CoM height, of the base height and of the body's roll-pitch against
   their references while stepping (Kim Fig. 8d: 2 cm, 0.15 rad); how far the CoM wandered
-  horizontally from where stepping began, and where it ended (world x, y from there); how
-  many swings the lateral planner cut short (`biped_step`).
+  horizontally from where stepping began, and where it ended (world x, y from there); the
+  CoM's path length and the base's unwrapped yaw turned; how many swings the lateral planner
+  cut short or lengthened (`biped_step`).
 """
 
 from typing import TYPE_CHECKING
@@ -58,10 +59,12 @@ class SteppingMetrics:
     def __init__(self, session: "Session") -> None:
         self.start: float | None = None
         self.origin = np.zeros(2)
-        self.steps = self.cut = 0
+        self.steps = self.cut = self.lengthened = 0
         self.duration = 0.0
         self.com_height = self.base_height = self.orientation = self.wander = 0.0
         self.travel = np.zeros(2)
+        self.path = self.turned = 0.0  # m walked by the CoM, rad turned by the base (unwrapped)
+        self.last: tuple[np.ndarray, float] | None = None  # the CoM and yaw at the last tick
 
     def update(self, session: "Session") -> None:
         behaviour = session.behaviour
@@ -73,6 +76,7 @@ class SteppingMetrics:
             self.start, self.origin = session.time, model.com[:2].copy()
         self.steps, self.duration = steps, session.time - self.start
         self.cut = getattr(behaviour, "shortened", 0)
+        self.lengthened = getattr(behaviour, "lengthened", 0)
         self.com_height = max(self.com_height, abs(refs.com[2] - model.com[2]))
         self.base_height = max(self.base_height, abs(refs.base_height - model.base_position[2]))
         tilt = pin.log3(refs.base_rotation.T @ model.base_rotation)
@@ -80,6 +84,11 @@ class SteppingMetrics:
         roll_pitch = tilt - (tilt @ yaw_axis) * yaw_axis  # yaw is not a task while stepping
         self.orientation = max(self.orientation, float(np.linalg.norm(roll_pitch)))
         self.travel = model.com[:2] - self.origin
+        yaw = float(np.arctan2(model.base_rotation[1, 0], model.base_rotation[0, 0]))
+        if self.last is not None:
+            self.path += float(np.linalg.norm(model.com[:2] - self.last[0]))
+            self.turned += float(np.angle(np.exp(1j * (yaw - self.last[1]))))
+        self.last = model.com[:2].copy(), yaw
         self.wander = max(self.wander, float(np.linalg.norm(self.travel)))
 
     def result(self) -> dict[str, float]:
@@ -87,12 +96,15 @@ class SteppingMetrics:
             "steps": float(self.steps),
             "stepping_s": self.duration,
             "swings_cut": float(self.cut),
+            "swings_lengthened": float(self.lengthened),
             "max_com_height_error_m": self.com_height,
             "max_base_height_error_m": self.base_height,
             "max_roll_pitch_error_rad": self.orientation,
             "max_com_wander_m": self.wander,
             "com_travel_x_m": float(self.travel[0]),
             "com_travel_y_m": float(self.travel[1]),
+            "com_path_m": self.path,
+            "yaw_turned_rad": self.turned,
         }
 
 

@@ -44,6 +44,7 @@ SCENARIO_KEYS = {
     "metrics",
     "limits",
     "terrain_seed",
+    "expect",  # the expected outcome (checked by `lab run` once the checker lands)
 }
 CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
 # s: the longest run a scenario may ask for (the longest shipped one is 65 s; an hour at 1 kHz

@@ -17,17 +17,24 @@ the planner aims at the commanded velocity t′ after the switch instead of zero
 frame), so the robot walks where it is steered. The step stays within `reach` of the stance
 foot and the swing foot on its own side, at least `min_width` from the stance foot across.
 
-Across (§V-2), y is planned before x and may shorten the swing, which x then plans with:
-Kim's rule (the switch comes where the PIPM's |ẏ| reaches `max_lateral_speed`), and, where
+Across (§V-2), y is planned before x and may retime the swing, which x then plans with:
+Kim's rules (the switch comes where the PIPM's |ẏ| reaches `max_lateral_speed`; a switch whose
+|ẏ| would be below `min_lateral_speed` waits until it is, up to `max_swing`), and, where
 the reversal would need the swing foot closer than `min_width` to the stance foot or across it
 (a crossover the legs cannot make without touching), the swing cut to `min_swing`: the foot
 lands at the width limit at once, so that the other foot, on the side the CoM is heading, steps
-sooner. A shortened swing keeps its path and speeds along it from where it is.
+sooner. A retimed swing keeps its path and moves along it faster or slower from where it is.
 
 The trunk: base height above the stance foot (Kim controls the CoM height), level, at a heading
 turned by the command's yaw rate (never more than YAW_LEAD_MAX ahead of the measured one); the
 CoM's horizontal motion is left to the pendulum and the footsteps, as in Kim's single-support
 task set [COM_z, q_Ry, q_Rx, foot].
+
+On a tick whose model update the native kernel ran, `update` runs the same steps in C++ in one
+call (cpp/behaviours/biped_step.cpp with pipm.cpp and swing.cpp, when built): it reads this
+object's state when it changed since its last call and writes it back, so this object stays
+current and this module stays the reference. The planner's prediction for the drawing is built
+from the last plan's inputs when it is read.
 """
 
 import math
@@ -42,17 +49,44 @@ from lab.controller.behaviours.base import NoOptions
 from lab.controller.behaviours.pipm import (
     LinearSurface,
     PipmState,
-    capped_switch_time,
+    lateral_switch_time,
     plan_step,
     predicted_path,
 )
 from lab.controller.behaviours.swing import swing_reference
+from lab.controller.behaviours.walking import YAW_ACCELERATION_LIMIT, rate_limited
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.walk_references import WalkReferences
 
+try:
+    from lab._kernel import BipedStepping as NativeBipedStepping
+except ImportError:  # the native kernel is not built: every tick runs the code below
+    NativeBipedStepping = None
+
 YAW_LEAD_MAX = 0.2  # rad, the heading reference never leads the measured yaw by more
 PLAN_TOLERANCE = 1e-4  # m, the bisection's: a tenth of a millimetre on the footstep
+# m/s², the commanded velocity's rate limit. A step from 0 to 0.3 m/s (or walking's 1 m/s²)
+# needs footsteps beyond the reach within two steps: clipped there, the CoM outruns the feet
+# and Bolt falls in 1.5–2 s (whether it turns or not); at 0.3 m/s² it walks 0.3 m/s and turns.
+ACCELERATION_LIMIT = 0.3
+RATE_LIMITS = (ACCELERATION_LIMIT, ACCELERATION_LIMIT, YAW_ACCELERATION_LIMIT)
+# The last plan's inputs (BipedStepping.plan): when (s), the CoM and its velocity (heading frame,
+# from the stance foot), the time to the switch (s), the step (heading frame, from the stance
+# foot), the PIPM's height (m) and the stance foot (heading frame).
+PLAN_FIELDS = (
+    "t",
+    "com_x",
+    "com_y",
+    "vx",
+    "vy",
+    "switch_in",
+    "step_x",
+    "step_y",
+    "height",
+    "origin_x",
+    "origin_y",
+)
 
 
 def _wrap(angle: float) -> float:
@@ -99,6 +133,11 @@ class SteppingTimes:
     # Kim's |ẏ| limit 0.65 m/s (Hume) scaled by √(z g) to Bolt's 0.3 m: the lateral phase plane
     # shortens the step so that the switch comes before the CoM is this fast sideways.
     max_lateral_speed: float = 0.36
+    # Kim's lower limit, 0.1 m/s on Hume, scaled the same way: a switch slower sideways than
+    # this is postponed until the CoM is this fast, so that the next lateral step has a sway
+    # to reverse (§V-2), never beyond Hume's lift + land (0.49 s, Table IV) scaled to Bolt.
+    min_lateral_speed: float = 0.055
+    max_swing: float = 0.27
 
 
 @dataclass(frozen=True)
@@ -136,6 +175,7 @@ class BipedStepping(NoOptions):
         self.com_height = float(at_rest.com[2] - at_rest.contact_positions[:, 2].mean())
         self.yaw = float(yaw)  # the heading reference, turned by the command's yaw rate
         self.t: float | None = None
+        self.command = (0.0, 0.0, 0.0)  # [vx, vy, yaw_rate], rate-limited (RATE_LIMITS)
         refs.foot_position = feet.copy()
         refs.foot_velocity = np.zeros((2, 3))
         refs.foot_acceleration = np.zeros((2, 3))
@@ -156,9 +196,37 @@ class BipedStepping(NoOptions):
         self.swing_start = self.swing_t0 = self.swing_u0 = 0.0
         self.swing_duration = self.times.lift + self.times.land
         self.shortened = 0  # swings cut short by the lateral planner
-        self.prediction: StepPrediction | None = None
+        self.lengthened = 0  # swings lengthened by it
         self.steps = 0  # touchdowns
         self.plans = 0
+        self.plan = np.zeros(len(PLAN_FIELDS))  # the last plan's inputs (PLAN_FIELDS)
+        self._prediction: tuple[int, float, StepPrediction] | None = None  # plans, t, answer
+        self._native = NativeBipedStepping() if NativeBipedStepping is not None else None
+        self._native_stale = True  # the native tick must read this object's state first
+
+    @property
+    def prediction(self) -> StepPrediction | None:
+        """The planner's last answer (Kim Figs. 4–5) for the drawing, built from `plan` when
+        read; None before the first plan."""
+        if self.plans == 0:
+            return None
+        if self._prediction is None or self._prediction[:2] != (self.plans, self.plan[0]):
+            t, *com, vx, vy, switch_in, step_x, step_y, height, ox, oy = self.plan.tolist()
+            surface, origin, step = LinearSurface(height), (ox, oy), (step_x, step_y)
+            paths = (
+                predicted_path(
+                    PipmState(t, com[axis], (vx, vy)[axis]),
+                    switch_in,
+                    step[axis],
+                    self.times.reversal_time,
+                    surface,
+                    origin=origin[axis],
+                )
+                for axis in range(2)
+            )
+            foot = np.array([ox + step_x, oy + step_y])
+            self._prediction = (self.plans, t, StepPrediction(t, foot, *paths))
+        return self._prediction[2]
 
     # ------------------------------------------------------------------------ the tick
     def update(
@@ -167,6 +235,14 @@ class BipedStepping(NoOptions):
         """Advance the state machine to time `t` (s) and set the references (module docstring)."""
         if self.since is None:
             self.since = self.t = t
+        if self._native is not None and robot.updated_by == "native":  # the steps below, in C++
+            self._native.update(self, robot, t, command, touching, self._native_stale)
+            self._native_stale = False
+            return
+        self._native_stale = True
+        steps = [(t - self.t) * limit for limit in RATE_LIMITS]
+        self.command = rate_limited(self.command, command.tolist(), steps)
+        command = np.array(self.command)
         yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
         lead = _wrap(self.yaw + float(command[2]) * (t - self.t) - yaw)
         self.yaw, self.t = yaw + min(max(lead, -YAW_LEAD_MAX), YAW_LEAD_MAX), t
@@ -242,10 +318,14 @@ class BipedStepping(NoOptions):
         """The fraction of the swing done at time `t` (s); above 1 while reaching down."""
         return self.swing_u0 + (t - self.swing_t0) / self.swing_duration
 
-    def _shorten(self, t: float, switch_in: float) -> None:
-        """End the swing `switch_in` s after `t` instead: the rest of the path, walked faster."""
+    def _retime(self, t: float, switch_in: float) -> None:
+        """End the swing `switch_in` s after `t` instead: the rest of the path, walked faster or
+        slower. A swing's first retiming is counted, as cut or lengthened."""
         done = self._swing_done(t)
-        self.shortened += self.swing_u0 == 0.0  # counted once per swing
+        if self.swing_u0 == 0.0:
+            longer = switch_in > (1.0 - done) * self.swing_duration
+            self.lengthened += longer
+            self.shortened += not longer
         self.swing_u0, self.swing_t0 = done, t
         self.swing_duration = switch_in / (1.0 - done)
 
@@ -255,6 +335,7 @@ class BipedStepping(NoOptions):
         times, s = self.times, self.swing
         switch_in = (1.0 - self._swing_done(t)) * self.swing_duration
         shortest = min(switch_in, max(0.0, times.min_swing - (t - self.swing_start)))
+        longest = max(switch_in, times.max_swing - (t - self.swing_start))
         stance = robot.contact_positions[1 - s]
         yaw = float(pin.rpy.matrixToRpy(robot.base_rotation)[2])
         c, sn = math.cos(yaw), math.sin(yaw)
@@ -280,35 +361,28 @@ class BipedStepping(NoOptions):
             ).foot
 
         lateral = PipmState(0.0, float(com[1]), float(velocity[1]))
-        capped = capped_switch_time(
-            lateral, 0.0, switch_in, surface, times.max_lateral_speed, shortest
+        capped = lateral_switch_time(
+            lateral,
+            0.0,
+            switch_in,
+            surface,
+            times.max_lateral_speed,
+            times.min_lateral_speed,
+            shortest,
+            longest,
         )
         y = foot(1, capped) + side * times.lateral_offset
         if side * y < times.min_width and capped > shortest:  # a crossover: step at once
             capped = shortest
             y = foot(1, capped) + side * times.lateral_offset
-        if capped < switch_in - 1e-9:
-            self._shorten(t, capped)
+        if abs(capped - switch_in) > 1e-9:
+            self._retime(t, capped)
         step = np.array([foot(0, capped), y])
         step[0] = float(np.clip(step[0], -times.reach, times.reach))
         step[1] = side * float(np.clip(side * step[1], times.min_width, times.max_width))
         self.plans += 1
         origin = heading.T @ stance[:2]  # the stance foot, heading frame
-        self.prediction = StepPrediction(
-            t,
-            origin + step,
-            *(
-                predicted_path(
-                    PipmState(t, float(com[axis]), float(velocity[axis])),
-                    capped,
-                    float(step[axis]),
-                    times.reversal_time,
-                    surface,
-                    origin=float(origin[axis]),
-                )
-                for axis in range(2)
-            ),
-        )
+        self.plan[:] = (t, *com, *velocity, capped, *step, surface.height, *origin)
         return stance[:2] + heading @ step
 
 

@@ -3,18 +3,24 @@ horizontal axis at a time (x and y separately, §V-2).
 
 The prismatic inverted pendulum (PIPM): a point mass on a height surface z = h(x) over a point
 foot at x_p, ẍ = (g + h''(x) ẋ²) / (h(x) − (x − x_p) h'(x)) · (x − x_p) (eq. 24). The planner
-integrates it from the current CoM state to the switching state (the stance foot changes),
-applies the impact's velocity change (the post-impact state), and bisects on the next foot
-position so that the CoM velocity reaches zero t′ after the switch (Fig. 4f–g: the velocity at
-t′ falls monotonically as the foot moves ahead).
+takes the CoM from its current state to the switching state (the stance foot changes), applies
+the impact's velocity change (the post-impact state), and finds the next foot position so that
+the CoM velocity reaches zero t′ after the switch (Fig. 4f–g).
+
+The lab's height surfaces are planes, h(x) = h₀ + s (x − o): h'' = 0 and eq. 24's denominator
+h(x) − (x − x_p) s = h(x_p) does not depend on x, so the PIPM is the linear inverted pendulum
+ẍ = ω² (x − x_p) with ω² = g / h(x_p) (Kim: "if the height surface is planar, then this
+relationship is linear"). Its closed form replaces Fig. 4c's numerical integration:
+x(t) − x_p = (x₀ − x_p) cosh ωt + ẋ₀/ω sinh ωt. On a level plane the reversing foot is closed
+form too; on a slope ω depends on the foot and Fig. 4f's bisection runs on the closed form.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 GRAVITY = 9.81
-STEP_DT = 1e-3  # s, the integration step (RK4)
 
 
 @dataclass(frozen=True)
@@ -25,9 +31,9 @@ class LinearSurface:
     slope: float = 0.0
     origin: float = 0.0
 
-    def at(self, x: float) -> tuple[float, float, float]:
-        """h(x), h'(x), h''(x)."""
-        return self.height + self.slope * (x - self.origin), self.slope, 0.0
+    def at(self, x: float) -> float:
+        """h(x) (m)."""
+        return self.height + self.slope * (x - self.origin)
 
 
 @dataclass(frozen=True)
@@ -39,34 +45,41 @@ class PipmState:
     xd: float
 
 
-def acceleration(x: float, xd: float, foot: float, surface: LinearSurface) -> float:
-    """ẍ of the PIPM (eq. 24) over a point foot at `foot`."""
-    h, dh, ddh = surface.at(x)
-    return (GRAVITY + ddh * xd * xd) / (h - (x - foot) * dh) * (x - foot)
+def frequency(foot: float, surface: LinearSurface) -> float:
+    """ω (1/s) of the PIPM over a foot at `foot`: eq. 24 on a plane is ẍ = g / h(x_p) (x − x_p)."""
+    return math.sqrt(GRAVITY / surface.at(foot))
 
 
-def integrate(state: PipmState, foot: float, duration: float, surface: LinearSurface) -> list:
-    """The PIPM's states from `state` over `duration` (s) with the foot at `foot` (RK4)."""
-    steps = max(1, round(duration / STEP_DT))
-    dt = duration / steps
-    x, xd, t = state.x, state.xd, state.t
-    out = [state]
-    for _ in range(steps):
-        k1 = (xd, acceleration(x, xd, foot, surface))
-        k2 = (
-            xd + 0.5 * dt * k1[1],
-            acceleration(x + 0.5 * dt * k1[0], xd + 0.5 * dt * k1[1], foot, surface),
-        )
-        k3 = (
-            xd + 0.5 * dt * k2[1],
-            acceleration(x + 0.5 * dt * k2[0], xd + 0.5 * dt * k2[1], foot, surface),
-        )
-        k4 = (xd + dt * k3[1], acceleration(x + dt * k3[0], xd + dt * k3[1], foot, surface))
-        x += dt / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-        xd += dt / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-        t += dt
-        out.append(PipmState(t, x, xd))
-    return out
+def state_after(
+    state: PipmState, foot: float, duration: float, surface: LinearSurface
+) -> PipmState:
+    """The PIPM's state `duration` (s) after `state` over a foot at `foot` (the closed form)."""
+    w = frequency(foot, surface)
+    c, s = math.cosh(w * duration), math.sinh(w * duration)
+    d = state.x - foot
+    return PipmState(state.t + duration, foot + d * c + state.xd / w * s, d * w * s + state.xd * c)
+
+
+def time_to_speed(state: PipmState, foot: float, speed: float, surface: LinearSurface) -> float:
+    """The first time (s, from `state`) at which |ẋ| = `speed` (m/s) over a foot at `foot`, 0 if
+    it is already at least that fast, ∞ if never. With u = e^{ωt}, ẋ = a u + b / u where
+    a = (ẋ₀ + ω d) / 2 and b = (ẋ₀ − ω d) / 2 (d = x₀ − x_p): ẋ = ±speed is a u² ∓ speed u + b = 0,
+    and the answer is its smallest root u ≥ 1."""
+    if abs(state.xd) >= speed:
+        return 0.0
+    w = frequency(foot, surface)
+    a = 0.5 * (state.xd + w * (state.x - foot))
+    b = 0.5 * (state.xd - w * (state.x - foot))
+    roots = []
+    for v in (speed, -speed):
+        if a == 0.0:
+            roots.append(b / v)
+            continue
+        disc = v * v - 4.0 * a * b
+        if disc >= 0.0:
+            roots += [(v + sign * math.sqrt(disc)) / (2.0 * a) for sign in (1.0, -1.0)]
+    u = min((r for r in roots if r >= 1.0), default=math.inf)
+    return math.log(u) / w
 
 
 @dataclass(frozen=True)
@@ -89,14 +102,20 @@ def reversal_foot(
     velocity: float = 0.0,
 ) -> float:
     """The foot position within `reach` (m) of the CoM whose PIPM velocity is zero (or
-    `velocity`, m/s: a steering bias) `reversal_time` after `post_impact`, by bisection (the
-    velocity falls as the foot moves ahead); saturates at the reach when no foot inside it
-    reaches it."""
+    `velocity`, m/s: a steering bias) `reversal_time` after `post_impact`; saturates at the
+    reach when no foot inside it reaches it. The velocity at t′ falls as the foot moves ahead
+    (Fig. 4g). On a level surface it is linear in the foot: ẋ(t′) = (x − p) ω sinh ωt′ + ẋ cosh ωt′,
+    so p = x + (ẋ cosh ωt′ − velocity) / (ω sinh ωt′); on a slope, bisection to `tolerance` (m)."""
+    lo, hi = post_impact.x - reach, post_impact.x + reach
+    if surface.slope == 0.0:
+        w = frequency(0.0, surface)
+        c, s = math.cosh(w * reversal_time), math.sinh(w * reversal_time)
+        foot = post_impact.x + (post_impact.xd * c - velocity) / (w * s)
+        return min(max(foot, lo), hi)
 
     def velocity_at_reversal(foot: float) -> float:
-        return integrate(post_impact, foot, reversal_time, surface)[-1].xd - velocity
+        return state_after(post_impact, foot, reversal_time, surface).xd - velocity
 
-    lo, hi = post_impact.x - reach, post_impact.x + reach
     if velocity_at_reversal(lo) <= 0.0:
         return lo
     if velocity_at_reversal(hi) >= 0.0:
@@ -122,13 +141,13 @@ def plan_step(
     tolerance: float = 1e-6,
 ) -> PlannedStep:
     """Predict the switching state `switch_in` s from `now` over the stance foot, add the
-    impact's velocity change (Kim's bias, −0.01 m/s in x in simulation), and find the next foot
+    impact's velocity change (Kim's bias, −0.1 m/s in x on Hume), and find the next foot
     that reverses the velocity `reversal_time` (t′) after the switch (or brings it to
-    `velocity`, the steering bias), within `tolerance` (m)."""
-    switching = integrate(now, stance_foot, switch_in, surface)[-1]
+    `velocity`, the steering bias), within `tolerance` (m) where it bisects."""
+    switching = state_after(now, stance_foot, switch_in, surface)
     post = PipmState(switching.t, switching.x, switching.xd + impact_velocity_change)
     foot = reversal_foot(post, reversal_time, surface, reach, tolerance, velocity)
-    reversal = integrate(post, foot, reversal_time, surface)[-1]
+    reversal = state_after(post, foot, reversal_time, surface)
     return PlannedStep(foot, switching, post, reversal)
 
 
@@ -143,28 +162,38 @@ def predicted_path(
 ) -> np.ndarray:
     """The PIPM's path (rows t, x, ẋ; x shifted by `origin`, m) over a stance foot at 0 for
     `switch_in` s from `now`, then over `foot` for `reversal_time` s (Fig. 4: ● → ◇, ◆ → ★),
-    a row every `every` s. The impact's velocity change is not applied."""
-    before = integrate(now, 0.0, switch_in, surface)
-    after = integrate(before[-1], foot, reversal_time, surface)
-    stride = max(1, round(every / STEP_DT))
-    states = before[::stride] + after[::stride]
-    return np.array([(s.t, s.x + origin, s.xd) for s in states])
+    a row about every `every` s, both ends included. The impact's velocity change is not
+    applied."""
+    rows: list[PipmState] = []
+    start = now
+    for duration, over in ((switch_in, 0.0), (reversal_time, foot)):
+        n = max(1, math.ceil(duration / every - 1e-9))
+        rows += [state_after(start, over, duration * k / n, surface) for k in range(n + 1)]
+        start = rows[-1]
+    return np.array([(s.t, s.x + origin, s.xd) for s in rows])
 
 
-def capped_switch_time(
+def lateral_switch_time(
     now: PipmState,
     stance_foot: float,
     switch_in: float,
     surface: LinearSurface,
     max_speed: float,
+    min_speed: float,
     shortest: float,
+    longest: float,
 ) -> float:
-    """Kim §V-2's lateral timing rule: the time (s) from `now` to the switch, shortened from
-    `switch_in` to where the PIPM over the stance foot first reaches `max_speed` (m/s, |ẋ|),
-    never below `shortest` (s). The y phase plane runs before x so that x plans with it."""
-    for state in integrate(now, stance_foot, switch_in, surface):
-        if abs(state.xd) >= max_speed:
-            return min(switch_in, max(shortest, state.t - now.t))
+    """Kim §V-2's lateral timing rules: the time (s) from `now` to the switch. Shortened from
+    `switch_in` to where the PIPM over the stance foot first reaches `max_speed` (m/s, |ẏ|),
+    never below `shortest` (s); lengthened, when |ẏ| at `switch_in` is below `min_speed`, to
+    where it first reaches `min_speed`, never beyond `longest` (s). The y phase plane runs
+    before x so that x plans with it."""
+    fast = time_to_speed(now, stance_foot, max_speed, surface)
+    if fast < switch_in:
+        return max(shortest, fast)
+    switching = state_after(now, stance_foot, switch_in, surface)
+    if abs(switching.xd) < min_speed:
+        return min(longest, switch_in + time_to_speed(switching, stance_foot, min_speed, surface))
     return switch_in
 
 
@@ -172,5 +201,6 @@ def scaled_reversal_time(
     com_height: float, hume_time: float = 0.24, hume_height: float = 1.0
 ) -> float:
     """t′ scaled from Hume's 0.24 s (§V-2) by the pendulum time constant √(z/g); Hume's CoM
-    height is not in the paper: 1.0 m (a 1.5 m robot) is assumed. Bolt (0.3 m): 0.13 s."""
+    height is not in the paper: 1.0 m (a 1.5 m robot) is assumed. Bolt (0.3 m): 0.13 s (the
+    lab's Bolt uses 0.16 s: `biped_step.SteppingTimes.reversal_time` says why)."""
     return hume_time * float(np.sqrt(com_height / hume_height))

@@ -62,7 +62,7 @@ def _roles(hips: list[list[float]]) -> tuple[str, ...]:
     return roles
 
 
-def _rate_limited(
+def rate_limited(
     current: tuple[float, ...], target: list[float], steps: list[float]
 ) -> tuple[float, ...]:
     """Each value moved towards its target by at most its step."""
@@ -189,7 +189,7 @@ class Walking:
         dt = t - self.t
         self.t = t
         steps = [dt * limit for limit in RATE_LIMITS]
-        self.command = vx, vy, yaw_rate = _rate_limited(self.command, command.tolist(), steps)
+        self.command = vx, vy, yaw_rate = rate_limited(self.command, command.tolist(), steps)
         lead = _wrap(self.yaw_ref + yaw_rate * dt - yaw)
         self.yaw_ref = yaw + min(max(lead, -YAW_LEAD_MAX), YAW_LEAD_MAX)
         c, s = math.cos(yaw), math.sin(yaw)
