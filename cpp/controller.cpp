@@ -4,6 +4,8 @@
 #include <cmath>
 #include <set>
 
+#include "hierarchy/formulations.hpp"
+
 namespace lab {
 namespace {
 
@@ -77,6 +79,7 @@ void Kernel::set_stack(const std::vector<std::vector<std::string>>& levels) {
     stack.push_back(std::move(level));
   }
   stack_ = std::move(stack);
+  forget_last_solution();  // its active rows are rows of the old stack
 }
 
 TaskGains Kernel::set_gains(const std::string& task, std::optional<double> kp,
@@ -100,11 +103,22 @@ const TaskGains& Kernel::gains(const std::string& task) const {
 }
 
 void Kernel::set_method(const std::string& method) {
-  if (method != "cascade" && method != "weighted")
+  if (method != "cascade" && method != "weighted" && method != "nullspace")
     throw UnknownName("the native kernel has no hierarchy method '" + method +
-                      "' (methods: cascade, weighted)");
+                      "' (methods: cascade, weighted, nullspace)");
+  if (method != method_) forget_last_solution();  // another method's levels
   method_ = method;
 }
+
+void Kernel::set_formulation(const std::string& formulation) {
+  if (!is_formulation(formulation))
+    throw UnknownName("unknown formulation '" + formulation +
+                      "' (formulations: qdd_force, full, qdd_tau, sequential)");
+  if (formulation != formulation_) forget_last_solution();  // another formulation's levels
+  formulation_ = formulation;
+}
+
+void Kernel::forget_last_solution() { has_last_ = false; }
 
 void Kernel::set_level_weight_ratio(double ratio) {
   if (!(ratio > 0.0) || !std::isfinite(ratio))
@@ -235,10 +249,13 @@ const TickResult& Kernel::solve() {
   check_references();
   const HierarchyProblem& problem = build_problem();
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
-  if (method_ == "cascade")
+  if (method_ == "cascade") {
     solve_cascade(problem, result_.solution);
-  else
+  } else if (method_ == "weighted") {
     solve_weighted(problem, result_.solution);
+  } else {
+    solve_nullspace_from_last();
+  }
 #else
   (void)problem;
   throw std::runtime_error("the native hierarchy solvers are not built (cpp/hierarchy)");
@@ -251,6 +268,21 @@ const TickResult& Kernel::solve() {
   }
   solve_seconds_ = seconds_since(start);
   return result_;
+}
+
+void Kernel::solve_nullspace_from_last() {
+  // The model terms and the last tick's searches, as WholeBodyController.solve hands them over.
+  HierarchyProblem& problem = problem_;
+  problem.terms = {&robot_.M, &robot_.h, &robot_.Jc};
+  problem.formulation = formulation_;
+  problem.active_start = has_last_ ? &last_active_ : nullptr;
+  problem.x_start = has_last_ ? &last_x_ : nullptr;
+  solve_nullspace(problem, result_.solution);
+  has_last_ = result_.solution.ok;
+  if (has_last_) {
+    last_active_ = result_.solution.active_sets;
+    last_x_ = result_.solution.x;
+  }
 }
 
 std::vector<std::pair<std::string, double>> Kernel::task_errors() const {

@@ -19,6 +19,17 @@ struct Level {
   double weight = 1.0;
 };
 
+/// The active rows of each level's C, as one active-set search of `nullspace` left them.
+using ActiveSet = std::vector<Eigen::Array<bool, Eigen::Dynamic, 1>>;
+
+/// The model terms behind the Newton-Euler rows, M q̈ + h − J_cᵀ F = Sᵀ τ (problem.py
+/// DynamicsTerms), for methods that change variables: views of the model's own arrays.
+struct DynamicsTerms {
+  const Eigen::MatrixXd* M = nullptr;
+  const Eigen::VectorXd* h = nullptr;
+  const Eigen::MatrixXd* Jc = nullptr;
+};
+
 /// Find x = [qdd, F] with dynamics_A x = dynamics_b exactly (the Newton-Euler rows,
 /// Herzog eq. 13), then each level in turn. `support` flags the rows of F that belong to
 /// contacts in support (the others carry no force).
@@ -27,6 +38,13 @@ struct HierarchyProblem {
   Eigen::VectorXd dynamics_b;
   std::vector<Level> levels;
   Eigen::Array<bool, Eigen::Dynamic, 1> support;
+  // `nullspace` only (problem.py): the model terms, the optimization vector of Hutter 2014 §4
+  // (formulations.hpp), and where the last tick's searches stopped (`active_start`, one
+  // ActiveSet per search) and its x (`x_start`), to start from; null: a cold start.
+  DynamicsTerms terms;
+  std::string formulation = "qdd_force";
+  const std::vector<ActiveSet>* active_start = nullptr;
+  const Eigen::VectorXd* x_start = nullptr;
 };
 
 /// How one level was solved.
@@ -35,6 +53,7 @@ enum class LevelStatus {
   qp,          // a QP with slacks (Herzog eqs. 9-11)
   kept_above,  // the solver failed; the level keeps the solution of the levels above
   no_freedom,  // nothing left in the null space of the levels above
+  projected,   // null-space projection with active inequalities (Hutter §3)
 };
 
 /// The name telemetry and the tests use for a level status.
@@ -48,6 +67,8 @@ inline const char* level_status_name(LevelStatus status) {
       return "kept_above";
     case LevelStatus::no_freedom:
       return "no_freedom";
+    case LevelStatus::projected:
+      return "projected";
   }
   return "unknown";
 }
@@ -61,6 +82,11 @@ struct HierarchySolution {
   std::vector<double> residuals;      // ||A x - b|| of each level at the returned x
   std::vector<double> level_seconds;  // time spent on each level, over all passes
   int qp_solves = 0;
+  // `nullspace` only: whether an active-set search stopped at its cap (message says where),
+  // the hierarchy solves of all its searches, and the active rows where each search stopped.
+  bool capped = false;
+  int projections = 0;
+  std::vector<ActiveSet> active_sets;
 };
 
 /// Seconds spent on each level, accumulated over the passes of a method (solution.py LevelClock).
@@ -94,5 +120,12 @@ void solve_cascade(const HierarchyProblem& problem, HierarchySolution& out);
 HierarchySolution solve_weighted(const HierarchyProblem& problem);
 /// The same into `out`, whose storage is reused.
 void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out);
+
+/// Hierarchy solves one `nullspace` call makes at most (nullspace.py MAX_PROJECTIONS).
+constexpr int kMaxProjections = 128;
+/// Iterative null-space projection with inequalities activated when violated (Hutter 2014 §3).
+HierarchySolution solve_nullspace(const HierarchyProblem& problem);
+/// The same into `out`, whose storage is reused.
+void solve_nullspace(const HierarchyProblem& problem, HierarchySolution& out);
 
 }  // namespace lab
