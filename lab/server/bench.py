@@ -1,18 +1,22 @@
-"""`lab bench`: controller tick and headless real-time factor per robot, method and kernel.
+"""`lab bench`: controller tick and headless real-time factor per robot, method, gait and kernel.
 
 A benchmark, not a test: it prints medians and p99 for a person to read and record in
 docs/performance.md. Each run stands the robot for a while, pushes it sideways (so that the QPs
-have work to do), and times every tick; the Python and the native kernel run back to back on
-the same run, and the table gives native/python of the medians. `tick` is what the session pays
-per control period (model update, behaviour, controller); `solve` is the controller alone
-(`controller.solve()`, the native kernel's whole tick from q, v and references), repeated at
-the final state. `kernel` is the native kernel's own model update + rows + solve per tick, timed
+have work to do), and times every tick. `--gaits` adds other situations: `trot`, a quadruped
+trotting at 0.3 m/s from the start (its walking stack, Raiola S3, comes with the gait), pushed the
+same way; `single`, Talos shifting onto its left sole and lifting the right (Herzog 2016 §5.4:
+Table 4, LQR), pushed as there (150 N for 35 ms). The Python and the native kernel run back to
+back on the same run, and the table gives native/python of the medians. `tick` is what the
+session pays per control period (model update, behaviour, controller); `solve` is the controller
+alone (`controller.solve()`, the native kernel's whole tick from q, v and references), repeated
+at the final state. `kernel` is the native kernel's own model update + rows + solve per tick, timed
 inside it (no Python around it).
 """
 
 import argparse
 import json
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,9 +24,29 @@ from lab.controller.native import NOT_BUILT
 from lab.server.session import Session, SessionConfig
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos")
-METHODS = ("cascade", "weighted")
+METHODS = ("cascade", "weighted", "nullspace")
 KERNELS = ("python", "native")
+TROT_SPEED = 0.3  # m/s forward
 PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fraction of the weight
+HERZOG_PUSH = (150.0, 0.035)  # N, s: a single-support push of Herzog 2016 §5.4
+
+
+@dataclass(frozen=True)
+class Gait:
+    """A situation to time: the robots it applies to and the commands that set it up."""
+
+    robots: tuple[str, ...]
+    commands: tuple[tuple[str, dict], ...] = ()
+
+
+GAITS = {
+    "stand": Gait(ROBOTS),
+    "trot": Gait(
+        ("anymal", "hyq", "solo12"),
+        (("gait", {"name": "trot"}), ("velocity", {"vx": TROT_SPEED, "vy": 0.0, "yaw_rate": 0.0})),
+    ),
+    "single": Gait(("talos",), (("momentum", {"mode": "lqr"}), ("stance", {"side": "left"}))),
+}
 SOLVE_REPEATS = 500
 
 
@@ -31,19 +55,29 @@ def _stats(us: np.ndarray) -> dict[str, float]:
     return {"p50": float(np.median(us)), "p99": float(np.percentile(us, 99))}
 
 
-def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -> dict:
+def bench_one(
+    robot: str, method: str, seconds: float, kernel: str = "python", gait: str = "stand"
+) -> dict:
     session = Session(SessionConfig(robot=robot, method=method, kernel=kernel))
-    weight = session.model.mass * 9.81
+    for verb, payload in GAITS[gait].commands:
+        reply = session.handle(verb, payload)
+        if not reply["ok"]:
+            raise ValueError(f"{robot} {gait}: {verb}: {reply['error']}")
+    force, duration = PUSH_FRACTION_OF_WEIGHT * session.model.mass * 9.81, 0.1
+    if gait == "single":
+        force, duration = HERZOG_PUSH
     ticks = round(seconds / session.config.timestep)
     control_us = np.zeros(ticks)
     kernel_us = np.full(ticks, np.nan)  # the native kernel's update + solve, timed inside it
+    capped = 0  # nullspace: ticks whose active-set search stopped at its cap
     wall_start = time.perf_counter()
     for i in range(ticks):
         if i == ticks // 2:
-            force = [0.0, PUSH_FRACTION_OF_WEIGHT * weight, 0.0]
-            push = {"body": session.robot.base_link, "force": force, "duration": 0.1}
-            session.handle("push", push)
+            push = {"body": session.robot.base_link, "force": [0.0, force, 0.0]}
+            session.handle("push", {**push, "duration": duration})
         session.tick()
+        if method == "nullspace" and session.solution is not None:
+            capped += session.solution.capped
         control_us[i] = session.control_us
         inside = getattr(session.controller, "kernel_seconds", None)
         if inside is not None:
@@ -58,6 +92,7 @@ def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -
     return {
         "robot": robot,
         "method": method,
+        "gait": gait,
         "kernel": controller.kernel_ran,
         "ticks": ticks,
         "controller_us": _stats(control_us),
@@ -65,6 +100,7 @@ def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -
         "solve_us": _stats(solve_us),
         "realtime_factor": session.time / wall,
         "fell": session.fell,
+        "capped_ticks": capped,
         "qp_failures": session.qp_failures,
     }
 
@@ -76,42 +112,51 @@ def bench_main(argv: list[str]) -> int:
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOTS)
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--kernels", nargs="+", default=list(KERNELS), choices=KERNELS)
+    parser.add_argument(
+        "--gaits",
+        nargs="+",
+        default=["stand"],
+        choices=list(GAITS),
+        help="trot: the quadrupeds; single: Talos on one sole",
+    )
     args = parser.parse_args(argv)
     if "native" in args.kernels and NOT_BUILT:
         print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
         args.kernels = ["python"]
-    rows = [
-        bench_one(r, m, args.seconds, k)
+    runs = [
+        (r, m, g)
         for r in args.robots
         for m in args.methods
-        for k in args.kernels
+        for g in args.gaits
+        if r in GAITS[g].robots
     ]
+    rows = [bench_one(r, m, args.seconds, k, g) for r, m, g in runs for k in args.kernels]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
     print(
-        f"{'robot':8} {'method':9} {'kernel':7} {'tick p50 µs':>12} {'tick p99 µs':>12} "
+        f"{'robot':8} {'method':9} {'gait':5} {'kernel':7} {'tick p50 µs':>12} {'tick p99 µs':>12} "
         f"{'solve p50 µs':>13} {'solve p99 µs':>13} {'kernel p50/p99 µs':>18} {'RTF':>6}  fell"
     )
     for row in rows:
         tick, solve, inside = row["controller_us"], row["solve_us"], row["kernel_us"]
         kernel = f"{inside['p50']:.0f} / {inside['p99']:.0f}" if inside else "-"
         print(
-            f"{row['robot']:8} {row['method']:9} {row['kernel']:7} {tick['p50']:12.0f} "
+            f"{row['robot']:8} {row['method']:9} {row['gait']:5} {row['kernel']:7} "
+            f"{tick['p50']:12.0f} "
             f"{tick['p99']:12.0f} {solve['p50']:13.1f} {solve['p99']:13.1f} {kernel:>18} "
-            f"{row['realtime_factor']:6.2f}  {row['fell']}"
+            f"{row['realtime_factor']:6.2f}  {row['fell']!s:5} {row['capped_ticks']}"
         )
-    pairs = {(r["robot"], r["method"], r["kernel"]): r for r in rows}
-    for robot in args.robots:
-        for method in args.methods:
-            python, native = (
-                pairs.get((robot, method, "python")),
-                pairs.get((robot, method, "native")),
+    pairs = {(r["robot"], r["method"], r["gait"], r["kernel"]): r for r in rows}
+    for robot, method, gait in runs:
+        python, native = (
+            pairs.get((robot, method, gait, "python")),
+            pairs.get((robot, method, gait, "native")),
+        )
+        if python and native:
+            print(
+                f"native/python {robot:8} {method:9} {gait:5} tick "
+                f"{native['controller_us']['p50'] / python['controller_us']['p50']:.2f}  solve "
+                f"{native['solve_us']['p50'] / python['solve_us']['p50']:.2f}"
             )
-            if python and native:
-                print(
-                    f"native/python {robot:8} {method:9} tick "
-                    f"{native['controller_us']['p50'] / python['controller_us']['p50']:.2f}  solve "
-                    f"{native['solve_us']['p50'] / python['solve_us']['p50']:.2f}"
-                )
     return 0
