@@ -17,6 +17,7 @@ import pytest
 
 from lab.controller.hierarchy import nullspace
 from lab.controller.hierarchy.formulations import FORMULATIONS
+from lab.controller.hierarchy.problem import Level
 from lab.controller.native import NOT_BUILT, native_available
 from lab.server.scenario import load_scenario
 from lab.server.session import Session, SessionConfig
@@ -224,3 +225,26 @@ def test_herzog_single_support_runs_native_nullspace_without_a_capped_tick() -> 
         capped += session.solution.capped
     assert capped == 0
     assert not session.fell and session.qp_failures == 0
+
+
+def test_the_native_search_stops_at_the_cap_where_the_python_one_does() -> None:
+    """tests/test_nullspace.py's release example (bounds z ≤ 1 and z₁ + z₂ ≤ 1 against the
+    target (3, −1)) through `_kernel.active_set_search`, at every cap up to what it needs: the
+    same z, solve count, cap, feasibility and active rows as nullspace.py's search at each
+    (2 × 2 rows of unit entries: no rounding to tell the kernels apart)."""
+    C = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    limits = Level(np.zeros((0, 2)), np.zeros(0), C, np.ones(3))
+    objective = Level(np.eye(2), np.array([3.0, -1.0]), np.zeros((0, 2)), np.zeros(0))
+    levels = [limits, objective]
+    rows = [(lv.A, lv.b, lv.C, lv.d) for lv in levels]
+    full = nullspace.active_set_least_squares(levels, 2)
+    for cap in range(1, full.projections + 2):
+        python = nullspace.active_set_least_squares(levels, 2, cap=cap)
+        z, projections, capped, feasible, active = _kernel.active_set_search(rows, 2, cap)
+        np.testing.assert_allclose(z, python.z, rtol=0.0, atol=1e-12)
+        assert (projections, capped, feasible) == (
+            python.projections,
+            python.capped,
+            python.feasible,
+        ), cap
+        assert [a.tolist() for a in active] == [a.tolist() for a in python.active], cap
