@@ -242,6 +242,9 @@ struct TickOutcome {
   std::vector<std::pair<std::string, double>> task_errors;
   std::vector<std::string> violations;
   Eigen::VectorXd internal_force_sensed, internal_force_command;
+  bool capped = false;  // nullspace: its active set stopped at the cap (message says where)
+  int projections = 0;  // nullspace: hierarchy solves
+  std::vector<lab::ActiveSet> active_sets;
 
   TickOutcome(const lab::Kernel& kernel, const lab::HierarchySolution& solution)
       : ok(solution.ok),
@@ -252,7 +255,10 @@ struct TickOutcome {
         qp_solves(solution.qp_solves),
         violations(solution.violations),
         internal_force_sensed(kernel.internal_force_feedback().first),
-        internal_force_command(kernel.internal_force_feedback().second) {
+        internal_force_command(kernel.internal_force_feedback().second),
+        capped(solution.capped),
+        projections(solution.projections),
+        active_sets(solution.active_sets) {
     kernel.visit_task_errors(
         [&](const std::string& name, double error) { task_errors.emplace_back(name, error); });
   }
@@ -281,6 +287,7 @@ NB_MODULE(_kernel, m) {
     }
   });
 
+  m.attr("nullspace_max_projections") = lab::kMaxProjections;
   m.attr("has_solvers") =
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
       true;
@@ -315,6 +322,24 @@ NB_MODULE(_kernel, m) {
       .def_ro("ok", &TickOutcome::ok)
       .def_ro("message", &TickOutcome::message)
       .def_ro("qp_solves", &TickOutcome::qp_solves)
+      .def_ro("capped", &TickOutcome::capped,
+              "nullspace: whether an active-set search stopped at its cap (kMaxProjections).")
+      .def_ro("projections", &TickOutcome::projections,
+              "nullspace: the hierarchy solves its active-set searches made.")
+      .def_prop_ro(
+          "active_sets",
+          [](const TickOutcome& o) {
+            nb::list searches;
+            for (const auto& search : o.active_sets) {
+              nb::list levels;
+              for (const auto& rows : search)
+                levels.append(nb::cast(Eigen::Array<bool, Eigen::Dynamic, 1>(rows)));
+              searches.append(levels);
+            }
+            return nb::tuple(searches);
+          },
+          "nullspace: the active rows of each level's C where each search stopped (a tuple of "
+          "lists of bool arrays, as HierarchySolution.active_sets).")
       .def_prop_ro("levels",
                    [](const TickOutcome& o) {
                      return tuple_of(o.levels, [](lab::LevelStatus s) {
@@ -393,6 +418,13 @@ NB_MODULE(_kernel, m) {
           },
           "task"_a, "kp"_a = nb::none(), "kd"_a = nb::none(), "weight"_a = nb::none())
       .def("set_method", &lab::Kernel::set_method, "method"_a)
+      .def_prop_ro("formulation", &lab::Kernel::formulation)
+      .def("set_formulation", &lab::Kernel::set_formulation, "formulation"_a,
+           "nullspace's optimization vector (qdd_force, full, qdd_tau, sequential); KeyError for "
+           "another name. A new one starts the next search cold.")
+      .def("forget_last_solution", &lab::Kernel::forget_last_solution,
+           "Start the next nullspace search cold (after a reset: the last tick's active rows and "
+           "x belong to a state that is gone).")
       .def("set_level_weight_ratio", &lab::Kernel::set_level_weight_ratio, "ratio"_a)
       .def(
           "set_contact_limits",

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <set>
 
+#include "hierarchy/formulations.hpp"
+
 namespace lab {
 namespace {
 
@@ -78,6 +80,7 @@ void Kernel::set_stack(const std::vector<std::vector<std::string>>& levels) {
     stack.push_back(std::move(level));
   }
   stack_ = std::move(stack);
+  forget_last_solution();  // its active rows are rows of the old stack
 }
 
 TaskGains Kernel::set_gains(const std::string& task, std::optional<double> kp,
@@ -101,11 +104,22 @@ const TaskGains& Kernel::gains(const std::string& task) const {
 }
 
 void Kernel::set_method(const std::string& method) {
-  if (method != "cascade" && method != "weighted" && method != "wbosc")
+  if (method != "cascade" && method != "weighted" && method != "nullspace" && method != "wbosc")
     throw UnknownName("the native kernel has no hierarchy method '" + method +
-                      "' (methods: cascade, weighted, wbosc)");
+                      "' (methods: cascade, weighted, nullspace, wbosc)");
+  if (method != method_) forget_last_solution();  // another method's levels
   method_ = method;
 }
+
+void Kernel::set_formulation(const std::string& formulation) {
+  if (!is_formulation(formulation))
+    throw UnknownName("unknown formulation '" + formulation +
+                      "' (formulations: qdd_force, full, qdd_tau, sequential)");
+  if (formulation != formulation_) forget_last_solution();  // another formulation's levels
+  formulation_ = formulation;
+}
+
+void Kernel::forget_last_solution() { has_last_ = false; }
 
 void Kernel::set_level_weight_ratio(double ratio) {
   if (!(ratio > 0.0) || !std::isfinite(ratio))
@@ -237,10 +251,10 @@ const HierarchyProblem& Kernel::build_problem() {
   robot.force_rows_of(refs_.contact_active, problem_.support);
   if (method_ == "wbosc") {  // its contact-consistent dynamics (controller.py DynamicsTerms)
     DynamicsTerms& terms = problem_.terms;
-    terms.M = robot.M;
-    terms.h = robot.h;
-    terms.Jc = robot.Jc;
-    terms.drift = robot.Jc_dot_v;
+    terms.M = &robot.M;
+    terms.h = &robot.h;
+    terms.Jc = &robot.Jc;
+    terms.drift = &robot.Jc_dot_v;
     // _transition_weights: each row of F of a contact being loaded or unloaded, NaN elsewhere.
     const auto n = static_cast<Eigen::Index>(robot.contacts.size());
     terms.transition.resize(refs_.force_weight.size() == n ? robot.nf : 0);
@@ -266,12 +280,15 @@ const TickResult& Kernel::solve() {
   const HierarchyProblem& problem = build_problem();
   result_.solution.violations.clear();  // only wbosc reports them
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
-  if (method_ == "cascade")
+  if (method_ == "cascade") {
     solve_cascade(problem, result_.solution);
-  else if (method_ == "weighted")
+  } else if (method_ == "weighted") {
     solve_weighted(problem, result_.solution);
-  else
+  } else if (method_ == "wbosc") {
     solve_wbosc(problem, result_.solution);
+  } else {
+    solve_nullspace_from_last();
+  }
 #else
   (void)problem;
   throw std::runtime_error("the native hierarchy solvers are not built (cpp/hierarchy)");
@@ -284,6 +301,23 @@ const TickResult& Kernel::solve() {
   }
   solve_seconds_ = seconds_since(start);
   return result_;
+}
+
+void Kernel::solve_nullspace_from_last() {
+  // The model terms and the last tick's searches, as WholeBodyController.solve hands them over.
+  HierarchyProblem& problem = problem_;
+  problem.terms.M = &robot_.M;
+  problem.terms.h = &robot_.h;
+  problem.terms.Jc = &robot_.Jc;
+  problem.formulation = formulation_;
+  problem.active_start = has_last_ ? &last_active_ : nullptr;
+  problem.x_start = has_last_ ? &last_x_ : nullptr;
+  solve_nullspace(problem, result_.solution);
+  has_last_ = result_.solution.ok;
+  if (has_last_) {
+    last_active_ = result_.solution.active_sets;
+    last_x_ = result_.solution.x;
+  }
 }
 
 std::vector<std::pair<std::string, double>> Kernel::task_errors() const {

@@ -47,6 +47,11 @@ class Kernel {
                       std::optional<double> weight);
   const TaskGains& gains(const std::string& task) const;
   void set_method(const std::string& method);
+  /// `nullspace`'s optimization vector (formulations.hpp): qdd_force, full, qdd_tau, sequential.
+  void set_formulation(const std::string& formulation);
+  /// Start the next `nullspace` search cold (WholeBodyController.forget_last_solution): the last
+  /// tick's active rows and x belong to a state, stack, method or formulation that is gone.
+  void forget_last_solution();
   void set_level_weight_ratio(double ratio);
   void set_contact_limits(const ContactLimits& limits);
   void set_torque_limits(const Eigen::VectorXd& limits);
@@ -101,6 +106,7 @@ class Kernel {
   /// What the Python bindings keep with this kernel (cpp/bindings.cpp), freed with it.
   std::shared_ptr<void> binding_state;
   const std::string& method() const { return method_; }
+  const std::string& formulation() const { return formulation_; }
 
  private:
   struct StackLevel {
@@ -110,6 +116,8 @@ class Kernel {
   };
 
   Constraint& constraint(const std::string& name);
+  /// The nullspace method on problem_, from the last tick's searches (controller.py solve).
+  void solve_nullspace_from_last();
 
   RobotModel robot_;
   References refs_;
@@ -117,6 +125,11 @@ class Kernel {
   ConstraintRegistry constraints_;
   std::vector<StackLevel> stack_;
   std::string method_ = "cascade";
+  std::string formulation_ = "qdd_force";
+  // nullspace: where the last tick's active-set searches stopped and its x, the next start
+  std::vector<ActiveSet> last_active_;
+  Eigen::VectorXd last_x_;
+  bool has_last_ = false;
   double level_weight_ratio_ = 1e3;
   HierarchyProblem problem_;
   TickResult result_;

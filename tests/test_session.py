@@ -438,7 +438,8 @@ def test_the_foot_forces_reach_the_controller_only_while_a_task_reads_them() -> 
 
 def test_a_reset_starts_the_nullspace_search_cold(monkeypatch) -> None:
     """The nullspace method starts each tick from the last tick's active rows and x; after a
-    reset the robot stands anew and the first tick starts cold, not from the state left."""
+    reset the robot stands anew and the first tick starts cold, not from the state left (the
+    Python kernel's; tests/test_kernel_nullspace.py has the native kernel's)."""
     starts: list[bool] = []
     nullspace = hierarchy.METHODS["nullspace"]
 
@@ -447,7 +448,7 @@ def test_a_reset_starts_the_nullspace_search_cold(monkeypatch) -> None:
         return nullspace(problem, solver)
 
     monkeypatch.setitem(hierarchy.METHODS, "nullspace", spy)
-    session = Session(SessionConfig(robot="anymal", method="nullspace"))
+    session = Session(SessionConfig(robot="anymal", method="nullspace", kernel="python"))
     session.handle("push", {"body": "base", "force": [0.0, 150.0, 0.0], "duration": 0.05})
     run(session, 0.02)
     assert starts[0] is False and all(starts[1:])

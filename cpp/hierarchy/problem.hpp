@@ -23,14 +23,19 @@ struct Level {
   std::vector<std::pair<std::string, Eigen::Index>> constraint_rows;
 };
 
-/// The model terms behind the Newton–Euler rows, for wbosc (problem.py DynamicsTerms):
-/// M q̈ + h − J_cᵀ F = Sᵀ τ, the drift J̇_c v and the weight w ∈ [0, 1] of each row of F whose
-/// contact is being loaded or unloaded (NaN: not changing; empty: none). Filled for wbosc only.
+/// The active rows of each level's C, as one active-set search of `nullspace` left them.
+using ActiveSet = std::vector<Eigen::Array<bool, Eigen::Dynamic, 1>>;
+
+/// The model terms behind the Newton–Euler rows, M q̈ + h − J_cᵀ F = Sᵀ τ (problem.py
+/// DynamicsTerms), for the methods that change variables (nullspace's formulations, wbosc):
+/// views of the model's own arrays (null: not filled); for wbosc also the drift J̇_c v and the
+/// weight w ∈ [0, 1] of each row of F whose contact is being loaded or unloaded (NaN: not
+/// changing; empty: none).
 struct DynamicsTerms {
-  Eigen::MatrixXd M;
-  Eigen::VectorXd h;
-  Eigen::MatrixXd Jc;
-  Eigen::VectorXd drift;
+  const Eigen::MatrixXd* M = nullptr;
+  const Eigen::VectorXd* h = nullptr;
+  const Eigen::MatrixXd* Jc = nullptr;
+  const Eigen::VectorXd* drift = nullptr;
   Eigen::VectorXd transition;
 };
 
@@ -42,7 +47,13 @@ struct HierarchyProblem {
   Eigen::VectorXd dynamics_b;
   std::vector<Level> levels;
   Eigen::Array<bool, Eigen::Dynamic, 1> support;
+  // `nullspace` only (problem.py): the model terms, the optimization vector of Hutter 2014 §4
+  // (formulations.hpp), and where the last tick's searches stopped (`active_start`, one
+  // ActiveSet per search) and its x (`x_start`), to start from; null: a cold start.
   DynamicsTerms terms;
+  std::string formulation = "qdd_force";
+  const std::vector<ActiveSet>* active_start = nullptr;
+  const Eigen::VectorXd* x_start = nullptr;
 };
 
 /// How one level was solved.
@@ -51,6 +62,7 @@ enum class LevelStatus {
   qp,          // a QP with slacks (Herzog eqs. 9-11)
   kept_above,  // the solver failed; the level keeps the solution of the levels above
   no_freedom,  // nothing left in the null space of the levels above
+  projected,   // null-space projection with active inequalities (Hutter §3)
 };
 
 /// The name telemetry and the tests use for a level status.
@@ -64,6 +76,8 @@ inline const char* level_status_name(LevelStatus status) {
       return "kept_above";
     case LevelStatus::no_freedom:
       return "no_freedom";
+    case LevelStatus::projected:
+      return "projected";
   }
   return "unknown";
 }
@@ -80,6 +94,11 @@ struct HierarchySolution {
   // wbosc: each constraint of the stack violated at x, one line ("level 0 friction: exceeded
   // by 2.5"); the closed form reports inequalities rather than enforcing them.
   std::vector<std::string> violations;
+  // `nullspace` only: whether an active-set search stopped at its cap (message says where),
+  // the hierarchy solves of all its searches, and the active rows where each search stopped.
+  bool capped = false;
+  int projections = 0;
+  std::vector<ActiveSet> active_sets;
 };
 
 /// Seconds spent on each level, accumulated over the passes of a method (solution.py LevelClock).
@@ -118,5 +137,11 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out);
 HierarchySolution solve_wbosc(const HierarchyProblem& problem);
 /// The same into `out`, whose storage is reused.
 void solve_wbosc(const HierarchyProblem& problem, HierarchySolution& out);
+/// Hierarchy solves one `nullspace` call makes at most (nullspace.py MAX_PROJECTIONS).
+constexpr int kMaxProjections = 128;
+/// Iterative null-space projection with inequalities activated when violated (Hutter 2014 §3).
+HierarchySolution solve_nullspace(const HierarchyProblem& problem);
+/// The same into `out`, whose storage is reused.
+void solve_nullspace(const HierarchyProblem& problem, HierarchySolution& out);
 
 }  // namespace lab

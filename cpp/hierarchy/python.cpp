@@ -3,11 +3,13 @@
 
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
 #include "hierarchy/linalg.hpp"
+#include "hierarchy/nullspace.hpp"
 #include "hierarchy/problem.hpp"
 #include "hierarchy/qp.hpp"
 
@@ -69,6 +71,24 @@ std::tuple<Eigen::VectorXd, bool, int, std::string, int> solve_one_qp(
   return {x, ok, report.exitflag, qp_exit_name(report.exitflag), report.iterations};
 }
 
+/// nullspace.py's active_set_least_squares natively: levels are (A, b, C, d) over z ∈ Rⁿ;
+/// (z, projections, capped, feasible, active rows per level).
+nb::tuple active_set_search(
+    const std::vector<
+        std::tuple<Eigen::MatrixXd, Eigen::VectorXd, Eigen::MatrixXd, Eigen::VectorXd>>& rows,
+    Eigen::Index n, int cap, std::optional<ActiveSet> start, std::optional<Eigen::VectorXd> point) {
+  std::vector<Level> levels;
+  for (const auto& [A, b, C, d] : rows) {
+    if (A.cols() != n || C.cols() != n || A.rows() != b.size() || C.rows() != d.size())
+      throw nb::value_error("a level's rows do not match z or their right-hand side");
+    levels.push_back(Level{A, b, C, d, 1.0});
+  }
+  if (cap < 1) throw nb::value_error("cap must be at least 1");
+  const ActiveSetSolution out = active_set_least_squares(levels, n, cap, start ? &*start : nullptr,
+                                                         point ? &*point : nullptr);
+  return nb::make_tuple(out.z, out.projections, out.capped, out.feasible, out.active);
+}
+
 }  // namespace
 
 void bind_hierarchy(nb::module_& m) {
@@ -80,6 +100,11 @@ void bind_hierarchy(nb::module_& m) {
         "min 1/2 x'Px + q'x s.t. Gx <= h, Ax = b with the kernel's QP backend (DAQP): "
         "(x, ok, exit flag, its name, iterations).");
   m.attr("qp_iteration_limit") = qp_iteration_limit();
+  m.def("active_set_search", &active_set_search, nb::arg("levels"), nb::arg("n"),
+        nb::arg("cap") = kMaxProjections, nb::arg("start") = nb::none(),
+        nb::arg("point") = nb::none(),
+        "nullspace's active-set search alone (nullspace.py active_set_least_squares): levels "
+        "are (A, b, C, d) over z; returns (z, projections, capped, feasible, active rows).");
 }
 
 }  // namespace lab

@@ -76,7 +76,7 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
                 const Eigen::Array<bool, Eigen::Dynamic, 1>& flags, Pass& pass,
                 std::vector<char>& moved, LevelClock& clock, Eigen::VectorXd& x) {
   const DynamicsTerms& terms = problem.terms;
-  const Eigen::Index nv = terms.M.rows(), na = nv - kBaseRows;
+  const Eigen::Index nv = terms.M->rows(), na = nv - kBaseRows;
   pass.support.clear();
   for (Eigen::Index i = 0; i < flags.size(); ++i)
     if (flags[i]) pass.support.push_back(i);
@@ -84,11 +84,11 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
   pass.Js.resize(ns, nv);
   pass.drift_s.resize(ns);
   for (Eigen::Index r = 0; r < ns; ++r) {
-    pass.Js.row(r) = terms.Jc.row(pass.support[r]);
-    pass.drift_s[r] = terms.drift[pass.support[r]];
+    pass.Js.row(r) = terms.Jc->row(pass.support[r]);
+    pass.drift_s[r] = (*terms.drift)[pass.support[r]];
   }
   ContactDynamics& dyn = pass.dyn;
-  dyn.compute(terms.M, bias, pass.Js, pass.drift_s);
+  dyn.compute(*terms.M, bias, pass.Js, pass.drift_s);
   pass.levels.resize(problem.levels.size());
   moved.assign(problem.levels.size(), 0);
 
@@ -205,12 +205,12 @@ void solve_wbosc(const HierarchyProblem& problem, HierarchySolution& out) {
   thread_local std::vector<Eigen::Index> leaving;
   const DynamicsTerms& terms = problem.terms;
   const std::size_t n_levels = problem.levels.size();
-  const Eigen::Index nv = terms.M.rows();
-  if (nv == 0 || terms.Jc.rows() != problem.support.size() ||
-      terms.drift.size() != problem.support.size())
+  if (!terms.M || !terms.h || !terms.Jc || !terms.drift ||
+      terms.Jc->rows() != problem.support.size() || terms.drift->size() != problem.support.size())
     throw std::invalid_argument("wbosc needs the dynamics terms M, h, J_c and J̇_c v");
+  const Eigen::Index nv = terms.M->rows();
   LevelClock clock(out.level_seconds, n_levels);
-  bias = terms.h;
+  bias = *terms.h;
   support = problem.support;
   leaving.clear();
   if (terms.transition.size() == support.size()) {
@@ -222,7 +222,7 @@ void solve_wbosc(const HierarchyProblem& problem, HierarchySolution& out) {
         if (changing[i]) {  // f = w f_dual (eqs. 9–10), a known external force on the foot
           const auto j = static_cast<Eigen::Index>(leaving.size());
           external[j] = terms.transition[i] * x_dual[nv + i];
-          bias -= terms.Jc.row(i).transpose() * external[j];
+          bias -= terms.Jc->row(i).transpose() * external[j];
           leaving.push_back(i);
         }
       support = support && !changing;

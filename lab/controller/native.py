@@ -2,19 +2,22 @@
 
 `lab._kernel` (C++, cpp/) computes the same tick as `WholeBodyController.solve` in one call:
 pinocchio's model update on the same model (passed through pinocchio's own serialization), the
-rows of every task and constraint, the `cascade`, `weighted` or `wbosc` method, the torques.
-This class keeps the Python controller as the source of truth for the stack, the gains, the
-limits and the references, mirrors them into the kernel, and picks per tick which kernel runs:
+rows of every task and constraint, the `cascade`, `weighted`, `nullspace` (each of its
+formulations) or `wbosc` method, the torques. This class keeps the Python controller as the
+source of truth for the stack, the gains, the limits and the references, mirrors them into the
+kernel, and picks per tick which kernel runs:
 `config.kernel == "native"` runs the native one when it is built and has every name of the stack
 and the method; otherwise the Python one runs and `kernel_note` says why (never a silent mix).
 """
 
 import contextlib
+import warnings
 
 import numpy as np
 
 from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
 from lab.controller.hierarchy import HierarchySolution
+from lab.controller.hierarchy.nullspace import ActiveSetCapWarning
 from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
@@ -30,7 +33,7 @@ else:
     NOT_BUILT = "" if _kernel.has_solvers else "the native kernel was built without its solvers"
 
 KERNELS = ("native", "python")
-NATIVE_METHODS = ("cascade", "weighted", "wbosc")
+NATIVE_METHODS = ("cascade", "weighted", "nullspace", "wbosc")
 
 
 def native_available() -> bool:
@@ -82,6 +85,8 @@ class NativeOutput(ControlOutput):
                 o.qp_solves,
                 o.level_seconds,
                 violations=o.violations,
+                capped=o.capped,
+                active_sets=o.active_sets,
             )
         return self._solution
 
@@ -127,7 +132,8 @@ class NativeController(WholeBodyController):
             for name, task in self.tasks.items():
                 self._mirror_gains(name, task.gains)
         self._synced: tuple = ()
-        self._native_method = ""  # the method last set in the kernel ('' before the first solve)
+        # the (method, formulation) last set in the kernel (empty before the first solve)
+        self._native_method: tuple[str, str] = ("", "")
         self._tau, self._x = np.zeros(robot.na), np.zeros(robot.nx)  # the kernel writes these
 
     # ----------------------------------------------------------------------------- settings
@@ -146,7 +152,16 @@ class NativeController(WholeBodyController):
         """Run the next ticks on `kernel` (native or python); raises KeyError for another name."""
         if kernel not in KERNELS:
             raise KeyError(f"unknown kernel {kernel!r} (kernels: {', '.join(KERNELS)})")
+        if kernel != self.config.kernel:
+            self.forget_last_solution()  # the other kernel's last nullspace search is stale
         self.config.kernel = kernel
+
+    def forget_last_solution(self) -> None:
+        """As WholeBodyController.forget_last_solution, in the kernel too (it keeps its own last
+        active rows and x for its nullspace searches)."""
+        super().forget_last_solution()
+        if self._native is not None:
+            self._native.forget_last_solution()
 
     def set_stack(self, stack: Stack) -> None:
         """As WholeBodyController.set_stack, mirrored into the kernel."""
@@ -219,9 +234,11 @@ class NativeController(WholeBodyController):
         into the preallocated arrays; the rest stays in the kernel's outcome until read."""
         native = self._native
         self._sync_limits()
-        if self._native_method != self.config.method:  # a Python str: no crossing to compare
-            native.set_method(self.config.method)
-            self._native_method = self.config.method
+        method = (self.config.method, self.config.formulation)
+        if self._native_method != method:  # Python strs: no crossing to compare
+            native.set_method(method[0])
+            native.set_formulation(method[1])
+            self._native_method = method
         if self._has_momentum:
             if q is not None:  # its gain schedule reads the model at this tick's state first
                 native.update(q, v)
@@ -243,6 +260,8 @@ class NativeController(WholeBodyController):
             )
         if not outcome.ok:
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
+        if outcome.capped:  # as nullspace.py's search warns, for the session to show
+            warnings.warn(outcome.message, ActiveSetCapWarning, stacklevel=3)
         return NativeOutput(self._tau.copy(), self._x.copy(), self.robot.nv, outcome)
 
     def _sync_momentum_gain(self) -> None:

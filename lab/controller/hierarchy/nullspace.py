@@ -219,11 +219,15 @@ def _activate_violated(
     levels: Sequence[Level], active: Sequence[np.ndarray], z: np.ndarray
 ) -> int | None:
     """Activate the most violated row of the highest-priority level that has any (the rule of
-    the dual active-set methods, Goldfarb & Idnani 1983); its level's index."""
+    the dual active-set methods, Goldfarb & Idnani 1983); its level's index. Rows violated as
+    much within ACTIVATION_TOL (relative) tie, broken by the smallest index (Bland's rule): a
+    contact's ±f_t friction rows at f_t = 0 are violated equally, and rounding otherwise picks
+    between them (the two kernels took different paths to the same optimum)."""
     for k, (level, on) in enumerate(zip(levels, active, strict=True)):
         excess = np.where(on, 0.0, level.C @ z - level.d)
-        if np.any(excess > ACTIVATION_TOL):
-            on[np.argmax(excess)] = True
+        worst = excess.max(initial=0.0)
+        if worst > ACTIVATION_TOL:
+            on[np.flatnonzero(excess >= worst - ACTIVATION_TOL * worst)[0]] = True
             return k
     return None
 

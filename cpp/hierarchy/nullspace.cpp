@@ -1,0 +1,468 @@
+// Hierarchical least squares by iterative null-space projection (Hutter 2014, §3); mirrors
+// lab/controller/hierarchy/nullspace.py, whose docstring derives each rule. Each priority solves
+// its rows in the null space of all rows above (eqs. 8-11),
+//   z <- z + Z (A Z)⁺ (b − A z),   Z <- Z ∩ null(A Z),
+// with Z an orthonormal basis, the pseudo-inverse and the next null space from one SVD of A Z.
+// Inequalities C z <= d are off until violated (§3.2), then a primal active set: the most
+// violated row of the highest violated level is activated (one per solve), a row is released
+// when the hierarchy solved without it keeps it inside its bound, and z steps towards each new
+// optimum only as far as the first row it would cross (ties: the smallest index, Bland's rule).
+// At most kMaxProjections hierarchy solves per call; at the cap the best point found is kept
+// and the solution says `capped`.
+
+#include "hierarchy/nullspace.hpp"
+
+#include <algorithm>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "hierarchy/formulations.hpp"
+#include "hierarchy/linalg.hpp"
+#include "hierarchy/problem.hpp"
+
+namespace lab {
+namespace {
+
+constexpr double kSvdRankRtol = 1e-9;    // RANK_RTOL: singular values below this fraction of
+constexpr double kRankAtol = 1e-10;      // the largest, or below RANK_ATOL, do not count
+constexpr double kActivationTol = 1e-9;  // ACTIVATION_TOL: violated by more is activated
+constexpr double kRatioTie = 1e-12;      // RATIO_TIE: step lengths this close block together
+constexpr Eigen::Index kNone = -1;
+
+using Flags = Eigen::Array<bool, Eigen::Dynamic, 1>;
+
+/// (z, Z) on entering one level of a hierarchy solve (nullspace.py's `entry`).
+struct Entry {
+  Eigen::VectorXd z;
+  Eigen::MatrixXd Z;
+};
+
+/// One active-set search over z (nullspace.py active_set_least_squares), its buffers kept from
+/// tick to tick: no allocation while the shapes stay those of the last tick.
+class ActiveSetSearch {
+ public:
+  /// Search over `levels` (rows over z ∈ Rⁿ) from the active rows `start` (ignored unless they
+  /// match the levels' rows) and, where those rows' solution violates a row, from `point`.
+  void run(const std::vector<const Level*>& levels, Eigen::Index n, const ActiveSet* start,
+           const Eigen::VectorXd* point, int cap = kMaxProjections);
+
+  Eigen::VectorXd z;  // where the search stopped
+  ActiveSet active;   // the active rows of each level's C there
+  int projections = 0;
+  bool capped = false, feasible = true;
+
+ private:
+  bool take();  // _Budget.take: whether one more solve fits
+  bool violates(const Eigen::VectorXd& at);
+  void project(Eigen::Index first);
+  void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
+  void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e);
+  Eigen::Index activate_violated();
+  bool release_one();
+  void walked();
+  Eigen::Index step();
+
+  const std::vector<const Level*>* levels_ = nullptr;
+  Eigen::Index n_ = 0;
+  int cap_ = kMaxProjections;
+  bool ran_out_ = false;
+  std::vector<Entry> entry_, trial_;  // (z, Z) on entering each level; [L]: the solution
+  Eigen::VectorXd target_, dz_, rows_, rate_;
+  Eigen::MatrixXd Ca_, AZ_, ZV_;  // the active rows of C; A Z; Z times V's null columns
+  Eigen::VectorXd da_, r_, w_, u_;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd_;
+};
+
+bool ActiveSetSearch::take() {
+  ran_out_ = ran_out_ || projections >= cap_;
+  return !ran_out_;
+}
+
+void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index n,
+                          const ActiveSet* start, const Eigen::VectorXd* point, int cap) {
+  levels_ = &levels;
+  n_ = n;
+  cap_ = cap;
+  projections = 0;
+  ran_out_ = false;
+  const std::size_t L = levels.size();
+  bool matches = start && start->size() == L;
+  for (std::size_t k = 0; matches && k < L; ++k)
+    matches = (*start)[k].size() == levels[k]->d.size();
+  active.resize(L);
+  for (std::size_t k = 0; k < L; ++k) {
+    if (matches)
+      active[k] = (*start)[k];
+    else
+      active[k].setConstant(levels[k]->d.size(), false);
+  }
+  entry_.resize(L + 1);
+  trial_.resize(L + 1);
+  entry_[0].z.setZero(n);
+  entry_[0].Z.setIdentity(n, n);
+  project(0);
+  z = entry_[L].z;
+  if (point && point->size() == n && violates(z)) {
+    // A primal start (nullspace.py): pin the rows the last tick's point violates, then walk
+    // from it to the solution, activating the rows crossed on the way.
+    for (std::size_t k = 0; k < L; ++k) {
+      const Level& level = *levels[k];
+      rows_.noalias() = level.C * *point;
+      active[k] = active[k] || (rows_ - level.d).array() > kActivationTol;
+    }
+    project(0);
+    target_ = entry_[L].z;
+    z = *point;
+    walked();
+    if (ran_out_) {
+      capped = feasible = true;
+      return;
+    }
+  }
+  for (Eigen::Index k; (k = activate_violated()) != kNone;) {  // §3.2
+    if (!take()) {
+      capped = true;
+      feasible = false;
+      return;
+    }
+    project(k);
+    z = entry_[L].z;
+  }
+  // z satisfies every inequality from here on: each step stops at the first row it would cross
+  while (release_one()) {
+    walked();
+    if (ran_out_) break;
+  }
+  capped = ran_out_;
+  feasible = true;
+}
+
+bool ActiveSetSearch::violates(const Eigen::VectorXd& at) {
+  for (std::size_t k = 0; k < levels_->size(); ++k) {
+    const Level& level = *(*levels_)[k];
+    if (!level.d.size()) continue;
+    rows_.noalias() = level.C * at;
+    for (Eigen::Index i = 0; i < level.d.size(); ++i)
+      if (!active[k](i) && rows_(i) - level.d(i) > kActivationTol) return true;
+  }
+  return false;
+}
+
+void ActiveSetSearch::walked() {
+  // From z towards target_, re-solved each time a row blocks the way and is activated.
+  while (true) {
+    const Eigen::Index k = step();
+    if (k == kNone || !take()) return;
+    project(k);
+    target_ = entry_[levels_->size()].z;
+  }
+}
+
+Eigen::Index ActiveSetSearch::activate_violated() {
+  // The most violated row of the highest-priority level that has any; rows violated as much
+  // within kActivationTol (relative) tie, broken by the smallest index (Bland's rule).
+  for (std::size_t k = 0; k < levels_->size(); ++k) {
+    const Level& level = *(*levels_)[k];
+    if (!level.d.size()) continue;
+    rows_.noalias() = level.C * z;
+    double worst = 0.0;
+    for (Eigen::Index i = 0; i < level.d.size(); ++i)
+      if (!active[k](i)) worst = std::max(worst, rows_(i) - level.d(i));
+    if (!(worst > kActivationTol)) continue;
+    for (Eigen::Index i = 0; i < level.d.size(); ++i)
+      if (!active[k](i) && rows_(i) - level.d(i) >= worst - kActivationTol * worst) {
+        active[k](i) = true;
+        return static_cast<Eigen::Index>(k);
+      }
+  }
+  return kNone;
+}
+
+bool ActiveSetSearch::release_one() {
+  // Release the first active row the hierarchy solved without it keeps inside its bound; its
+  // solution becomes target_. Each trial reuses the levels above the row's.
+  const std::size_t L = levels_->size();
+  for (std::size_t k = 0; k < L; ++k) {
+    const Level& level = *(*levels_)[k];
+    for (Eigen::Index j = 0; j < active[k].size(); ++j) {
+      if (!active[k](j)) continue;
+      if (!take()) return false;
+      active[k](j) = false;
+      project_from(entry_[k], static_cast<Eigen::Index>(k), trial_);
+      const Eigen::VectorXd& released = trial_[L].z;
+      if (level.C.row(j).dot(released) - level.d(j) <= kActivationTol) {
+        for (std::size_t i = k + 1; i <= L; ++i) {
+          entry_[i].z.swap(trial_[i].z);
+          entry_[i].Z.swap(trial_[i].Z);
+        }
+        target_ = entry_[L].z;
+        return true;
+      }
+      active[k](j) = true;
+    }
+  }
+  return false;
+}
+
+Eigen::Index ActiveSetSearch::step() {
+  // Move z towards target_ as far as every inactive row z satisfies stays satisfied; activate
+  // the row that blocks the move, if one does, and give its level.
+  dz_ = target_ - z;
+  double alpha = 1.0;
+  Eigen::Index level_of = kNone, row_of = kNone;
+  for (std::size_t k = 0; k < levels_->size(); ++k) {
+    const Level& level = *(*levels_)[k];
+    if (!level.d.size()) continue;
+    rows_.noalias() = level.C * z;  // slack = d − C z
+    rate_.noalias() = level.C * dz_;
+    // Blocking only where the step would violate the row by more than the release tolerance;
+    // among the closing rows the smallest ratio, ties by the smallest index (Bland's rule).
+    double smallest = 0.0;
+    Eigen::Index first = kNone;
+    bool any = false;
+    for (Eigen::Index i = 0; i < level.d.size(); ++i) {
+      const double slack = level.d(i) - rows_(i);
+      if (active[k](i) || slack < -kActivationTol || !(rate_(i) * alpha - slack > kActivationTol))
+        continue;
+      const double ratio = std::max(slack / rate_(i), 0.0);
+      if (!any || ratio < smallest) smallest = ratio;
+      any = true;
+    }
+    if (!any) continue;
+    for (Eigen::Index i = 0; i < level.d.size() && first == kNone; ++i) {
+      const double slack = level.d(i) - rows_(i);
+      if (active[k](i) || slack < -kActivationTol || !(rate_(i) * alpha - slack > kActivationTol))
+        continue;
+      if (std::max(slack / rate_(i), 0.0) <= smallest + kRatioTie) first = i;
+    }
+    alpha = smallest;
+    level_of = static_cast<Eigen::Index>(k);
+    row_of = first;
+  }
+  if (level_of == kNone) {
+    z = target_;
+    return kNone;
+  }
+  active[level_of](row_of) = true;
+  z += alpha * dz_;
+  return level_of;
+}
+
+void ActiveSetSearch::project(Eigen::Index first) { project_from(entry_[first], first, entry_); }
+
+void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out) {
+  // Solve levels `first`, ... from (z, Z) on entering `first`, writing each next level's entry
+  // into `out`: one solve of the budget (nullspace.py _project).
+  ++projections;
+  const std::vector<const Level*>& levels = *levels_;
+  for (std::size_t k = static_cast<std::size_t>(first); k < levels.size(); ++k) {
+    const Level& level = *levels[k];
+    Entry& next = out[k + 1];
+    const Entry& here = k == static_cast<std::size_t>(first) ? from : out[k];
+    next.z = here.z;
+    next.Z = here.Z;
+    const Flags& on = active[k];
+    const Eigen::Index count = on.count();
+    if (count) {
+      Ca_.resize(count, n_);
+      da_.resize(count);
+      for (Eigen::Index i = 0, row = 0; i < on.size(); ++i)
+        if (on(i)) {
+          Ca_.row(row) = level.C.row(i);
+          da_(row++) = level.d(i);
+        }
+      least_squares_step(Ca_, da_, next);
+    }
+    least_squares_step(level.A, level.b, next);
+  }
+}
+
+void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                                         Entry& e) {
+  // z <- z + Z (A Z)⁺ (b − A z) with the rank of A Z's singular values; Z <- Z ∩ null(A Z).
+  const Eigen::Index cols = e.Z.cols();
+  if (b.size() == 0 || cols == 0) return;
+  AZ_.noalias() = A * e.Z;
+  svd_.compute(AZ_, Eigen::ComputeThinU | Eigen::ComputeFullV);
+  const auto& s = svd_.singularValues();
+  const double threshold = s.size() ? std::max(kRankAtol, kSvdRankRtol * s(0)) : 0.0;
+  Eigen::Index rank = 0;
+  while (rank < s.size() && s(rank) > threshold) ++rank;
+  const auto& V = svd_.matrixV();
+  if (rank) {
+    r_ = b;
+    r_.noalias() -= A * e.z;
+    w_.noalias() = svd_.matrixU().leftCols(rank).transpose() * r_;
+    w_.array() /= s.head(rank).array();
+    u_.noalias() = V.leftCols(rank) * w_;
+    e.z.noalias() += e.Z * u_;
+  }
+  ZV_.noalias() = e.Z * V.rightCols(cols - rank);
+  e.Z.swap(ZV_);
+}
+
+/// What solve_nullspace keeps from tick to tick (one set per thread, as the cascade's).
+struct Buffers {
+  std::array<ActiveSetSearch, 2> searches;  // the second for sequential's torque step
+  SupportQR qr;
+  Reparametrization change;
+  std::vector<Level> levels;                         // rows over z (but for qdd_force)
+  std::vector<Level> motion_levels, dynamic_levels;  // sequential's split of each level
+  std::vector<const Level*> view;
+  ForwardDynamics forward;
+  Eigen::VectorXd contact_acceleration;
+};
+
+Buffers& buffers() {
+  thread_local Buffers b;
+  return b;
+}
+
+/// The rows of `in` whose force columns (from `nv` on) are all zero, over q̈ alone (`motion`),
+/// and the others over x (`dynamic`): sequential's split of one level.
+void split_level(const Level& in, Eigen::Index nv, Level& motion, Level& dynamic) {
+  const auto split = [nv](const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Eigen::MatrixXd& A_m,
+                          Eigen::VectorXd& b_m, Eigen::MatrixXd& A_d, Eigen::VectorXd& b_d) {
+    Eigen::Index moving = 0;
+    for (Eigen::Index i = 0; i < A.rows(); ++i)
+      moving += (A.row(i).tail(A.cols() - nv).array() != 0.0).any() ? 0 : 1;
+    A_m.resize(moving, nv);
+    b_m.resize(moving);
+    A_d.resize(A.rows() - moving, A.cols());
+    b_d.resize(A.rows() - moving);
+    for (Eigen::Index i = 0, m = 0, d = 0; i < A.rows(); ++i) {
+      if ((A.row(i).tail(A.cols() - nv).array() != 0.0).any()) {
+        A_d.row(d) = A.row(i);
+        b_d(d++) = b(i);
+      } else {
+        A_m.row(m) = A.row(i).head(nv);
+        b_m(m++) = b(i);
+      }
+    }
+  };
+  split(in.A, in.b, motion.A, motion.b, dynamic.A, dynamic.b);
+  split(in.C, in.d, motion.C, motion.d, dynamic.C, dynamic.d);
+}
+
+/// The start of search `i`: the last tick's active rows of that search, if any.
+const ActiveSet* start_of(const HierarchyProblem& problem, std::size_t i) {
+  return problem.active_start && problem.active_start->size() > i ? &(*problem.active_start)[i]
+                                                                  : nullptr;
+}
+
+/// Hutter Table 4: q̈ first (eq. 48), then τ (eqs. 49-51), each search from its start; x is
+/// what that τ does (constrained forward dynamics). Returns the number of searches (2).
+std::size_t solve_sequential(const HierarchyProblem& problem, Buffers& b, Eigen::VectorXd& x) {
+  const DynamicsTerms& terms = problem.terms;
+  if (!terms.M)
+    throw std::invalid_argument("formulation 'sequential' needs the model terms of the problem");
+  const Eigen::Index nv = terms.M->rows();
+  const std::size_t L = problem.levels.size();
+  b.motion_levels.resize(L);
+  b.dynamic_levels.resize(L);
+  for (std::size_t k = 0; k < L; ++k)
+    split_level(problem.levels[k], nv, b.motion_levels[k], b.dynamic_levels[k]);
+  b.view.clear();
+  for (const Level& level : b.motion_levels) b.view.push_back(&level);
+  ActiveSetSearch& motion = b.searches[0];
+  motion.run(b.view, nv, start_of(problem, 0), nullptr);
+  torque_step(terms, problem.support, motion.z, b.qr, b.change);
+  b.levels.resize(L);
+  b.view.assign(1, &b.change.eom);
+  for (std::size_t k = 0; k < L; ++k) {  // the dynamic rows over τ
+    b.change.level(b.dynamic_levels[k], b.levels[k]);
+    b.view.push_back(&b.levels[k]);
+  }
+  ActiveSetSearch& torque = b.searches[1];
+  torque.run(b.view, terms.M->rows() - kBaseRows, start_of(problem, 1), nullptr);
+  b.contact_acceleration.noalias() = b.qr.Js * motion.z;  // J_s q̈ of the kinematic step
+  constrained_forward_dynamics(terms, problem.support, torque.z, b.contact_acceleration, b.forward,
+                               x);
+  return 2;
+}
+
+/// The formulations over one vector z (qdd_force, full, qdd_tau): x = T z + t.
+std::size_t solve_reparametrized(const HierarchyProblem& problem, Buffers& b, Eigen::VectorXd& x) {
+  reparametrize(problem, b.qr, b.change);
+  const std::size_t L = problem.levels.size();
+  b.view.assign(1, &b.change.eom);
+  if (b.change.identity) {  // qdd_force: the problem's own rows
+    for (const Level& level : problem.levels) b.view.push_back(&level);
+  } else {
+    b.levels.resize(L);
+    for (std::size_t k = 0; k < L; ++k) {
+      b.change.level(problem.levels[k], b.levels[k]);
+      b.view.push_back(&b.levels[k]);
+    }
+  }
+  // z is x itself under qdd_force: the last tick's x is a point to start from
+  const Eigen::VectorXd* point = b.change.identity ? problem.x_start : nullptr;
+  const Eigen::Index n = b.change.identity ? problem.dynamics_A.cols() : b.change.T.cols();
+  ActiveSetSearch& search = b.searches[0];
+  search.run(b.view, n, start_of(problem, 0), point);
+  b.change.x_of(search.z, x);
+  return 1;
+}
+
+}  // namespace
+
+void solve_nullspace(const HierarchyProblem& problem, HierarchySolution& out) {
+  Buffers& b = buffers();
+  const std::size_t L = problem.levels.size();
+  out.levels.assign(L, LevelStatus::projected);
+  out.level_seconds.clear();
+  out.qp_solves = 0;
+  out.capped = false;
+  out.projections = 0;
+  out.message.clear();
+  std::size_t searches = 0;
+  try {
+    searches = problem.formulation == "sequential" ? solve_sequential(problem, b, out.x)
+                                                   : solve_reparametrized(problem, b, out.x);
+  } catch (const SingularSystem& error) {
+    out.ok = false;
+    out.message = error.what();
+    out.active_sets.clear();
+    out.residuals.assign(L, 0.0);
+    return;
+  }
+  out.active_sets.resize(searches);
+  bool feasible = true;
+  for (std::size_t i = 0; i < searches; ++i) {
+    const ActiveSetSearch& search = b.searches[i];
+    out.active_sets[i] = search.active;
+    out.projections += search.projections;
+    out.capped = out.capped || search.capped;
+    feasible = feasible && (!search.capped || search.feasible);
+  }
+  if (out.capped)
+    out.message = "nullspace: active set stopped at the cap of " + std::to_string(kMaxProjections) +
+                  " hierarchy solves, at the best point found (" +
+                  (feasible ? "feasible" : "still violating an inequality") + ")";
+  out.residuals.resize(L);
+  for (std::size_t k = 0; k < L; ++k) {
+    const Level& level = problem.levels[k];
+    out.residuals[k] = level.b.size() ? (level.A * out.x - level.b).norm() : 0.0;
+  }
+  out.ok = out.x.allFinite();
+  if (!out.ok) out.message = "nullspace: non-finite solution";
+}
+
+ActiveSetSolution active_set_least_squares(const std::vector<Level>& levels, Eigen::Index n,
+                                           int cap, const ActiveSet* start,
+                                           const Eigen::VectorXd* point) {
+  std::vector<const Level*> view;
+  for (const Level& level : levels) view.push_back(&level);
+  ActiveSetSearch search;
+  search.run(view, n, start, point, cap);
+  return {search.z, search.projections, search.capped, search.feasible, search.active};
+}
+
+HierarchySolution solve_nullspace(const HierarchyProblem& problem) {
+  HierarchySolution out;
+  solve_nullspace(problem, out);
+  return out;
+}
+
+}  // namespace lab
