@@ -64,6 +64,18 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
   Cz += C.rightCols(nu);
   dz = d;
   dz.noalias() -= C * x0;
+  // A contact out of support carries no force: its columns of u leave every row, so its u
+  // (decoupled, eps u^2 with no gradient: x0's forces are zero) is zero at the optimum.
+  const Eigen::Index nf = problem.support.size();
+  for (Eigen::Index i = 0; i < nf; ++i) {
+    if (problem.support(i)) continue;
+    const Eigen::Index column = nu - nf + i;
+    Hz.row(column).setZero();
+    Hz.col(column).setZero();
+    Hz(column, column) = regularization;
+    gz(column) = 0.0;
+    Cz.col(column).setZero();
+  }
   if (!solve_qp_kept(Hz, gz, Cz, dz, u, &report)) return false;
   x = x0;
   x.noalias() += Z * u;
@@ -73,8 +85,8 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
 
 void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
   // The QP's matrices, kept from tick to tick (one set per thread, as the solver's).
-  thread_local Eigen::MatrixXd H, C;
-  thread_local Eigen::VectorXd g, d, rows;
+  thread_local Eigen::MatrixXd H, C, A;
+  thread_local Eigen::VectorXd g, d, b, rows;
   out.ok = false;
   out.message.clear();
   out.residuals.clear();
@@ -118,7 +130,19 @@ void solve_weighted(const HierarchyProblem& problem, HierarchySolution& out) {
       g.noalias() -= level.weight * level.A.transpose() * level.b;
     }
     H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
-    out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x, &report);
+    if (problem.support.all()) {
+      out.ok = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, out.x, &report);
+    } else {  // and F_j = 0 for every force row out of support
+      const Eigen::Index nf = problem.support.size(), free = nf - problem.support.count();
+      const Eigen::Index dynamics = problem.dynamics_b.size();
+      A.setZero(dynamics + free, nx);
+      b.setZero(dynamics + free);
+      A.topRows(dynamics) = problem.dynamics_A;
+      b.head(dynamics) = problem.dynamics_b;
+      for (Eigen::Index i = 0, row = dynamics; i < nf; ++i)
+        if (!problem.support(i)) A(row++, nx - nf + i) = 1.0;
+      out.ok = solve_qp(H, g, C, d, A, b, out.x, &report);
+    }
   }
   if (!out.ok) {
     // Bounded whatever the problem: DAQP stops at its iteration limit or on a cycle.

@@ -4,11 +4,14 @@
 
 w_r is the level's weight, on top of the task weights already folded into its rows: weights
 that fall by a large ratio from one level to the next approach the strict cascade, equal weights
-treat every task by its own weight alone. Inequalities are hard here: none is traded off.
+treat every task by its own weight alone. Inequalities are hard here: none is traded off. The
+forces of contacts out of support are held at zero by equalities beside the dynamics, as the
+other methods hold them, whether or not the stack has `friction`.
 """
 
 import numpy as np
 
+from lab.controller.hierarchy.formulations import unsupported_forces_rows
 from lab.controller.hierarchy.problem import HierarchyProblem
 from lab.controller.hierarchy.solution import QP, HierarchySolution, LevelClock, level_residuals
 from lab.controller.qp import solve_qp
@@ -29,7 +32,12 @@ def solve_weighted(problem: HierarchyProblem, solver: str = "daqp") -> Hierarchy
         g -= level.weight * level.A.T @ level.b
     C = np.vstack([np.zeros((0, nx))] + [level.C for level in problem.levels])
     d = np.concatenate([np.zeros(0)] + [level.d for level in problem.levels])
-    x = solve_qp(H, g, C, d, problem.dynamics_A, problem.dynamics_b, solver=solver)
+    A, b = problem.dynamics_A, problem.dynamics_b
+    terms = problem.terms
+    if terms is not None and not terms.support.all():
+        zero = unsupported_forces_rows(terms, nx, terms.M.shape[0])
+        A, b = np.vstack((A, zero.A)), np.concatenate((b, zero.b))
+    x = solve_qp(H, g, C, d, A, b, solver=solver)
     if problem.levels:
         clock.lap(0)
     levels = (QP,) * len(problem.levels)
