@@ -69,6 +69,17 @@ std::tuple<Eigen::VectorXd, bool, int, std::string, int> solve_one_qp(
   return {x, ok, report.exitflag, qp_exit_name(report.exitflag), report.iterations};
 }
 
+/// The minimum-norm least squares of A u = b and an orthonormal basis of null(A), the cascade's
+/// rank decision (RowSpaceQR against kRankRtol): (u, N).
+std::tuple<Eigen::VectorXd, Eigen::MatrixXd> least_squares_null_space(const Eigen::MatrixXd& A,
+                                                                      const Eigen::VectorXd& b) {
+  if (A.rows() != b.size()) throw nb::value_error("b must have one entry per row of A");
+  Eigen::VectorXd u;
+  Eigen::MatrixXd N;
+  least_squares_and_null_space(A, b, u, N);
+  return {u, N};
+}
+
 }  // namespace
 
 void bind_hierarchy(nb::module_& m) {
@@ -79,7 +90,11 @@ void bind_hierarchy(nb::module_& m) {
         nb::arg("A"), nb::arg("b"),
         "min 1/2 x'Px + q'x s.t. Gx <= h, Ax = b with the kernel's QP backend (DAQP): "
         "(x, ok, exit flag, its name, iterations).");
+  m.def("least_squares_and_null_space", &least_squares_null_space, nb::arg("A"), nb::arg("b"),
+        "The cascade's least-squares step and null space of A u = b, with its rank decision "
+        "(pivoted QR against rank_rtol): (u, N).");
   m.attr("qp_iteration_limit") = qp_iteration_limit();
+  m.attr("rank_rtol") = kRankRtol;
 }
 
 }  // namespace lab
