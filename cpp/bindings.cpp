@@ -52,15 +52,16 @@ std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tup
 }
 
 /// The array fields of References / WalkReferences, in this order (ReferenceReader::kNames).
-constexpr std::size_t kArrayFields = 14;
+constexpr std::size_t kArrayFields = 15;
 using ReferenceArrays = std::array<Doubles, kArrayFields>;
 
 /// Copy the references into the kernel; raises ValueError naming a field of the wrong size.
 void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_height,
                        const Flags& contact_active) {
   const auto& [com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
-               base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
-               surface_normal, force_weight, posture_velocity, posture_weight] = a;
+               base_linear_velocity, com_acceleration, foot_position, foot_velocity,
+               foot_acceleration, surface_normal, force_weight, posture_velocity, posture_weight] =
+      a;
   lab::References& refs = k.references();
   copy_vector3(refs.com, com, "com");
   copy_flat(refs.posture, posture);
@@ -75,6 +76,7 @@ void assign_references(lab::Kernel& k, const ReferenceArrays& a, double base_hei
       contact_active.data(), static_cast<Eigen::Index>(contact_active.size()));
   copy_flat(refs.normal_force_max, normal_force_max);
   copy_vector3(refs.base_linear_velocity, base_linear_velocity, "base_linear_velocity");
+  copy_vector3(refs.com_acceleration, com_acceleration, "com_acceleration");
   copy_flat(refs.foot_position, foot_position);
   copy_flat(refs.foot_velocity, foot_velocity);
   copy_flat(refs.foot_acceleration, foot_acceleration);
@@ -117,6 +119,7 @@ class ReferenceReader {
                                                        "base_angular_velocity",
                                                        "normal_force_max",
                                                        "base_linear_velocity",
+                                                       "com_acceleration",
                                                        "foot_position",
                                                        "foot_velocity",
                                                        "foot_acceleration",
@@ -124,7 +127,7 @@ class ReferenceReader {
                                                        "force_weight",
                                                        "posture_velocity",
                                                        "posture_weight"};
-  static constexpr std::size_t kWalkingFrom = 7;  // foot_position on: WalkReferences only
+  static constexpr std::size_t kWalkingFrom = 8;  // foot_position on: WalkReferences only
   static constexpr const char* kSoleNames[kSoleFields] = {
       "sole_position", "sole_rotation", "leg_position", "leg_velocity", "leg_acceleration"};
 
@@ -484,18 +487,19 @@ NB_MODULE(_kernel, m) {
              const Doubles& foot_position, const Doubles& foot_velocity,
              const Doubles& foot_acceleration, const Doubles& surface_normal,
              const Doubles& force_weight, const Doubles& posture_velocity,
-             const Doubles& posture_weight) {
+             const Doubles& posture_weight, const Doubles& com_acceleration) {
             assign_references(
                 k,
                 {com, posture, base_rotation, com_velocity, base_angular_velocity, normal_force_max,
-                 base_linear_velocity, foot_position, foot_velocity, foot_acceleration,
-                 surface_normal, force_weight, posture_velocity, posture_weight},
+                 base_linear_velocity, com_acceleration, foot_position, foot_velocity,
+                 foot_acceleration, surface_normal, force_weight, posture_velocity, posture_weight},
                 base_height, contact_active);
           },
           "com"_a, "posture"_a, "base_height"_a, "base_rotation"_a, "com_velocity"_a,
           "base_angular_velocity"_a, "contact_active"_a, "normal_force_max"_a,
           "base_linear_velocity"_a, "foot_position"_a, "foot_velocity"_a, "foot_acceleration"_a,
           "surface_normal"_a, "force_weight"_a, "posture_velocity"_a, "posture_weight"_a,
+          "com_acceleration"_a,
           "The fields of References / WalkReferences (empty arrays for the walking fields a "
           "behaviour does not set); raises ValueError naming a field of the wrong size.")
       .def(

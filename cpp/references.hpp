@@ -15,6 +15,7 @@ struct References {
   double base_height = 0.0;
   Eigen::Matrix3d base_rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d com_velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d com_acceleration = Eigen::Vector3d::Zero();  // fed forward by momentum (eq. 22)
   Eigen::Vector3d base_angular_velocity = Eigen::Vector3d::Zero();  // world axes
   Eigen::Array<bool, Eigen::Dynamic, 1> contact_active;
   Eigen::VectorXd normal_force_max;  // per contact (N); empty: the robot-wide bound

@@ -13,8 +13,14 @@ import contextlib
 
 import numpy as np
 
-from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
+from lab.controller.controller import (
+    ControllerConfig,
+    ControlOutput,
+    WholeBodyController,
+    hierarchy_note,
+)
 from lab.controller.hierarchy import HierarchySolution
+from lab.controller.hierarchy.solution import SOLVED, SolveStatus
 from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
@@ -31,6 +37,9 @@ else:
 
 KERNELS = ("native", "python")
 NATIVE_METHODS = ("cascade", "weighted")
+# The kernel compiles DAQP in; Clarabel (a Rust library) is not linked into it: a Clarabel
+# request runs on the Python kernel, with a note (docs/controller.md, "Two kernels").
+NATIVE_SOLVERS = ("daqp",)
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
 _NO_FLAGS = np.zeros(0, dtype=bool)
@@ -87,6 +96,7 @@ def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
         getattr(refs, "force_weight", _EMPTY),
         getattr(refs, "posture_velocity", _EMPTY),
         getattr(refs, "posture_weight", _EMPTY),
+        refs.com_acceleration,
     )
 
 
@@ -116,6 +126,11 @@ class NativeOutput(ControlOutput):
     @property
     def fallback_levels(self) -> tuple[int, ...]:
         return self._outcome.fallback_levels
+
+    def solve_status(self) -> SolveStatus:
+        """ok, or fallback with its level (the native methods, cascade and weighted, enforce
+        every inequality and have no active-set cap): the solution is built only then."""
+        return self.solution.solve_status() if self._outcome.fallback_levels else SOLVED
 
     def torques_finite(self) -> bool:
         """True: the kernel fails a tick whose τ is not finite."""
@@ -163,7 +178,18 @@ class NativeController(WholeBodyController):
             return NOT_BUILT
         if self.config.method not in NATIVE_METHODS:
             return f"the native kernel has no method {self.config.method!r}"
+        if self.config.solver not in NATIVE_SOLVERS:
+            return (
+                f"the native kernel solves its QPs with {', '.join(NATIVE_SOLVERS)} only: "
+                f"solver {self.config.solver!r} runs on the Python kernel"
+            )
         return self._unsupported
+
+    @property
+    def note(self) -> str:
+        """Why what runs differs from what the config asks ('' when it does not): the kernel
+        (`kernel_note`), and a solver or formulation the method does not use."""
+        return "; ".join(n for n in (self.kernel_note, hierarchy_note(self.config)) if n)
 
     def set_kernel(self, kernel: str) -> None:
         """Run the next ticks on `kernel` (native or python); raises KeyError for another name."""
@@ -257,6 +283,7 @@ class NativeController(WholeBodyController):
                     self.robot, self.references
                 )
                 native.set_internal_force(command, error)
+        self.ran = self.ran_on("native")
         outcome = native.tick_into(self.references, self._tau, self._x, q, v)
         if q is not None:
             self.robot.filled_elsewhere()
@@ -277,13 +304,8 @@ class NativeController(WholeBodyController):
                 self._native.set_momentum_gain(task.gain(self.robot, refs))
                 self._momentum_pd, self._momentum_lqr = pd, None
             return
-        schedule = task.schedule
         held = self._momentum_lqr
-        if (
-            held is not None
-            and held is schedule.current
-            and schedule.settled(refs.contact_active.tobytes())
-        ):
+        if held is not None and held is task.schedule.current and task.settled(self.robot, refs):
             return
         gain = task.gain(self.robot, refs)
         self._native.set_momentum_gain(gain)

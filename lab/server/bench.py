@@ -7,7 +7,9 @@ the same run, and the table gives native/python of the medians. `tick` is what t
 per control period (model update, behaviour, controller); `solve` is the controller alone
 (`controller.solve()`, the native kernel's whole tick from q, v and references), repeated at
 the final state. `kernel` is the native kernel's own model update + rows + solve per tick, timed
-inside it (no Python around it).
+inside it (no Python around it). `--solvers daqp clarabel` times both QP backends; the native
+kernel solves with DAQP only, so a Clarabel run asked of it runs on the Python kernel and its
+row says so (kernel python, `note`).
 """
 
 import argparse
@@ -22,6 +24,7 @@ from lab.server.session import Session, SessionConfig
 ROBOTS = ("anymal", "hyq", "solo12", "talos")
 METHODS = ("cascade", "weighted")
 KERNELS = ("python", "native")
+SOLVERS = ("daqp", "clarabel")
 PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fraction of the weight
 SOLVE_REPEATS = 500
 
@@ -31,8 +34,12 @@ def _stats(us: np.ndarray) -> dict[str, float]:
     return {"p50": float(np.median(us)), "p99": float(np.percentile(us, 99))}
 
 
-def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -> dict:
-    session = Session(SessionConfig(robot=robot, method=method, kernel=kernel))
+def bench_one(
+    robot: str, method: str, seconds: float, kernel: str = "python", solver: str = "daqp"
+) -> dict:
+    """One run: the ticks of `seconds` of standing with a push, then the solve repeated; the row
+    names what ran (kernel, solver) and the note when it is not what was asked."""
+    session = Session(SessionConfig(robot=robot, method=method, kernel=kernel, solver=solver))
     weight = session.model.mass * 9.81
     ticks = round(seconds / session.config.timestep)
     control_us = np.zeros(ticks)
@@ -58,7 +65,9 @@ def bench_one(robot: str, method: str, seconds: float, kernel: str = "python") -
     return {
         "robot": robot,
         "method": method,
-        "kernel": controller.kernel_ran,
+        "kernel": controller.ran.kernel,
+        "solver": controller.ran.solver,
+        "note": controller.note,
         "ticks": ticks,
         "controller_us": _stats(control_us),
         "kernel_us": _stats(kernel_us) if np.isfinite(kernel_us).any() else None,
@@ -76,37 +85,44 @@ def bench_main(argv: list[str]) -> int:
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOTS)
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--kernels", nargs="+", default=list(KERNELS), choices=KERNELS)
+    parser.add_argument("--solvers", nargs="+", default=["daqp"], choices=SOLVERS)
     args = parser.parse_args(argv)
     if "native" in args.kernels and NOT_BUILT:
         print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
         args.kernels = ["python"]
     rows = [
-        bench_one(r, m, args.seconds, k)
+        bench_one(r, m, args.seconds, k, s)
         for r in args.robots
         for m in args.methods
+        for s in args.solvers
         for k in args.kernels
     ]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
     print(
-        f"{'robot':8} {'method':9} {'kernel':7} {'tick p50 µs':>12} {'tick p99 µs':>12} "
+        f"{'robot':8} {'method':9} {'solver':8} {'kernel':7} {'tick p50 µs':>12} "
+        f"{'tick p99 µs':>12} "
         f"{'solve p50 µs':>13} {'solve p99 µs':>13} {'kernel p50/p99 µs':>18} {'RTF':>6}  fell"
     )
     for row in rows:
         tick, solve, inside = row["controller_us"], row["solve_us"], row["kernel_us"]
         kernel = f"{inside['p50']:.0f} / {inside['p99']:.0f}" if inside else "-"
         print(
-            f"{row['robot']:8} {row['method']:9} {row['kernel']:7} {tick['p50']:12.0f} "
+            f"{row['robot']:8} {row['method']:9} {row['solver']:8} {row['kernel']:7} "
+            f"{tick['p50']:12.0f} "
             f"{tick['p99']:12.0f} {solve['p50']:13.1f} {solve['p99']:13.1f} {kernel:>18} "
             f"{row['realtime_factor']:6.2f}  {row['fell']}"
         )
-    pairs = {(r["robot"], r["method"], r["kernel"]): r for r in rows}
+    for row in rows:
+        if row["note"]:
+            print(f"{row['robot']} {row['method']} {row['solver']}: {row['note']}")
+    pairs = {(r["robot"], r["method"], r["solver"], r["kernel"]): r for r in rows}
     for robot in args.robots:
         for method in args.methods:
             python, native = (
-                pairs.get((robot, method, "python")),
-                pairs.get((robot, method, "native")),
+                pairs.get((robot, method, "daqp", "python")),
+                pairs.get((robot, method, "daqp", "native")),
             )
             if python and native:
                 print(

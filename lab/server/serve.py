@@ -165,11 +165,14 @@ def serve_main(argv: list[str]) -> int:
         except (OSError, ValueError) as error:
             print(f"lab serve: --users: {error}", file=sys.stderr)
             return 2
+    from lab.server.gain_designer import GainDesigner
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
+    designer = GainDesigner()  # LQR gains designed off the loop (issue 26 item 2)
     try:
-        session = Session(SessionConfig(robot=args.robot, scene=args.scene))
+        session = Session(SessionConfig(robot=args.robot, scene=args.scene), designer.submit)
     except KeyError as error:
+        designer.close()
         print(f"lab serve: {error.args[0]}", file=sys.stderr)
         return 2
     if note := session.controller.kernel_note:
@@ -182,6 +185,7 @@ def serve_main(argv: list[str]) -> int:
             lab_id,
         )
     except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
+        designer.close()
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
     from lab.server.recording import Recorder, RecordingTransport
@@ -192,6 +196,7 @@ def serve_main(argv: list[str]) -> int:
             recorder = Recorder(args.record, session)
         except OSError as error:
             transport.close()
+            designer.close()
             print(f"lab serve: --record: {error}", file=sys.stderr)
             return 2
     recording = RecordingTransport(
@@ -251,6 +256,7 @@ def serve_main(argv: list[str]) -> int:
         thread.join()
         transport.close()
         recording.close()
+        designer.close()
         if ui is not None:
             _stop_process(ui)
     if loop.error is not None:
