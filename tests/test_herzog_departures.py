@@ -21,6 +21,7 @@ from lab.controller.momentum import (
 from lab.controller.tasks.momentum import MomentumTask
 from lab.description import load_description
 from lab.robot import build_robot
+from lab.server.gain_designer import GainDesigner
 from lab.server.session import Session, SessionConfig
 
 COST = LQR_COSTS["lqr"]
@@ -156,3 +157,28 @@ def test_the_squats_momentum_tracking_error_drops_with_the_feed_forward(monkeypa
     with_ff = squat_momentum_error(True, monkeypatch)
     without_ff = squat_momentum_error(False, monkeypatch)
     assert with_ff < 0.8 * without_ff, (with_ff, without_ff)
+
+
+def test_lab_serves_designer_process_returns_the_gain_designed_in_the_loop(talos) -> None:
+    """`lab serve`'s GainDesigner (a worker process) returns the very K_h designed at once, and a
+    session using it keeps the gain in use while the design runs (telemetry's `gain_in_use`)."""
+    model, q = talos
+    active = np.ones(2, dtype=bool)
+    model.update(q, np.zeros(model.nv))
+    problem = lqr_problem(model, active, COST)
+    designer = GainDesigner()
+    try:
+        gain = designer.submit(problem).result(timeout=60)
+        np.testing.assert_array_equal(gain, momentum_gain_of(problem))
+        session = Session(SessionConfig(robot="talos"), designer.submit)
+        assert session.handle("stack", {"preset": "herzog_table2"})["ok"]
+        assert session.handle("momentum", {"mode": "lqr"})["ok"]
+        assert session.handle("gait", {"name": "squat", "cycle_time": 2.0})["ok"]
+        seen = []
+        for _ in range(1500):  # the CoG moves 3.6 cm: the arms pass 2 cm, designs go out
+            session.tick()
+            seen.append(session.telemetry()["momentum_control"]["gain_in_use"]["pending"])
+        assert not session.fell and any(seen)
+        assert session.controller.momentum_gain_in_use()["designs"] >= 2
+    finally:
+        designer.close()
