@@ -3,8 +3,10 @@ that computed each tick are in telemetry and `lab run --json`, a request served 
 carries a note, and one status (ok, fallback, capped, violated, failed) with its level and reason
 is in telemetry and raises an event."""
 
+import dataclasses
 import json
 
+from lab.controller import hierarchy
 from lab.controller.native import NOT_BUILT
 from lab.server.scenario import load_scenario, run_scenario
 from lab.server.session import Session, SessionConfig
@@ -111,3 +113,22 @@ def test_a_session_counts_ticks_by_what_ran() -> None:
     run(session, 3)
     counts = {(r.kernel, r.method): n for r, n in session.ran_ticks.items()}
     assert counts == {("python", "cascade"): 4, ("python", "weighted"): 3}
+
+
+def test_a_capped_active_set_is_the_status_and_an_event(monkeypatch) -> None:
+    """nullspace stopping at its active-set cap: status `capped` (no single level), one
+    solver_capped event per 0.5 s, and the torques are still applied (not a failed tick)."""
+    session = Session(SessionConfig(method="nullspace", kernel="python"))
+    solve = hierarchy.METHODS["nullspace"]
+    monkeypatch.setitem(
+        hierarchy.METHODS,
+        "nullspace",
+        lambda problem, solver: dataclasses.replace(solve(problem, solver), capped=True),
+    )
+    run(session, 3)
+    status = session.telemetry()["status"]
+    assert (status["status"], status["level"]) == ("capped", None)
+    assert "cap" in status["reason"]
+    events = [e for e in session.pop_events() if e["type"] == "solver_capped"]
+    assert len(events) == 1 and events[0]["count"] == 1
+    assert session.qp_failures == 0
