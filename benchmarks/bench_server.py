@@ -6,6 +6,15 @@
   subscribers attached and, with `--ui`, the browser UI process.
 
     .venv/bin/python benchmarks/bench_server.py --duration 60 [--ui] [--gait trot] [--json]
+    .venv/bin/python benchmarks/bench_server.py --robot talos --preset herzog_table4 \
+        --momentum lqr --stance left          # Talos in single support
+    .venv/bin/python benchmarks/bench_server.py --robot bolt --gait biped_step
+    .venv/bin/python benchmarks/bench_server.py --method nullspace
+
+The machine's own floor is measured in the same run: bench_floor.py's empty loop, with the
+server's spin setting, for the same duration just before the server (and after it with
+`--floor-after`); the report gives both fractions and how many points the server is below the
+floor (issue 31: the target is within 0.3 points).
 
 With `--gait`, the robot walks in that gait while the commands alternate vx between 0.3 and
 0.5 m/s; without it, it stands and they alternate between 0 and 0.1 m/s.
@@ -62,7 +71,11 @@ def connect(endpoint: str, timeout: float = 60.0) -> LabClient:
 
 
 def measure(
-    endpoint: str, duration: float, command_hz: float, gait: str | None = None
+    endpoint: str,
+    duration: float,
+    command_hz: float,
+    gait: str | None = None,
+    setup: list[tuple[str, dict]] | None = None,
 ) -> dict[str, object]:
     counts = [0, 0]
     lock = threading.Lock()
@@ -84,6 +97,10 @@ def measure(
             sub.subscribe_telemetry(counter(i))
         client.wait_telemetry(timeout=5.0)
         speeds = (0.0, 0.1)
+        for verb, payload in setup or ():
+            reply = client.command(verb, timeout=5.0, **payload)
+            if not reply.get("ok"):
+                raise SystemExit(f"{verb} {payload} refused: {reply.get('error')}")
         if gait is not None:
             reply = client.command("gait", name=gait, timeout=5.0)
             if not reply.get("ok"):
@@ -173,25 +190,54 @@ def main() -> int:
         metavar="ARG",
         help="pass ARG on to `lab serve` (repeat; e.g. --serve-arg=--slice-ms=0.1)",
     )
+    p.add_argument("--method", help="switch to this hierarchy method (e.g. nullspace, wbosc)")
+    p.add_argument("--preset", help="install this stack preset first (e.g. herzog_table4)")
+    p.add_argument("--momentum", help="the momentum law (pd or lqr), for the Herzog presets")
+    p.add_argument("--stance", help="stand on one sole (left or right; Talos single support)")
+    p.add_argument(
+        "--no-floor",
+        action="store_true",
+        help="skip the empty loop (bench_floor.py) run for the same duration just before",
+    )
+    p.add_argument("--floor-after", action="store_true", help="also run the empty loop after")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
+    setup = [
+        (verb, payload)
+        for verb, payload in (
+            ("stack", {"preset": args.preset}),
+            ("momentum", {"mode": args.momentum}),
+            ("hierarchy", {"method": args.method}),
+            ("stance", {"side": args.stance}),
+        )
+        if next(iter(payload.values())) is not None
+    ]
     port = free_port()
     load = os.getloadavg()[0]  # the machine's 1-minute load at the start
+    floor = {} if args.no_floor else {"before": _floor(args)}
     with tempfile.TemporaryFile() as log:
         server = start_server(args, port, log)
         try:
             endpoint = f"tcp/127.0.0.1:{port}"
-            result = measure(endpoint, args.duration, args.command_hz, args.gait)
+            result = measure(endpoint, args.duration, args.command_hz, args.gait, setup)
         finally:
             server.send_signal(signal.SIGINT)
             server.wait(10)
-        result["robot"] = args.robot
-        result["rate_hz"] = args.rate
-        result["ui"] = args.ui
-        result["gait"] = args.gait
-        result["spin_ms"] = args.spin_ms
-        result["serve_args"] = args.serve_arg
-        result["load"] = round(load, 2)
+    if args.floor_after:
+        floor["after"] = _floor(args)
+    result["floor"] = floor
+    if floor:
+        fractions = [run["on_time_fraction"] for run in floor.values()]
+        result["floor_on_time_fraction"] = min(fractions)
+        result["below_floor_points"] = round(100 * (min(fractions) - result["on_time_fraction"]), 3)
+    result["setup"] = [f"{verb} {payload}" for verb, payload in setup]
+    result["robot"] = args.robot
+    result["rate_hz"] = args.rate
+    result["ui"] = args.ui
+    result["gait"] = args.gait
+    result["spin_ms"] = args.spin_ms
+    result["serve_args"] = args.serve_arg
+    result["load"] = round(load, 2)
     if args.json:
         print(json.dumps(result))
         return 0
@@ -226,7 +272,23 @@ def main() -> int:
         + f"; GC collections by generation {result['gc_collections']}, load {result['load']}"
     )
     print(f"telemetry per subscriber: {result['telemetry_hz_per_subscriber']} Hz")
+    if floor:
+        below = result["below_floor_points"]
+        runs = ", ".join(f"{when} {run['on_time_fraction']:.4%}" for when, run in floor.items())
+        print(
+            f"the machine's floor (the empty loop, same settings, same duration): {runs}; "
+            f"the server is {abs(below):.2f} points {'below' if below > 0 else 'above'} the "
+            "lower one"
+        )
     return 0
+
+
+def _floor(args: argparse.Namespace) -> dict:
+    """The empty loop of bench_floor.py for `args.duration`, with the server's spin setting."""
+    from bench_floor import empty_loop
+
+    settings = {} if args.spin_ms is None else {"spin_s": args.spin_ms / 1000.0}
+    return empty_loop(args.duration, **settings)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
-`lab teleop`, `lab sweep`, `lab router`."""
+`lab teleop`, `lab sweep`, `lab router`, `lab robot`."""
 
 import argparse
 import json
@@ -8,7 +8,7 @@ from dataclasses import asdict
 
 
 def _run(argv: list[str]) -> int:
-    from lab.server.scenario import ScenarioError, load_scenario, run_scenario
+    from lab.server.scenario import ScenarioError, check_duration, load_scenario, run_scenario
 
     parser = argparse.ArgumentParser(prog="lab run", description="Run a headless scenario.")
     parser.add_argument("scenario", help="path to a scenario TOML file")
@@ -17,10 +17,15 @@ def _run(argv: list[str]) -> int:
     parser.add_argument("--record", metavar="FILE.mcap", help="record the run to an MCAP file")
     args = parser.parse_args(argv)
     try:
+        if args.duration is not None:
+            check_duration(args.duration, "--duration")
         scenario = load_scenario(args.scenario)
         report = run_scenario(scenario, args.duration, args.record)
     except (ScenarioError, KeyError, ValueError) as error:
         print(f"lab run: {error.args[0] if error.args else error}", file=sys.stderr)
+        return 2
+    except OSError as error:  # a --record file it cannot write
+        print(f"lab run: {error}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(report))
@@ -66,8 +71,42 @@ def _replay(argv: list[str]) -> int:
     except (OSError, ValueError, KeyError) as error:
         print(f"lab replay: {error}", file=sys.stderr)
         return 2
+    if check.cut_short:
+        print(f"lab replay: {args.recording}: {check.cut_short}", file=sys.stderr)
     print(json.dumps(asdict(check)))
     return 0
+
+
+def _robot(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(
+        prog="lab robot", description="Add a robot from a URDF, or check one (docs/robots.md)."
+    )
+    verbs = parser.add_subparsers(dest="verb", required=True)
+    new = verbs.add_parser("new", help="write robots/NAME.toml from a URDF, for you to edit")
+    new.add_argument("name", help="the robot's name (lower case, digits, _)")
+    new.add_argument(
+        "--urdf", required=True, help="a .urdf file, or an example-robot-data robot (go1)"
+    )
+    check = verbs.add_parser("check", help="both engines, the feet at rest, a standing run")
+    check.add_argument("name", help="a robot in robots/")
+    check.add_argument("--seconds", type=float, default=5.0, help="how long it must stand")
+    args = parser.parse_args(argv)
+    if args.verb == "new":
+        from lab.server.robot_new import new_robot
+
+        try:
+            path = new_robot(args.name, args.urdf)
+        except (OSError, ValueError) as error:
+            print(f"lab robot new: {error}", file=sys.stderr)
+            return 2
+        print(f"wrote {path}: edit it, then `lab robot check {args.name}`")
+        return 0
+    from lab.server.robot_check import check_robot
+
+    findings = check_robot(args.name, args.seconds)
+    for finding in findings:
+        print(f"{'ok  ' if finding.ok else 'FAIL'} {finding.check}: {finding.message}")
+    return 0 if all(finding.ok for finding in findings) else 1
 
 
 def _bench(argv: list[str]) -> int:
@@ -115,6 +154,7 @@ COMMANDS = {
     "teleop": _teleop,
     "sweep": _sweep,
     "router": _router,
+    "robot": _robot,
 }
 
 

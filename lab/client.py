@@ -9,6 +9,7 @@ Behind a router with several labs, name one: `LabClient("tcp/router:7447", lab_i
 """
 
 import json
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -17,11 +18,15 @@ import zenoh
 
 from lab.directory import LabDirectory
 from lab.protocol import ALL_LABS_ALIVE, DEFAULT_ENDPOINT, LabKeys, lab_id_of
+from lab.server.access import ENV_CONFIG, ENV_PASSWORD, ENV_USER, credentials_from_env
 from lab.server.transport import client_config
 
 COMMAND_TIMEOUT_S = 2.0
 SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session
 SLOW_VERBS = ("robot", "scene")
+# A query that ends with no reply before this fraction of its timeout was closed, not timed out.
+TIMED_OUT_FRACTION = 0.9
+PROBE_TIMEOUT_S = 2.0  # a TCP connection that tells "nothing there" from "credentials refused"
 # Messages a client keeps between two reads, per kind: `wait_telemetry` looks at every telemetry
 # message that arrives while it waits (up to 2.5 s of them at 100 Hz between two reads), so a
 # brief event, a push of 0.2 s, is seen however late it runs; of the state (60 Hz, every frame of
@@ -238,10 +243,13 @@ def query(
     timeout: float | None = None,
 ) -> dict:
     """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. A missing
-    reply becomes {"ok": false, "error": "no reply ..."} so callers handle one shape."""
+    reply becomes {"ok": false, "error": "<verb>: ..."} so callers handle one shape: "no reply
+    within T s" when the timeout ran out, "closed unanswered after t s" when the query ended
+    sooner with no reply (no lab behind the key, or one that dropped it: a full command queue)."""
     if timeout is None:
         timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
     no_reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
+    start = time.monotonic()
     for reply in session.get(keys.cmd(verb), payload=payload, timeout=timeout):
         if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
             error = reply.err.payload.to_string()
@@ -250,6 +258,13 @@ def query(
             return json.loads(reply.ok.payload.to_bytes())
         except ValueError:
             return {"ok": False, "error": f"{verb}: the reply is not JSON"}
+    waited = time.monotonic() - start
+    if waited < timeout * TIMED_OUT_FRACTION:
+        error = (
+            f"{verb}: the query was closed unanswered after {waited:.2g} s (no lab answers "
+            f"{keys.cmd(verb)}, or it dropped the query: its queue of waiting commands was full)"
+        )
+        return {"ok": False, "error": error}
     return no_reply
 
 
@@ -276,17 +291,48 @@ def only_lab(labs: list[str], endpoint: str) -> str:
     raise LabNotFound(f"{len(labs)} labs at {endpoint}: {', '.join(labs)}; name one (lab_id)")
 
 
+class LabUnreachable(zenoh.ZError):
+    """No Zenoh session to an endpoint; the message says why, as far as it can be told."""
+
+
 def open_session(
     endpoint: str, timeout: float, cancelled: Callable[[], bool] = lambda: False
 ) -> zenoh.Session:
     """Open a client session to `endpoint`, retrying for `timeout` s (or until `cancelled()`)
     while the server is still starting (a Zenoh client cannot open a session with nothing to
-    connect to)."""
+    connect to). Raises LabUnreachable saying whether anything listens there."""
     end = time.monotonic() + timeout
+    config = client_config(endpoint)  # a LAB_ZENOH_CONFIG Zenoh cannot read raises ZError here
     while True:
         try:
-            return zenoh.open(client_config(endpoint))
-        except zenoh.ZError:
+            return zenoh.open(config)
+        except zenoh.ZError as error:
             if time.monotonic() > end or cancelled():
-                raise
+                raise LabUnreachable(why_unreachable(endpoint)) from error
             time.sleep(0.05)
+
+
+def why_unreachable(endpoint: str) -> str:
+    """Why a Zenoh session to `endpoint` did not open. Zenoh says the same ("Unable to connect")
+    for a server that is down and for one that refused the credentials; a plain TCP connection
+    tells the two apart for tcp/ and tls/ endpoints: something that accepts it, then refuses the
+    session, wants other credentials (or TLS)."""
+    protocol, _, address = endpoint.partition("/")
+    host, _, port = address.split("#", 1)[0].rpartition(":")
+    credentials = credentials_from_env()
+    if protocol in ("tcp", "tls") and port.isdigit():
+        try:
+            socket.create_connection((host.strip("[]"), int(port)), PROBE_TIMEOUT_S).close()
+        except OSError as error:
+            return f"nothing answers at {endpoint} ({error.strerror or error}): is the lab running?"
+        if credentials is not None:
+            return (
+                f"{endpoint} refused the session: wrong user or password? ({ENV_USER}="
+                f"{credentials.user!r} and {ENV_PASSWORD}; or it expects TLS: {ENV_CONFIG})"
+            )
+        return (
+            f"{endpoint} refused the session: it may ask for a user and password "
+            f"({ENV_USER}, {ENV_PASSWORD}) or TLS ({ENV_CONFIG})"
+        )
+    may = " (or the user or password are wrong)" if credentials is not None else ""
+    return f"no Zenoh session to {endpoint}: is the lab running{may}?"

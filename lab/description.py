@@ -16,7 +16,14 @@ from pathlib import Path
 from lab.protocol import ContactSpec, TaskGains
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
-ROBOT_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in ROBOTS_DIR.glob("*.toml")))
+
+
+def robot_names() -> tuple[str, ...]:
+    """The robots described in robots/ now (`lab robot new` may have added one since start)."""
+    return tuple(sorted(p.stem for p in ROBOTS_DIR.glob("*.toml")))
+
+
+ROBOT_NAMES: tuple[str, ...] = robot_names()  # the robots at start: what servers offer
 
 
 @cache
@@ -44,7 +51,7 @@ class ContactFrame:
 class RobotDescription:
     name: str
     urdf_path: Path
-    srdf_path: Path
+    srdf_path: Path | None  # None: the posture is `standing_joints` (others at 0)
     package_dirs: tuple[Path, ...]
     posture: str
     friction: float
@@ -57,6 +64,9 @@ class RobotDescription:
     kernel: str | None = None  # native | python: which kernel runs the tick (None: native)
     # Joint angles (rad) that replace the SRDF posture's in the standing posture, by joint name.
     standing_joints: dict[str, float] = field(default_factory=dict)
+    # The foothold planner of a walking gait on this robot when the gait command names none
+    # (None: the behaviour's own default, robo-centric).
+    footholds: str | None = None
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -88,9 +98,16 @@ def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
 
 def load_description(name: str) -> RobotDescription:
     """Read `robots/<name>.toml`; an unknown name raises KeyError naming the known robots."""
-    if name not in ROBOT_NAMES:
-        raise KeyError(f"unknown robot {name!r}; known robots: {', '.join(ROBOT_NAMES)}")
-    with (ROBOTS_DIR / f"{name}.toml").open("rb") as f:
+    known = robot_names()
+    if name not in known:
+        raise KeyError(f"unknown robot {name!r}; known robots: {', '.join(known)}")
+    return read_description(ROBOTS_DIR / f"{name}.toml")
+
+
+def read_description(path: Path) -> RobotDescription:
+    """Read a robot description file; the robot's name is the file's stem."""
+    name = path.stem
+    with path.open("rb") as f:
         data = tomllib.load(f)
     share = example_robot_data_share()
     robots = share / "example-robot-data" / "robots"
@@ -103,7 +120,7 @@ def load_description(name: str) -> RobotDescription:
     return RobotDescription(
         name=name,
         urdf_path=robots / data["urdf"],
-        srdf_path=robots / data["srdf"],
+        srdf_path=robots / data["srdf"] if "srdf" in data else None,
         package_dirs=(share,),
         posture=data.get("posture", "standing"),
         friction=float(data["friction"]),
@@ -115,4 +132,5 @@ def load_description(name: str) -> RobotDescription:
         gains=gains,
         kernel=kernel,
         standing_joints={j: float(a) for j, a in data.get("standing_joints", {}).items()},
+        footholds=data.get("footholds"),
     )

@@ -56,9 +56,13 @@ class Robot:
 
 
 def _reference_posture(model: pin.Model, desc: RobotDescription) -> np.ndarray:
+    """The SRDF's posture `desc.posture`, or the neutral configuration for a robot without an
+    SRDF (its `standing_joints` then give the posture)."""
+    if desc.srdf_path is None:
+        return pin.neutral(model)
     pin.loadReferenceConfigurations(model, str(desc.srdf_path), False)
     if desc.posture not in model.referenceConfigurations:
-        known = ", ".join(model.referenceConfigurations.keys())
+        known = ", ".join(pair.key() for pair in model.referenceConfigurations)
         raise KeyError(f"robot {desc.name!r}: SRDF has no posture {desc.posture!r} ({known})")
     return np.array(model.referenceConfigurations[desc.posture])
 

@@ -10,6 +10,9 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from lab.controller.tasks import TASK_TYPES
+from lab.server.commands import CommandError, parse_command
+
 STACKS_DIR = Path(__file__).resolve().parent.parent / "stacks"
 PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
 PRESET_KEYS = {"description", "method", "levels", "gains"}
@@ -49,5 +52,27 @@ def load_stack_preset(name: str) -> StackPreset:
         description=str(data.get("description", "")),
         method=str(data.get("method", "cascade")),
         levels=levels,
-        gains={task: dict(values) for task, values in data.get("gains", {}).items()},
+        gains=check_gains(data.get("gains", {}), f"{path}: [gains"),
     )
+
+
+def check_gains(gains: object, where: str) -> dict[str, dict[str, float]]:
+    """A table `{task: {kp, kd, weight}}` (a preset's `[gains]`, a scenario's
+    `[controller.gains]`) checked as the `gains` command checks them, for tasks that exist.
+    Raises ValueError naming `where` (`"<file>: [gains"`, closed here with `.<task>]`), the
+    task and the field."""
+    if not isinstance(gains, dict):
+        raise ValueError(f"{where}]: must be a table of tasks, got {type(gains).__name__}")
+    checked = {}
+    for task, values in gains.items():
+        if task not in TASK_TYPES:
+            raise ValueError(f"{where}.{task}]: unknown task (tasks: {', '.join(TASK_TYPES)})")
+        if not isinstance(values, dict) or "task" in values:
+            raise ValueError(f"{where}.{task}]: must be a table of kp, kd and weight")
+        try:
+            command = parse_command("gains", {"task": task, **values})
+        except CommandError as error:
+            raise ValueError(f"{where}.{task}]: {str(error).removeprefix('gains: ')}") from None
+        fields = {"kp": command.kp, "kd": command.kd, "weight": command.weight}
+        checked[task] = {key: value for key, value in fields.items() if value is not None}
+    return checked

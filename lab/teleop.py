@@ -22,6 +22,8 @@ import time
 import tty
 from dataclasses import dataclass, replace
 
+import zenoh
+
 from lab.client import LabClient, LabNotFound
 from lab.directory import next_online
 from lab.protocol import DEFAULT_ENDPOINT, VX_MAX, VY_MAX, YAW_RATE_MAX, LabIdError
@@ -158,8 +160,8 @@ def teleop_main(argv: list[str]) -> int:
     args = build_parser().parse_args(argv)
     try:
         lab = LabClient(args.connect, lab_id=args.lab_id, first=True)
-    except (LabNotFound, LabIdError) as error:
-        print(f"lab teleop: {error}", file=sys.stderr)
+    except (LabNotFound, LabIdError, zenoh.ZError) as error:  # ZError: client.LabUnreachable,
+        print(f"lab teleop: {error}", file=sys.stderr)  # or a LAB_ZENOH_CONFIG Zenoh refuses
         return 1
     with lab:
         print(__doc__.split("\n\n")[1])

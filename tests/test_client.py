@@ -2,12 +2,14 @@
 
 import json
 import socket
+import threading
 import time
 
 import pytest
 import zenoh
 
 from lab.client import LabClient
+from lab.protocol import LabKeys
 from lab.server.transport import ServerTransport, server_config
 
 
@@ -77,3 +79,29 @@ def _receive(transport: ServerTransport):
             return request
         time.sleep(0.001)
     raise TimeoutError("no query arrived")
+
+
+def test_a_query_dropped_unanswered_says_so_not_that_it_timed_out() -> None:
+    """A lab whose command queue is full drops the oldest query (a ring channel): its querier
+    hears at once that it was closed unanswered, not 'no reply within 2 s' after 0.1 s."""
+    port = free_port()
+    server = zenoh.open(server_config(port))
+    keys = LabKeys("client-dropped")
+    queue = server.declare_queryable(keys.cmd("**"), zenoh.handlers.RingChannel(1))  # unread
+    try:
+        with LabClient(f"tcp/127.0.0.1:{port}", lab_id=keys.lab_id) as lab:
+            replies: list[dict] = []
+            first = threading.Thread(target=lambda: replies.append(lab.command("info", timeout=20)))
+            start = time.monotonic()
+            first.start()
+            time.sleep(0.3)  # the first waits in the queue
+            second = lab.command("reset", timeout=0.5)  # takes its place: the first is dropped
+            first.join(20)
+            (reply,) = replies
+            assert time.monotonic() - start < 10  # not the 20 s of its timeout
+            assert reply["error"].startswith("info: the query was closed unanswered after ")
+            assert "its queue of waiting commands was full" in reply["error"]
+            assert second == {"ok": False, "error": "reset: no reply within 0.5 s"}
+    finally:
+        queue.undeclare()
+        server.close()

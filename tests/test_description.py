@@ -6,6 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS
 from lab.description import ROBOT_NAMES, load_description
 from lab.robot import build_robot
 
@@ -18,8 +19,15 @@ def robot(request):
     return build_robot(load_description(request.param))
 
 
-def test_the_five_robots_are_described() -> None:
-    assert set(ROBOT_NAMES) == {"anymal", "hyq", "solo12", "talos", "bolt"}
+def test_the_papers_robots_and_the_unitree_robots_are_described() -> None:
+    papers = {"anymal", "hyq", "solo12", "talos", "bolt"}
+    assert set(ROBOT_NAMES) == papers | {"talos_arms", "go2", "a1", "b1", "g1"}
+
+
+def test_every_default_foothold_planner_exists() -> None:
+    for name in ROBOT_NAMES:
+        footholds = load_description(name).footholds
+        assert footholds is None or footholds in FOOTHOLD_PLANNERS, name
 
 
 def test_unknown_robot_names_the_known_ones() -> None:
@@ -63,6 +71,8 @@ def test_point_feet_match_the_urdf_collision_sphere(robot) -> None:
     for contact, link, offset in zip(
         robot.contacts, robot.foot_links, robot.foot_offsets, strict=True
     ):
+        if contact.kind != "point":
+            continue  # a flat sole stands for the link's collision shapes as a whole
         for collision in links[link].findall("collision"):
             sphere = collision.find("geometry/sphere")
             if sphere is None:

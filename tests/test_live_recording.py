@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ports import free_port
-from test_faults import WAIT_S, Process, ready_client, serve
+from test_faults import RATE_HZ, WAIT_S, Process, ready_client, serve
 
-from lab.server.recording import read_recording
+from lab.server.recording import read_recording, replay
 from lab.server.replay_serve import Player, ReplayServer
 
 STOP_S = 10.0
@@ -40,8 +40,7 @@ def live_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_a_live_session_is_recorded_with_replies_events_and_a_timeline_that_goes_on(
     live_recording: Path,
 ) -> None:
-    _, messages = read_recording(live_recording)
-    messages = list(messages)
+    messages = read_recording(live_recording).messages
     commands = [m.data for m in messages if m.kind == "commands"]
     verbs = [(c["verb"], c["reply"]["ok"]) for c in commands]
     assert ("push", True) in verbs and ("gains", False) in verbs and ("reset", True) in verbs
@@ -56,7 +55,7 @@ def test_a_live_session_is_recorded_with_replies_events_and_a_timeline_that_goes
 
 
 def test_a_player_plays_at_its_speed_pauses_and_seeks(live_recording: Path) -> None:
-    _, messages = read_recording(live_recording)
+    messages = read_recording(live_recording).messages
     player = Player([m for m in messages if m.kind != "commands"])
     first = player.advance(0.1)
     assert first and max(m.t for m in first) <= 0.1
@@ -73,7 +72,8 @@ def test_a_player_plays_at_its_speed_pauses_and_seeks(live_recording: Path) -> N
 
 
 def test_playback_commands_are_checked_and_other_verbs_are_refused(live_recording: Path) -> None:
-    server = ReplayServer(str(live_recording), transport=None)  # handle() publishes nothing...
+    # handle() publishes nothing...
+    server = ReplayServer(read_recording(live_recording), transport=None)
     info = server.handle("info", {})
     assert info["ok"] and info["recorded"]["robot"] == "anymal" and info["replay"]["t"] == 0.0
     assert server.handle("speed", {"factor": 2.5})["replay"]["speed"] == 2.5
@@ -163,11 +163,38 @@ def test_the_record_command_starts_and_stops_a_recording_of_the_live_session(
             lab.wait_telemetry(lambda m: m["recording"] is None, timeout=WAIT_S)
     finally:
         server.kill()
-    _, messages = read_recording(path)
-    messages = list(messages)
+    messages = read_recording(path).messages
     times = [m.t for m in messages]
     assert times[0] < 0.05 and times[-1] == pytest.approx(done["recorded"]["seconds"], abs=0.05)
     verbs = [m.data["verb"] for m in messages if m.kind == "commands"]
     assert "push" in verbs and "record" not in verbs
     telemetry = [m.data for m in messages if m.kind == "telemetry"]
     assert telemetry[0]["t"] > 0.5  # the session had run before the recording began
+
+
+def test_a_recording_killed_mid_run_replays_what_was_flushed(tmp_path: Path) -> None:
+    """SIGKILL of `lab serve --record`: the file has no summary, yet its chunks (flushed every
+    FLUSH_S of wall time) replay, through a session and served, and say what was lost."""
+    port, path = free_port(), tmp_path / "killed.mcap"
+    server = serve(tmp_path / "serve.log", port, "--headless", "--record", str(path))
+    try:
+        with ready_client(f"tcp/127.0.0.1:{port}", server) as lab:
+            assert lab.command("push", body="base", force=[0, 40, 0], duration=0.1)["ok"]
+            seen = lab.wait_telemetry(lambda m: m["t"] > 1.0, timeout=WAIT_S)["t"]
+            server.process.send_signal(signal.SIGKILL)
+            server.process.wait(STOP_S)
+    finally:
+        server.kill()
+    recording = read_recording(path)
+    assert recording.cut_short is not None and "killed mid-write?" in recording.cut_short
+    # a flush every FLUSH_S of wall time: at most ~1 s of wall time is lost, RATE_HZ ticks of
+    # 1 ms a second, and what came after the last telemetry this client saw is not counted
+    assert seen - recording.seconds <= 1.0 * RATE_HZ * 1e-3, (recording.seconds, seen)
+    assert "push" in [m.data["verb"] for m in recording.messages if m.kind == "commands"]
+    check = replay(path)
+    assert check.cut_short == recording.cut_short and check.compared > 0
+    assert check.max_torque_error <= 1e-9 and check.commands == 2  # info, push
+    assert check.replies_differ == 1  # the live loop's statistics in info's, not a session's
+    served = ReplayServer(recording, transport=None).handle("info", {})
+    assert served["replay"]["cut_short"] == recording.cut_short
+    assert served["replay"]["duration"] == pytest.approx(recording.seconds, abs=0.05)

@@ -1,10 +1,11 @@
 """Three hosts on one machine: network namespaces joined by veth pairs to a router namespace.
 
-`lab router` runs in namespace R, one `lab serve --headless --connect` in each of A and B (their
-own addresses, their own lab ids), and a client in C: it lists both labs, steers alpha (a
-velocity command accepted and seen in alpha's telemetry, not in beta's), and sees beta keep
-running after alpha's sim process is killed, alpha marked offline. Each of A, B and C has one
-link, to R only, on its own subnet, so everything between them goes through the router; the
+`lab router --users` runs in namespace R, one `lab serve --headless --users --connect` in each of
+A and B (their own addresses, their own lab ids, logging in to the router as a user of the file),
+and a client in C: it lists both labs, is refused without credentials and with a wrong password,
+steers alpha (a velocity command accepted and seen in alpha's telemetry, not in beta's), and sees
+beta keep running after alpha's sim process is killed, alpha marked offline. Each of A, B and C
+has one link, to R only, on its own subnet, so everything between them goes through the router; the
 namespaces are this test's own (pid-suffixed names) and are deleted at the end, failed or not.
 Needs `ip netns` (root, or CAP_SYS_ADMIN and CAP_NET_ADMIN); skipped, saying why, without it.
 """
@@ -20,6 +21,8 @@ from pathlib import Path
 
 import pytest
 
+from lab.server.access import ENV_PASSWORD, ENV_USER
+
 STARTUP_S = 90.0  # two sim processes importing MuJoCo and pinocchio at once on a busy machine
 WAIT_S = 30.0  # for what takes a fraction of a second on an idle machine
 PORT = 7447
@@ -28,11 +31,14 @@ ROLES = {"a": 1, "b": 2, "c": 3}  # the namespaces beside the router's, and thei
 LABS = {"a": "netns-alpha", "b": "netns-beta"}
 VX = 0.2  # m/s: the velocity the client steers alpha with
 
-# The client, run inside namespace C. It prints one JSON line per step and waits for a line on
-# stdin before the last one (the test kills alpha's sim in between).
+USER, PASSWORD = "alice", "correct horse"  # the one line of the users file
+
+# The client, run inside namespace C with the user's credentials in its environment. It prints
+# one JSON line per step and waits for a line on stdin before the last one (the test kills
+# alpha's sim in between).
 CLIENT = """
-import json, sys, time
-from lab.client import LabClient
+import json, os, sys, time
+from lab.client import LabClient, LabUnreachable
 
 router, alpha_id, beta_id, vx, wait_s = sys.argv[1:4] + [float(a) for a in sys.argv[4:6]]
 
@@ -47,10 +53,26 @@ def until(condition, timeout):
         time.sleep(0.05)
     return True
 
+def refused(**credentials):
+    # why a client presenting `credentials` (none: no credentials) gets no session
+    saved = dict(os.environ)
+    os.environ.pop("LAB_ZENOH_USER")
+    os.environ.pop("LAB_ZENOH_PASSWORD")
+    os.environ.update(credentials)
+    try:
+        LabClient(router, 3.0, alpha_id).close()
+        return "admitted"
+    except LabUnreachable as error:
+        return str(error)
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+
 with LabClient(router, wait_s, alpha_id) as alpha, LabClient(router, wait_s, beta_id) as beta:
     both = until(lambda: alpha.labs() == {alpha_id: True, beta_id: True}, 3 * wait_s)
     until(lambda: beta.latest_telemetry() is not None, wait_s)
-    say(labs=alpha.labs(), both=both)
+    wrong = {"LAB_ZENOH_USER": os.environ["LAB_ZENOH_USER"], "LAB_ZENOH_PASSWORD": "wrong"}
+    say(labs=alpha.labs(), both=both, without=refused(), wrong=refused(**wrong))
     reply = alpha.command("velocity", vx=vx, timeout=wait_s)
     seen = until(
         lambda: abs((alpha.latest_telemetry() or {}).get("command", {}).get("vx", 0) - vx) < 1e-6,
@@ -153,21 +175,26 @@ def _line(process: subprocess.Popen, hosts: Hosts) -> dict:
 
 
 def test_a_client_in_a_third_namespace_lists_steers_and_outlives_labs(hosts: Hosts) -> None:
-    hosts.start("r", "-m", "lab", "router", "--open",
+    users = hosts.tmp_path / "users"
+    users.write_text(f"{USER}:{PASSWORD}\n")
+    hosts.start("r", "-m", "lab", "router", "--users", str(users),
                 *(f"--listen={hosts.endpoint(role)}" for role in ROLES))  # fmt: skip
     serve = ("-m", "lab", "serve", "--headless", "--rate", "250")  # ANYmal: the native kernel
+    serve += ("--sched", "other", "--users", str(users))  # and it logs in with the first user
     sims = {
-        role: hosts.start(
-            role, *serve, "--sched", "other", "--lab-id", lab_id, "--connect", hosts.endpoint(role)
-        )
+        role: hosts.start(role, *serve, "--lab-id", lab_id, "--connect", hosts.endpoint(role))
         for role, lab_id in LABS.items()
     }
     client = hosts.start(
         "c", "-c", CLIENT, hosts.endpoint("c"), LABS["a"], LABS["b"], str(VX), str(WAIT_S),
         stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        env=os.environ | {ENV_USER: USER, ENV_PASSWORD: PASSWORD},
     )  # fmt: skip
     listed = _line(client, hosts)
     assert listed["both"], f"{listed}\n{hosts.logs()}"
+    # from another host, the router's port answers, and refuses a session without the password
+    assert "may ask for a user and password" in listed["without"], listed
+    assert "wrong user or password?" in listed["wrong"], listed
     steered = _line(client, hosts)
     assert steered["reply"]["ok"] and steered["seen"], f"{steered}\n{hosts.logs()}"
     assert steered["beta_vx"] == 0.0  # the command went to alpha only

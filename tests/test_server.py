@@ -302,7 +302,8 @@ def test_hostile_payloads_are_each_rejected_and_the_loop_keeps_its_rate(
     failures = []
     for verb, payload in requests:
         reply = lab.request(verb, payload, timeout=2.0)
-        if reply.get("ok") is not False or not reply.get("error") or "no reply" in reply["error"]:
+        unanswered = "no reply" in reply.get("error", "") or "unanswered" in reply.get("error", "")
+        if reply.get("ok") is not False or not reply.get("error") or unanswered:
             failures.append((verb, payload[:80], reply))
     elapsed = time.monotonic() - started
     assert not failures, failures[:5]

@@ -159,6 +159,8 @@ def test_a_solver_failure_falls_back_counts_and_carries_on(monkeypatch) -> None:
     assert session.qp_failures == 20
     assert not session.fell
     assert abs(session.telemetry()["base"]["position"][2] - session.robot.q_standing[2]) < 0.02
+    assert session.handle("reset")["ok"]  # counted since the session started (the soak's
+    assert session.telemetry()["qp"]["failures"] == 20  # report read 0 after resets)
 
 
 def test_a_level_that_fell_back_is_in_telemetry_and_an_event(monkeypatch) -> None:

@@ -166,3 +166,73 @@ def test_a_cluster_address_where_nothing_answers_is_refused_at_once():
     # module's fixture may have started)
     with pytest.raises(RayUnavailable, match=f"the Ray cluster at {address}: nothing answers"):
         _start_ray(None, address)
+
+
+@pytest.mark.parametrize(
+    ("greeting", "says"),
+    [
+        (None, "no answer within 5 s"),  # a listener that accepts and says nothing
+        (b"SSH-2.0-OpenSSH_9.2\r\n", "it sent b'SSH-2.0-OpenSSH_'"),
+        (b"HTTP/1.1 400 Bad Request\r\n\r\n", "it sent b'HTTP/1.1 400 Bad"),
+    ],
+)
+def test_a_cluster_address_where_something_else_listens_is_refused_within_seconds(
+    greeting: bytes | None, says: str
+) -> None:
+    """`ray.init` hung for over 200 s on such a port; the GCS check takes at most
+    CONNECT_TIMEOUT_S and names the address."""
+    import socket
+    import threading
+
+    from lab.sweep.runner import RayUnavailable, _start_ray
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    accepted: list[socket.socket] = []
+
+    def serve() -> None:
+        connection, _ = listener.accept()
+        accepted.append(connection)
+        if greeting is not None:
+            connection.sendall(greeting)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    address = f"127.0.0.1:{listener.getsockname()[1]}"
+    try:
+        with pytest.raises(RayUnavailable) as refused:
+            _start_ray(None, address)
+    finally:
+        listener.close()
+        for connection in accepted:
+            connection.close()
+    assert str(refused.value).startswith(f"the Ray cluster at {address}: something listens")
+    assert says in str(refused.value) and "ray start --head" in str(refused.value)
+
+
+def test_ctrl_c_stops_lab_sweep_while_it_waits_for_a_cluster(tmp_path):
+    """SIGINT while `lab sweep --address` waits on a port that says nothing: one line, exit 130
+    (Ray's own retries used to ignore it)."""
+    import signal
+    import socket
+    import subprocess
+    import sys
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    address = f"127.0.0.1:{listener.getsockname()[1]}"
+    command = [sys.executable, "-m", "lab", "sweep", str(_write(tmp_path, SMALL_SWEEP))]
+    sweep = subprocess.Popen(
+        [*command, "--address", address, "--output", str(tmp_path / "out.csv")],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        listener.settimeout(120)  # importing Ray first, on a busy machine
+        connection, _ = listener.accept()  # the check is waiting for an answer now
+        sweep.send_signal(signal.SIGINT)
+        assert sweep.wait(60) == 130
+        assert sweep.stderr.read() == "lab sweep: interrupted before any point ran\n"
+        connection.close()
+    finally:
+        sweep.kill()
+        sweep.wait()
+        listener.close()

@@ -489,7 +489,7 @@ def test_the_record_button_records_the_live_session_to_mcap(page, lab, serve) ->
     press(page, "Stop recording")
     page.get_by_text("Recorded", exact=False).first.wait_for()
     (path,) = serve.record_dir.glob("lab-anymal-*.mcap")
-    _, messages = read_recording(path)
+    messages = read_recording(path).messages
     assert sum(m.kind == "telemetry" for m in messages) > 20  # 100 Hz for > 0.5 s
 
 

@@ -296,8 +296,8 @@ VERBS: tuple[str, ...] = tuple(_PARSERS)
 def parse_command(verb: str, payload: object) -> Command:
     """Validate `payload` (a decoded JSON object) for `verb`; raise CommandError if it is wrong."""
     if not isinstance(verb, str) or verb not in _PARSERS:
-        shown = repr(verb)[:NAME_MAX_LEN]
-        raise CommandError(f"unknown command {shown} (known: {', '.join(VERBS)})")
+        shown = verb[:NAME_MAX_LEN] if isinstance(verb, str) else repr(verb)[:NAME_MAX_LEN]
+        raise CommandError(f"{shown}: unknown command (known: {', '.join(VERBS)})")
     if not isinstance(payload, Mapping):
         raise CommandError(f"{verb}: payload must be a JSON object, got {_type_name(payload)}")
     bad_keys = [k for k in payload if not isinstance(k, str)]

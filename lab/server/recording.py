@@ -14,14 +14,16 @@ torques (the tick is deterministic there).
 
 import json
 import time
-from collections.abc import Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import IO
 
 import numpy as np
-from mcap.reader import make_reader
-from mcap.writer import Writer
+from mcap.exceptions import RecordLengthLimitExceeded
+from mcap.records import Channel, Metadata
+from mcap.records import Message as McapMessage
+from mcap.stream_reader import StreamReader
+from mcap.writer import MCAP0_MAGIC, Writer
 
 from lab.server.commands import CommandError, parse_command
 from lab.server.limits import apply_limits
@@ -78,6 +80,10 @@ STATE_PERIOD = 16  # ticks between recorded drawing states (about 60 Hz)
 # at 0); the recording's timeline then goes on from where it was. Events lag the clock by at most
 # one telemetry period (10 ms), far less.
 RESET_DROP_S = 0.05
+# s of wall time between two chunks written out: a recorder killed (SIGKILL, power cut of the
+# process) loses at most this plus one message's interval (read_recording reads the rest).
+FLUSH_S = 0.5
+RECORD_PREFIX_BYTES = 9  # an MCAP record's opcode (1) and length (8)
 
 
 class Recorder:
@@ -99,6 +105,8 @@ class Recorder:
             )
             self._channels[kind] = self._writer.register_channel(topic, "json", schema)
         self._writer.add_metadata("session", session_metadata(session, limits or {}))
+        self._writer.flush()  # the header and the metadata on disk at once
+        self._flushed_at = time.monotonic()
         self._sequence = 0
         # The timeline starts at 0 when the recording does (mid-session too) and goes on
         # across resets: timeline = session time + offset.
@@ -144,6 +152,9 @@ class Recorder:
         data = encode(message)  # the transport's encoder: non-finite floats as null, valid JSON
         self._sequence += 1
         self._writer.add_message(self._channels[kind], stamp, data, stamp, self._sequence)
+        if (now := time.monotonic()) - self._flushed_at >= FLUSH_S:
+            self._writer.flush()  # the chunk so far, compressed, to the OS: it survives a kill
+            self._flushed_at = now
 
     @property
     def seconds(self) -> float:
@@ -271,29 +282,86 @@ class Message:
     data: dict
 
 
-def read_recording(path: str | Path) -> tuple[dict[str, str], Iterator[Message]]:
-    """The `session` metadata and the messages of a recording, in the order they were written
-    (a command and the telemetry of one tick share a log time)."""
+@dataclass(frozen=True)
+class Recording:
+    """What a recording file holds, read front to back: the `session` metadata and the
+    messages in the order they were written (a command and the telemetry of one tick share a
+    log time). `cut_short` says what was lost when the file stops early (a recorder killed
+    mid-write, a truncated copy, a corrupt record: everything before it is kept); None for a
+    complete file."""
+
+    path: str
+    metadata: dict[str, str]
+    messages: list[Message]
+    cut_short: str | None = None
+
+    @property
+    def seconds(self) -> float:
+        """The log time of the last message (s)."""
+        return self.messages[-1].t if self.messages else 0.0
+
+
+class RecordingError(ValueError):
+    """A file that is not a readable lab recording; the message names the file and says what it
+    is instead, in one line."""
+
+
+def read_recording(path: str | Path) -> Recording:
+    """Read a recording as a stream, record after record, without its summary: a file whose
+    writer was killed, or cut, or corrupt from some record on, gives the messages before the
+    first record that cannot be read (a chunk is checked against its CRC) and says so in
+    `cut_short`. Chunks are flushed every FLUSH_S, so a killed recorder loses at most that.
+    Raises RecordingError for a file that is not an MCAP file, or not a lab recording, or is
+    cut before its session metadata; OSError for a file it cannot open."""
+    path = Path(path)
+    size = path.stat().st_size
     kinds = {topic: kind for kind, topic in TOPICS.items()}
-    with open(path, "rb") as f:
-        reader = make_reader(f)
-        metadata = next(
-            (record.metadata for record in reader.iter_metadata() if record.name == "session"),
-            None,
-        )
-        if metadata is None:
-            raise ValueError(f"{path}: not a lab recording (no 'session' metadata)")
-        messages = [
-            (
-                message.sequence,
-                Message(kinds[channel.topic], message.log_time * 1e-9, json.loads(message.data)),
+    topics: dict[int, str] = {}  # channel id -> topic
+    metadata: dict[str, str] | None = None
+    messages: list[Message] = []
+    problem: str | None = None
+    with path.open("rb") as f:
+        head = f.read(len(MCAP0_MAGIC))
+        if head != MCAP0_MAGIC:
+            what = "an empty file" if size == 0 else f"{size} bytes starting {head!r}"
+            raise RecordingError(f"{path}: not an MCAP file ({what})")
+        f.seek(0)
+        # A record cannot be longer than the file: a corrupt length stops the read at once.
+        reader = StreamReader(f, validate_crcs=True, record_size_limit=size)
+        try:
+            for record in reader.records:
+                if isinstance(record, Channel):
+                    topics[record.id] = record.topic
+                elif isinstance(record, Metadata) and record.name == "session":
+                    metadata = record.metadata
+                elif isinstance(record, McapMessage) and topics.get(record.channel_id) in kinds:
+                    kind = kinds[topics[record.channel_id]]
+                    messages.append(Message(kind, record.log_time * 1e-9, json.loads(record.data)))
+        except RecordLengthLimitExceeded:  # its opcode and length read, the rest not there
+            start = f.tell() - RECORD_PREFIX_BYTES
+            problem = (
+                f"the record at byte {start} is longer than the file: "
+                "the file ends mid-record (killed mid-write?) or is corrupt"
             )
-            for _, channel, message in reader.iter_messages(log_time_order=False)
-            if channel.topic in kinds
-        ]
-        messages.sort(key=lambda m: m[0])
-    messages = [message for _, message in messages]
-    return metadata, iter(messages)
+        except Exception as error:  # any record it cannot read ends the readable prefix
+            problem = (
+                "the file stops with no summary: killed mid-write?"
+                if f.tell() >= size
+                else f"unreadable from about byte {f.tell()} of {size}: "
+                f"{type(error).__name__}: {error}"[:300]
+            )
+    if metadata is None:
+        if problem is not None:
+            raise RecordingError(f"{path}: cut short before its session metadata ({problem})")
+        raise RecordingError(f"{path}: not a lab recording (no 'session' metadata)")
+    recording = Recording(str(path), metadata, messages)
+    if problem is None:
+        return recording
+    cut_short = (
+        f"the recording ends at {recording.seconds:.1f} s: cut short after "
+        f"{len(messages)} messages ({problem})"
+    )
+    return replace(recording, cut_short=cut_short)
 
 
 @dataclass(frozen=True)
@@ -305,19 +373,26 @@ class ReplayCheck:
     compared: int  # telemetry messages whose torques were compared
     max_torque_error: float  # N m
     replies_differ: int  # commands whose reply differs from the recorded one
+    cut_short: str | None  # what the recording lost at its end (Recording.cut_short)
 
 
 def replay(path: str | Path) -> ReplayCheck:
     """Run a new session through the recorded commands, tick for tick, and compare its joint
-    torques with the recorded telemetry's."""
-    metadata, messages = read_recording(path)
-    session = Session(SessionConfig(**json.loads(metadata["config"])))
-    limits = json.loads(metadata.get("limits", "{}"))
+    torques with the recorded telemetry's (of the readable prefix of a file cut short)."""
+    recording = read_recording(path)
+    try:
+        config = SessionConfig(**json.loads(recording.metadata["config"]))
+    except (KeyError, TypeError, ValueError) as error:
+        raise RecordingError(
+            f"{path}: its session metadata is not a session's ({error!r})"
+        ) from error
+    session = Session(config)
+    limits = json.loads(recording.metadata.get("limits", "{}"))
     if limits:
         apply_limits(session.controller, limits)
     commands = compared = differ = 0
     error = 0.0
-    for message in messages:
+    for message in recording.messages:
         if message.kind not in ("commands", "telemetry"):
             continue
         target = message.data["tick"]
@@ -333,4 +408,4 @@ def replay(path: str | Path) -> ReplayCheck:
             compared += 1
             recorded = np.array(message.data["tau"])
             error = max(error, float(np.max(np.abs(session.tau - recorded), initial=0.0)))
-    return ReplayCheck(session.ticks, commands, compared, error, differ)
+    return ReplayCheck(session.ticks, commands, compared, error, differ, recording.cut_short)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import zenoh
 
 from lab.protocol import LabIdError, default_lab_id
-from lab.server.recording import Message, read_recording
+from lab.server.recording import Message, Recording, RecordingError, read_recording
 from lab.server.transport import Request, ServerTransport, server_config
 
 SPEED_MAX = 100.0  # times real time
@@ -99,12 +99,16 @@ def _number(verb: str, payload: object, name: str) -> float:
 class ReplayServer:
     """Serves one recording on a transport until stopped."""
 
-    def __init__(self, path: str, transport: ServerTransport, speed: float = 1.0) -> None:
-        metadata, messages = read_recording(path)
-        self.path = path
-        self.config = json.loads(metadata.get("config", "{}"))
-        self.recorded_info = json.loads(metadata.get("info", "{}"))  # older recordings: none
-        self.player = Player([m for m in messages if m.kind in PLAYED_KINDS], speed=speed)
+    def __init__(
+        self, recording: Recording, transport: ServerTransport, speed: float = 1.0
+    ) -> None:
+        self.path = recording.path
+        self.cut_short = recording.cut_short  # what a recording cut short lost, or None
+        self.config = json.loads(recording.metadata.get("config", "{}"))
+        # older recordings: no info
+        self.recorded_info = json.loads(recording.metadata.get("info", "{}"))
+        played = [m for m in recording.messages if m.kind in PLAYED_KINDS]
+        self.player = Player(played, speed=speed)
         self.transport = transport
 
     def handle(self, verb: str, payload: object) -> dict[str, object]:
@@ -129,7 +133,8 @@ class ReplayServer:
                 player.paused = verb == "pause"
         except ReplayError as error:
             return {"ok": False, "error": str(error)}
-        reply: dict[str, object] = {"ok": True, "replay": {"file": self.path, **player.status()}}
+        status = {"file": self.path, **player.status(), "cut_short": self.cut_short}
+        reply: dict[str, object] = {"ok": True, "replay": status}
         if verb == "info":  # the recorded session's info, and what it ran (its configuration)
             reply = {**self.recorded_info, **reply, "recorded": self.config}
             reply |= {"paused": player.paused, "t": player.position}
@@ -182,6 +187,13 @@ def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = N
         print(f"lab replay: --speed must be in (0, {SPEED_MAX:g}]", file=sys.stderr)
         return 2
     try:
+        recording = read_recording(path)
+    except (OSError, RecordingError) as error:
+        print(f"lab replay: {error}", file=sys.stderr)
+        return 2
+    if recording.cut_short:
+        print(f"lab replay: {path}: {recording.cut_short}", file=sys.stderr)
+    try:
         transport = ServerTransport(server_config(port), lab_id or default_lab_id("replay"))
     except zenoh.ZError as error:
         print(f"lab replay: Zenoh: {error}", file=sys.stderr)
@@ -190,7 +202,7 @@ def replay_serve_main(path: str, port: int, speed: float, lab_id: str | None = N
         print(f"lab replay: --lab-id: {error}", file=sys.stderr)
         return 2
     try:
-        server = ReplayServer(path, transport, speed)
+        server = ReplayServer(recording, transport, speed)
         stop = threading.Event()
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: stop.set())

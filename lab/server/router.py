@@ -10,8 +10,7 @@ import sys
 import zenoh
 
 from lab.protocol import DEFAULT_PORT
-from lab.server.access import remote_listen_refusal
-from lab.server.transport import server_config
+from lab.server.transport import AccessError, checked_server_config
 
 
 def router_main(argv: list[str]) -> int:
@@ -28,25 +27,28 @@ def router_main(argv: list[str]) -> int:
     parser.add_argument("--users", metavar="FILE", help="admit only these user:password lines")
     parser.add_argument("--zenoh-config", metavar="FILE", help="a Zenoh configuration to extend")
     parser.add_argument(
-        "--open", action="store_true", help="allow a non-loopback --listen without --users"
+        "--open",
+        action="store_true",
+        help="allow a non-loopback --listen with neither --users nor authentication or TLS in "
+        "--zenoh-config",
     )
     args = parser.parse_args(argv)
-    secured = bool(args.users or args.zenoh_config)
-    if refusal := remote_listen_refusal("lab router", args.listen, secured, args.open):
-        print(refusal, file=sys.stderr)
+    try:
+        config, access, _ = checked_server_config(
+            "lab router", args.port, args.listen, users_file=args.users,
+            base_file=args.zenoh_config, opened=args.open, mode="router",
+        )  # fmt: skip
+    except AccessError as error:
+        print(error, file=sys.stderr)
         return 2
     stop = {signal.SIGINT, signal.SIGTERM}
     signal.pthread_sigmask(signal.SIG_BLOCK, stop)  # taken by sigwait below, on this thread
-    config = server_config(
-        args.port, args.listen, users_file=args.users, base_file=args.zenoh_config, mode="router"
-    )
     try:
         session = zenoh.open(config)
     except zenoh.ZError as error:  # a port in use, a configuration it cannot use
         print(f"lab router: Zenoh: {error}", file=sys.stderr)
         return 2
-    endpoints = args.listen or [f"tcp/127.0.0.1:{args.port}"]
-    print(f"lab router: listening on {', '.join(endpoints)}", flush=True)
+    print(f"lab router: listening on {access.describe()}", flush=True)
     try:
         signal.sigwait(stop)
     finally:

@@ -10,6 +10,11 @@ protocol's verb and fields, for example
     [[events]]
     t = 2.0
     push = { body = "base", force = [0.0, 200.0, 0.0], duration = 0.2 }
+
+Everything is checked before anything runs, and a ScenarioError names the file and the field:
+a finite duration of at most DURATION_MAX_S, event times in [0, duration), events and gains as
+the protocol checks the commands that carry them (a `[controller.gains.<task>]` of a task that
+exists, `kp`/`kd` >= 0, `weight` > 0).
 """
 
 import time
@@ -26,7 +31,7 @@ from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
 from lab.server.recording import Recorder
 from lab.server.session import Session, SessionConfig
-from lab.stack_presets import load_stack_preset
+from lab.stack_presets import check_gains, load_stack_preset
 
 SCENARIO_KEYS = {
     "name",
@@ -41,6 +46,9 @@ SCENARIO_KEYS = {
     "terrain_seed",
 }
 CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
+# s: the longest run a scenario may ask for (the longest shipped one is 65 s; an hour at 1 kHz
+# is 3.6 M ticks, minutes of CPU); a duration of 1e12 s used to ask for 7 PiB of tick times.
+DURATION_MAX_S = 3600.0
 RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now
 
 
@@ -70,6 +78,10 @@ def load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
+    except UnicodeDecodeError as error:
+        raise ScenarioError(
+            f"{path}: not a text file (byte {error.start} is not UTF-8): a scenario is TOML"
+        ) from error
     except (OSError, tomllib.TOMLDecodeError) as error:
         raise ScenarioError(f"{path}: {error}") from error
     return parse_scenario(data, path)
@@ -82,15 +94,15 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
     if unknown:
         raise ScenarioError(f"{path}: unknown keys {sorted(unknown)}")
     controller = data.get("controller", {})
+    if not isinstance(controller, dict):
+        raise ScenarioError(f"{path}: [controller] must be a table")
     for old, new in RENAMED_KEYS.items():
         if old in controller:
             raise ScenarioError(f"{path}: [controller] key {old!r} is now called {new!r}")
     unknown = set(controller) - CONTROLLER_KEYS
     if unknown:
         raise ScenarioError(f"{path}: unknown [controller] keys {sorted(unknown)}")
-    duration = data.get("duration")
-    if not isinstance(duration, int | float) or not duration > 0:
-        raise ScenarioError(f"{path}: duration must be a positive number of seconds")
+    duration = check_duration(data.get("duration"), f"{path}: duration")
     stack, method, gains = _stack(path, controller)
     terrain_seed = _terrain_seed(path, data)
     kernel = controller.get("kernel")
@@ -110,10 +122,13 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
     unknown = [name for name in metrics if name not in METRICS]
     if unknown:
         raise ScenarioError(f"{path}: unknown metrics {unknown} (known: {', '.join(METRICS)})")
-    events = [_event(path, i, raw) for i, raw in enumerate(data.get("events", []))]
+    raw_events = data.get("events", [])
+    if not isinstance(raw_events, list):
+        raise ScenarioError(f"{path}: events must be [[events]] tables")
+    events = [_event(path, i, raw, duration) for i, raw in enumerate(raw_events)]
     return Scenario(
         data.get("name", path.stem),
-        float(duration),
+        duration,
         config,
         sorted(events, key=lambda e: e.t),
         ("standing", *(name for name in metrics if name != "standing")),
@@ -141,7 +156,10 @@ def _stack(path: Path, controller: dict) -> tuple[list | None, str, dict]:
     """Levels, method and gains of `[controller]`, where `stack` may name a preset."""
     stack = controller.get("stack")
     method = controller.get("method", "cascade")
-    gains = controller.get("gains", {})
+    try:
+        gains = check_gains(controller.get("gains", {}), f"{path}: [controller.gains")
+    except ValueError as error:
+        raise ScenarioError(str(error)) from None
     if not isinstance(stack, str):
         return stack, method, gains
     try:
@@ -159,11 +177,28 @@ def _limits(path: Path, data: dict) -> dict[str, dict[str, object]]:
         raise ScenarioError(f"{path}: {error}") from error
 
 
-def _event(path: Path, index: int, raw: dict) -> Event:
+def check_duration(duration: object, where: str) -> float:
+    """A run's length (s): a finite positive number of at most DURATION_MAX_S; raises
+    ScenarioError naming `where`."""
+    if isinstance(duration, bool) or not isinstance(duration, int | float):
+        raise ScenarioError(f"{where} must be a number of seconds, got {duration!r}")
+    if not 0 < duration <= DURATION_MAX_S:  # NaN fails both
+        raise ScenarioError(
+            f"{where} must be > 0 and at most DURATION_MAX_S = {DURATION_MAX_S:g} s, "
+            f"got {duration!r}"
+        )
+    return float(duration)
+
+
+def _event(path: Path, index: int, raw: object, duration: float) -> Event:
     where = f"{path}: event {index}"
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{where}: must be a table with t and one command")
     t = raw.get("t")
-    if not isinstance(t, int | float) or t < 0:
-        raise ScenarioError(f"{where}: t must be a time >= 0 s")
+    if isinstance(t, bool) or not isinstance(t, int | float) or not 0 <= t < duration:
+        raise ScenarioError(
+            f"{where}: t must be a time >= 0 s before the end (duration {duration:g} s), got {t!r}"
+        )
     verbs = [key for key in raw if key != "t"]
     if len(verbs) != 1:
         raise ScenarioError(f"{where}: needs exactly one command besides t, got {verbs}")

@@ -13,7 +13,7 @@ from pathlib import Path
 import zenoh
 
 from lab.protocol import DEFAULT_PORT, LabIdError, LabKeys, default_lab_id
-from lab.server.access import read_users, remote_listen_refusal
+from lab.server.access import local_endpoint
 from lab.server.loop import (
     AUTO_FIFO_MIN_CPUS,
     SCHED_CHOICES,
@@ -23,7 +23,7 @@ from lab.server.loop import (
     LoopConfig,
     SimLoop,
 )
-from lab.server.transport import ServerTransport, server_config
+from lab.server.transport import AccessError, ServerTransport, checked_server_config
 
 UI_STOP_TIMEOUT_S = 2.0
 UI_RESTART_DELAY_S = 2.0  # a UI process that died is started again after this long
@@ -67,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--open",
         action="store_true",
-        help="allow a non-loopback --listen with neither --users nor --zenoh-config",
+        help="allow a non-loopback --listen with neither --users nor authentication or TLS in "
+        "--zenoh-config",
     )
     p.add_argument(
         "--record",
@@ -154,17 +155,14 @@ def serve_main(argv: list[str]) -> int:
     except LabIdError as error:
         print(f"lab serve: --lab-id: {error}", file=sys.stderr)
         return 2
-    secured = bool(args.users or args.zenoh_config)
-    if refusal := remote_listen_refusal("lab serve", args.listen, secured, args.open):
-        print(refusal, file=sys.stderr)
+    try:
+        config, access, ui_credentials = checked_server_config(
+            "lab serve", args.port, args.listen, args.connect, args.users, args.zenoh_config,
+            args.open,
+        )  # fmt: skip
+    except AccessError as error:
+        print(error, file=sys.stderr)
         return 2
-    ui_credentials = None
-    if args.users:
-        try:
-            ui_credentials = read_users(args.users)[0]  # the local UI logs in as the first user
-        except (OSError, ValueError) as error:
-            print(f"lab serve: --users: {error}", file=sys.stderr)
-            return 2
     from lab.server.gain_designer import GainDesigner
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
@@ -178,12 +176,7 @@ def serve_main(argv: list[str]) -> int:
     if note := session.controller.kernel_note:
         print(f"lab serve: {note}: the Python kernel runs", file=sys.stderr)
     try:
-        transport = ServerTransport(
-            server_config(
-                args.port, args.listen, args.connect, args.users, ui_credentials, args.zenoh_config
-            ),
-            lab_id,
-        )
+        transport = ServerTransport(config, lab_id)
     except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
         designer.close()
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
@@ -224,8 +217,7 @@ def serve_main(argv: list[str]) -> int:
     thread.start()
     ui = None
     try:
-        endpoint = (args.listen or [f"tcp/127.0.0.1:{args.port}"])[0]
-        endpoint = endpoint.replace("/0.0.0.0:", "/127.0.0.1:")  # the UI runs on this host
+        endpoint = local_endpoint(access.endpoints[0])  # the UI runs on this host
         ui_command = [sys.executable, "-m", "lab.ui", "--connect", endpoint, "--exit-with-parent"]
         ui_command += ["--port", str(args.ui_port), "--lab-id", lab_id]
         ui_env = os.environ | (ui_credentials.env() if ui_credentials else {})
@@ -235,7 +227,8 @@ def serve_main(argv: list[str]) -> int:
         if not args.fast and args.sched == "auto":
             mode += " (auto)"
         print(
-            f"lab serve: lab {lab_id}: {args.robot} on {args.scene}, {mode}, Zenoh {endpoint}",
+            f"lab serve: lab {lab_id}: {args.robot} on {args.scene}, {mode}, "
+            f"Zenoh {access.describe()}",
             flush=True,
         )
         ui_died_at = None

@@ -280,6 +280,11 @@ class RandomUser:
             report.failures.append(f"{report.unrecovered_falls} fall(s) a reset did not undo")
         if report.memory_growth > MAX_MEMORY_GROWTH:
             report.failures.append(f"memory grew {report.memory_growth:.1%} after the warm-up")
+        if report.qp_failures < report.events.get("solver_failure", 0):  # each event: >= 1 tick
+            report.failures.append(
+                f"qp_failures {report.qp_failures} < {report.events['solver_failure']} "
+                "solver_failure events: the count is not the session's whole"
+            )
         return report
 
 

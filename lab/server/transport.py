@@ -19,7 +19,16 @@ import numpy as np
 import zenoh
 
 from lab.protocol import DEFAULT_ENDPOINT, DEFAULT_PORT, MAX_PAYLOAD_BYTES, LabKeys
-from lab.server.access import ENV_CONFIG, Credentials, credentials_from_env, usrpwd_settings
+from lab.server.access import (
+    ENV_CONFIG,
+    Credentials,
+    ListenAccess,
+    credentials_from_env,
+    listen_access,
+    read_users,
+    remote_listen_refusal,
+    usrpwd_settings,
+)
 
 COMMAND_QUEUE = 256  # queries waiting for the loop; beyond this the oldest get no reply
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
@@ -62,6 +71,40 @@ def server_config(
     if users_file is not None or credentials is not None:
         settings["transport/auth/usrpwd"] = usrpwd_settings(users_file, credentials)
     return _config(settings, base_file)
+
+
+class AccessError(ValueError):
+    """A listening set-up `lab serve` or `lab router` refuses; the message is the line to print."""
+
+
+def checked_server_config(
+    program: str,
+    port: int,
+    listen: Sequence[str],
+    connect: Sequence[str] = (),
+    users_file: str | None = None,
+    base_file: str | None = None,
+    opened: bool = False,
+    mode: str = "peer",
+) -> tuple[zenoh.Config, ListenAccess, Credentials | None]:
+    """`server_config` for `program` (`lab serve`, `lab router`) with its checks: the users file
+    read (its first user is presented on `connect` links, and the local UI logs in as it), then
+    the configuration read back (`listen_access`) and refused if it listens beyond loopback
+    unguarded without `opened`. Raises AccessError with the line to print."""
+    credentials = None
+    if users_file:
+        try:
+            credentials = read_users(users_file)[0]
+        except (OSError, ValueError) as error:
+            raise AccessError(f"{program}: --users: {error}") from None
+    try:
+        config = server_config(port, listen, connect, users_file, credentials, base_file, mode)
+    except zenoh.ZError as error:  # a --zenoh-config it cannot read
+        raise AccessError(f"{program}: --zenoh-config: {error}") from None
+    access = listen_access(config)  # what the session will listen on and check, read back
+    if refusal := remote_listen_refusal(program, access, opened):
+        raise AccessError(refusal)
+    return config, access, credentials
 
 
 def client_config(

@@ -62,6 +62,9 @@ def sweep_main(argv: list[str]) -> int:
     except RayUnavailable as error:
         print(f"lab sweep: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C before the points ran (while Ray started, or joined)
+        print("lab sweep: interrupted before any point ran", file=sys.stderr)
+        return 130
     run = outcome.ok + outcome.failed
     rate = f", {60 * run / outcome.wall_s:.1f} points/min" if run else ""
     print(

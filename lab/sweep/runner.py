@@ -26,7 +26,12 @@ from lab.sweep.table import ERROR, KEY, read_rows, result_row, write_rows
 
 OBJECT_STORE_BYTES = 100 * 2**20  # results are small dicts; Ray's floor is 75 MiB
 WAIT_S = 1.0  # how often the loop looks at timeouts while nothing finishes
-CONNECT_TIMEOUT_S = 5.0  # to reach a cluster's HOST:PORT before Ray is asked to join it
+CONNECT_TIMEOUT_S = 5.0  # to reach a cluster's HOST:PORT, and for its answer, before Ray joins
+# HTTP/2's client connection preface and an empty SETTINGS frame (RFC 9113 §3.4, §6.5): a gRPC
+# server such as Ray's GCS answers with a frame header (9 bytes) of type SETTINGS (4).
+HTTP2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+HTTP2_FRAME_HEADER = 9
+HTTP2_SETTINGS = 4
 
 
 @dataclass
@@ -97,23 +102,39 @@ def _start_ray(workers: int | None, address: str | None) -> None:
         raise RayUnavailable(f"{where}: {str(error).splitlines()[0]}") from error
 
 
-def _check_reachable(address: str) -> None:
-    """Fail at once when nothing answers at a HOST:PORT `address` (`ray.init` would retry for
-    minutes); other forms (`auto`, `ray://…`) are left to Ray."""
+def _check_ray(address: str) -> None:
+    """Fail at once when nothing answers at a HOST:PORT `address`, or something that does not
+    answer as Ray's GCS does (`ray.init` would retry for minutes: over 200 s, not stopped by
+    Ctrl-C). The GCS is a gRPC server: it answers HTTP/2's connection preface with a SETTINGS
+    frame. Other forms (`auto`, `ray://…`) and TLS clusters (RAY_USE_TLS) are left to Ray."""
     host, sep, port = address.rpartition(":")
-    if not sep or not port.isdigit() or "/" in address:
+    if not sep or not port.isdigit() or "/" in address or os.environ.get("RAY_USE_TLS"):
         return
     try:
-        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+        connection = socket.create_connection((host.strip("[]"), int(port)), CONNECT_TIMEOUT_S)
     except OSError as error:
         message = f"nothing answers there ({error}): is `ray start --head` running?"
         raise ConnectionError(message) from error
+    reply = b""
+    with connection:
+        try:
+            connection.sendall(HTTP2_PREFACE)
+            while len(reply) < HTTP2_FRAME_HEADER and (more := connection.recv(16)):
+                reply += more
+        except OSError:  # a timeout, or the connection closed on us
+            pass
+    if len(reply) < HTTP2_FRAME_HEADER or reply[3] != HTTP2_SETTINGS:
+        got = f"it sent {reply[:16]!r}" if reply else f"no answer within {CONNECT_TIMEOUT_S:g} s"
+        raise ConnectionError(
+            f"something listens there but not as a Ray cluster does ({got} to a gRPC greeting): "
+            "give the port of `ray start --head` (6379 by default)"
+        )
 
 
 def _init_ray(workers: int | None, address: str | None) -> None:
     quiet = {"log_to_driver": False, "logging_level": logging.WARNING}
     if address:
-        _check_reachable(address)
+        _check_ray(address)
         ray.init(address=address, **quiet)
     else:
         ray.init(
@@ -121,7 +142,9 @@ def _init_ray(workers: int | None, address: str | None) -> None:
             num_cpus=workers or os.cpu_count(),
             include_dashboard=False,
             object_store_memory=OBJECT_STORE_BYTES,
-            _node_ip_address="127.0.0.1",  # a local instance listens on loopback only
+            # the node's address; Ray 2.60's GCS and raylet still bind every interface, behind
+            # its token authentication (docs/sweeps.md)
+            _node_ip_address="127.0.0.1",
             **quiet,
         )
 
