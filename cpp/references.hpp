@@ -17,6 +17,7 @@ struct References {
   double base_height = 0.0;
   Eigen::Matrix3d base_rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d com_velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d com_acceleration = Eigen::Vector3d::Zero();  // fed forward by momentum (eq. 22)
   Eigen::Vector3d base_angular_velocity = Eigen::Vector3d::Zero();  // world axes
   Eigen::Array<bool, Eigen::Dynamic, 1> contact_active;
   Eigen::VectorXd normal_force_max;  // per contact (N); empty: the robot-wide bound
@@ -91,19 +92,20 @@ bool flags(References& refs, const bool* data, Eigen::Index size) {
 }  // namespace reference_setters
 
 /// Every field of References, WalkReferences and SoleReferences, in their declaration order.
-inline const std::array<ReferenceField, 23> kReferenceFields = [] {
+inline const std::array<ReferenceField, 24> kReferenceFields = [] {
   namespace set = reference_setters;
   using R = References;
   constexpr auto doubles = FieldType::doubles;
   constexpr auto flags = FieldType::flags;
   constexpr const char* walk = "WalkReferences";
   constexpr const char* sole = "SoleReferences";
-  return std::array<ReferenceField, 23>{{
+  return std::array<ReferenceField, 24>{{
       {"com", "References", doubles, "3", set::vector3<&R::com>, nullptr},
       {"posture", "References", doubles, "na", set::doubles<&R::posture>, nullptr},
       {"base_height", "References", FieldType::number, "", set::base_height, nullptr},
       {"base_rotation", "References", doubles, "3,3", set::base_rotation, nullptr},
       {"com_velocity", "References", doubles, "3", set::vector3<&R::com_velocity>, nullptr},
+      {"com_acceleration", "References", doubles, "3", set::vector3<&R::com_acceleration>, nullptr},
       {"base_angular_velocity", "References", doubles, "3", set::vector3<&R::base_angular_velocity>,
        nullptr},
       {"contact_active", "References", flags, "n", nullptr, set::flags<&R::contact_active>},

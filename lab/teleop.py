@@ -137,7 +137,7 @@ def status_line(
     return (
         f"{prefix}t {telemetry['t']:7.2f}s {telemetry['robot']} {telemetry['gait']} "
         f"z {base['position'][2]:.3f}m "
-        f"v [{v[0]:+.2f} {v[1]:+.2f}] {cmd} | qp {telemetry['qp']['status']} "
+        f"v [{v[0]:+.2f} {v[1]:+.2f}] {cmd} | qp {telemetry['status']['status']} "
         f"{telemetry['qp']['solve_us']:.0f}us | on-time {on_time:.4f}"
         f"{flags}"
     )

@@ -196,7 +196,9 @@ def test_a_solver_exception_falls_back_counts_and_carries_on() -> None:
         failure = server.event("solver_failure")
         assert "injected solver exception" in failure["message"]
         wait_for(lambda: calls["left"] < 0, WAIT_S, "the injected exceptions to run out")
-        after = server.client.wait_telemetry(lambda m: m["qp"]["status"] == "ok", timeout=WAIT_S)
+        after = server.client.wait_telemetry(
+            lambda m: m["status"]["status"] == "ok", timeout=WAIT_S
+        )
         assert after["qp"]["failures"] == 50
         assert_standing(server, after["t"] + 0.2)
 

@@ -169,7 +169,11 @@ def assert_ticks_agree(
         assert error == pytest.approx(want.task_errors[task], rel=ROWS_TOL, abs=ROWS_TOL), what
     x, x_native = np.r_[want.qdd, want.forces], np.r_[got.qdd, got.forces]
     atol = X_TOL * (1.0 + np.abs(x).max())
-    if python.config.method == "weighted" and np.abs(x_native - x).max() > atol:
+    # A flat weighted optimum moves τ too: with the lifted sole's force columns out of the QP
+    # (both kernels), x differed by 1.6e-6 and τ by 1.5e-6 N m at costs equal to 1e-15 relative
+    # (measured 2026-12-03): τ beyond TAU_TOL is then judged by the cost as x is.
+    differs = np.abs(x_native - x).max() > atol or np.abs(got.tau - want.tau).max() > TAU_TOL
+    if python.config.method == "weighted" and differs:
         levels = native._native.problem()["levels"]  # this tick's rows, K_h as handed over
         for _, _, C, d, _ in levels:
             assert np.all(C @ x_native <= d + X_TOL * (1.0 + np.abs(d))), what
@@ -276,8 +280,9 @@ def test_a_contact_switch_during_the_lqr_gain_interpolation_agrees(method: str) 
         before = counting.gains_set
         assert_ticks_agree(python, native, q, v, f"{method} tick {t}")
         crossings.append(counting.gains_set - before)
-    # Double support: the first tick starts the schedule at its design (no interpolation).
-    assert crossings[:12] == [1] * 10 + [0, 0]
+    # Double support: the first tick starts the schedule at its design (no interpolation): it
+    # crosses once.
+    assert crossings[:12] == [1] + [0] * 11
     assert crossings[12:] == [1] * 10 + [0, 0]
     gain = python.tasks["momentum"].schedule.current
     np.testing.assert_array_equal(native.tasks["momentum"].schedule.current, gain)

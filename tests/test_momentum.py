@@ -121,18 +121,19 @@ def test_no_lqr_gain_without_a_contact_is_a_clear_linalg_error() -> None:
 
 
 def test_gains_are_designed_once_per_contact_configuration_and_blended_at_a_switch() -> None:
+    """At one pose (the contacts' arms unchanged): one design per configuration, blended in at
+    a switch (tests/test_herzog_departures.py: designed again when the feet move)."""
     designs: list[str] = []
-    schedule = GainSchedule(transition_ticks=10)
     gains = {"both": np.zeros((6, 9)), "left": np.ones((6, 9))}
-
-    def design(key: str):
-        return lambda: designs.append(key) or gains[key]
-
+    schedule = GainSchedule(
+        transition_ticks=10, solve=lambda key: designs.append(key) or gains[key]
+    )
+    both, left = np.zeros((2, 3)), np.zeros((1, 3))  # the arms p_i − c, unchanged
     for _ in range(5):
-        np.testing.assert_array_equal(schedule.gain(b"both", design("both")), gains["both"])
-    blended = [schedule.gain(b"left", design("left"))[0, 0] for _ in range(10)]
+        np.testing.assert_array_equal(schedule.gain(b"both", both, lambda: "both"), gains["both"])
+    blended = [schedule.gain(b"left", left, lambda: "left")[0, 0] for _ in range(10)]
     assert blended == pytest.approx(np.arange(1, 11) / 10)  # continuous: 0.1, 0.2, … 1.0
-    schedule.gain(b"both", design("both"))
+    schedule.gain(b"both", both, lambda: "both")
     assert designs == ["both", "left"]  # never designed again for a configuration seen before
 
 
@@ -164,10 +165,11 @@ def test_the_momentum_law_is_chosen_live_and_a_bad_one_changes_nothing() -> None
     session = Session(SessionConfig(robot="talos"))
     assert session.info()["momentum_modes"] == ["pd", "lqr", "lqr_talos"]
     reply = session.handle("momentum", {"mode": "pd"})
-    assert reply == {"ok": True, "momentum": {"mode": "pd", "gain": None}}  # not in the stack
+    # not in the stack: no gain, none in use
+    assert reply == {"ok": True, "momentum": {"mode": "pd", "gain_in_use": None, "gain": None}}
     reply = session.handle("momentum", {"mode": "pid"})
     assert not reply["ok"] and "pid" in reply["error"] and "lqr" in reply["error"]
-    assert session.telemetry()["momentum_control"] == {"mode": "pd"}
+    assert session.telemetry()["momentum_control"] == {"mode": "pd", "gain_in_use": None}
 
 
 def test_the_gain_shown_is_the_one_the_task_applies() -> None:
@@ -190,7 +192,8 @@ def test_the_gain_shown_is_the_one_the_task_applies() -> None:
         session.tick()
     applied = task.gain(session.model, session.controller.references)
     np.testing.assert_allclose(lqr, applied, rtol=1e-3, atol=1e-9)
-    assert session.info()["momentum"] == {"mode": "lqr", "gain": lqr}
+    in_use = {"configuration": [True, True], "blending": False, "pending": False, "designs": 1}
+    assert session.info()["momentum"] == {"mode": "lqr", "gain_in_use": in_use, "gain": lqr}
     assert not np.allclose(lqr, pd, rtol=0.1)  # the two laws differ, so the check above can fail
 
 

@@ -225,7 +225,7 @@ def test_hierarchy_switch_takes_effect(lab: LabClient) -> None:
     reply = lab.command("hierarchy", method=other)
     assert reply["ok"], reply
     message = lab.wait_telemetry(lambda m: m["hierarchy"]["method"] == other, timeout=0.5)
-    assert message["qp"]["status"] == "ok"
+    assert message["status"]["status"] == "ok"
     assert lab.command("hierarchy", method=current["method"], solver=current["solver"])["ok"]
     lab.wait_telemetry(lambda m: m["hierarchy"]["method"] == current["method"], timeout=0.5)
 

@@ -105,7 +105,9 @@ def test_stack_gains_and_hierarchy_changes_show_in_telemetry(session: Session) -
         "formulation": "qdd_force",
     }
     assert next(t for t in telemetry["tasks"] if t["name"] == "com")["kp"] == 50.0
-    assert telemetry["qp"]["status"] == "ok"
+    assert telemetry["status"] == {"status": "ok", "level": None, "reason": ""}
+    # Clarabel is asked: the Python kernel runs it, and telemetry says so
+    assert telemetry["ran"]["kernel"] == "python" and telemetry["ran"]["solver"] == "clarabel"
 
 
 @pytest.mark.parametrize("kernel", ["native", "python"])
@@ -167,7 +169,7 @@ def test_a_level_that_fell_back_is_in_telemetry_and_an_event(monkeypatch) -> Non
     session = Session(SessionConfig(robot="anymal", kernel="python"))
     run(session, 0.05)
     solution = session.telemetry()["solution"]
-    assert solution["status"] == "ok" and solution["fallback_levels"] == []
+    assert session.telemetry()["status"]["status"] == "ok" and solution["fallback_levels"] == []
     assert len(solution["levels"]) == len(session.controller.config.stack.levels)
     solve = hierarchy.METHODS["cascade"]
 
@@ -181,11 +183,13 @@ def test_a_level_that_fell_back_is_in_telemetry_and_an_event(monkeypatch) -> Non
     session.pop_events()
     run(session, 0.02)
     telemetry = session.telemetry()
-    assert telemetry["solution"]["status"] == "fallback"
+    assert telemetry["status"]["status"] == "fallback" and telemetry["status"]["level"] == 1
+    assert "level 1 failed" in telemetry["status"]["reason"]
     assert telemetry["solution"]["fallback_levels"] == [1]
-    assert telemetry["qp"]["status"] == "ok" and session.qp_failures == 0
+    assert session.qp_failures == 0  # one status: fallback, not a failed tick
     events = [e for e in session.pop_events() if e["type"] == "solver_fallback"]
     assert len(events) == 1 and events[0]["levels"] == [1]
+    assert (events[0]["status"], events[0]["level"]) == ("fallback", 1)
 
 
 def test_a_shape_bug_fails_loudly(monkeypatch) -> None:

@@ -1,5 +1,6 @@
 """Strict priority is exactly lexicographic: on random stacks of every task and constraint, each
-level of the cascade reaches the cost of a level-by-level reference solve of the same prefix.
+level of the cascade (of either kernel) reaches the cost of a level-by-level reference solve of
+the same prefix.
 
 The reference is independent of the cascade's null-space machinery: one Clarabel QP per level
 over x itself, with the slacks of that level as variables, and the levels above held at the
@@ -28,6 +29,11 @@ from lab.controller.tasks import TASK_TYPES
 from lab.description import load_description
 from lab.robot import build_robot
 from tests.test_controller import disturbed_state
+
+try:
+    from lab import _kernel
+except ImportError:  # not built: the native cascade is not compared
+    _kernel = None
 
 # Relative to max(1, reference cost): DAQP's 1e-6 primal tolerance on the cascade's side and
 # Clarabel's 1e-8 gap on the reference's side both sit well inside it.
@@ -148,16 +154,35 @@ def random_controller(
     return controller
 
 
+def cascade_x(problem: HierarchyProblem, kernel: str) -> np.ndarray:
+    """x of the cascade of `kernel` (python, or native through `_kernel.solve_hierarchy`, the
+    kernel's own cascade on the same rows and support) on `problem`."""
+    if kernel == "python":
+        return solve_cascade(problem).x
+    if _kernel is None:
+        pytest.skip("the native kernel is not built")
+    levels = [(lv.A, lv.b, lv.C, lv.d, lv.weight) for lv in problem.levels]
+    solution = _kernel.solve_hierarchy(
+        "cascade", problem.dynamics_A, problem.dynamics_b, levels, problem.terms.support
+    )
+    assert solution["ok"], solution["message"]
+    return solution["x"]
+
+
 def binds_an_inequality(problem: HierarchyProblem) -> bool:
     """Whether the cascade takes its QP path: the equality rows alone violate an inequality."""
     x = _equalities_only(problem, LevelClock(len(problem.levels)))
     return any((level.C @ x > level.d + 1e-9).any() for level in problem.levels)
 
 
+@pytest.mark.parametrize("kernel", ["python", "native"])
 @pytest.mark.parametrize("robot_name", ["anymal", "talos"])
-def test_every_level_reaches_its_lexicographic_optimum(robot_name: str, monkeypatch) -> None:
+def test_every_level_reaches_its_lexicographic_optimum(
+    robot_name: str, kernel: str, monkeypatch
+) -> None:
     """Only stacks where an inequality binds are compared: without one the cascade is exact
-    least squares."""
+    least squares. The native cascade meets the same reference at the same tolerances: it
+    solves its QPs with the same DAQP at the same primal tolerance."""
     clarabel_tight(monkeypatch)
     rng = np.random.default_rng(7)
     compared = 0
@@ -166,7 +191,7 @@ def test_every_level_reaches_its_lexicographic_optimum(robot_name: str, monkeypa
         problem = controller.build_problem()
         if not binds_an_inequality(problem):
             continue
-        x = solve_cascade(problem).x
+        x = cascade_x(problem, kernel)
         for depth, (level, reference) in enumerate(
             zip(problem.levels, reference_optima(problem, x), strict=True)
         ):

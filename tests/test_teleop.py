@@ -100,13 +100,15 @@ def test_status_line_without_and_with_telemetry() -> None:
         "paused": False,
         "fell": True,
         "base": {"position": [0, 0, 0.45], "linear_velocity": [0.3, -0.1, 0]},
-        "qp": {"status": "ok", "solve_us": 120.0},
+        "status": {"status": "fallback", "level": 1, "reason": "the QP of level 1 failed"},
+        "qp": {"solve_us": 120.0},
         "loop": {"on_time_fraction": 0.9995},
     }
     line = status_line(telemetry, TeleopState(vx=0.3))
     assert "z 0.450m" in line and "v [+0.30 -0.10]" in line and "FELL" in line
     assert "anymal trot" in line  # the server's gait, not the teleop's
     assert "0.9995" in line
+    assert "qp fallback 120us" in line  # telemetry's one status
 
 
 def test_default_push_body_is_the_base_link() -> None:

@@ -332,7 +332,8 @@ def _telemetry(**changes) -> dict:
         "paused": False,
         "fell": False,
         "hierarchy": {"method": "nullspace", "solver": "daqp", "formulation": "qdd_force"},
-        "qp": {"status": "ok", "solve_us": 400.0, "failures": 0},
+        "status": {"status": "ok", "level": None, "reason": ""},
+        "qp": {"solve_us": 400.0, "failures": 0},
         "loop": {"rate_hz": 1000.0, "realtime": True, "on_time_fraction": 1.0},
     }
     tel.update(changes)
@@ -347,20 +348,43 @@ def test_status_line_names_the_running_robot_and_is_ok_only_when_all_is_well() -
 
 
 def test_status_line_warns_of_slow_ticks_fallbacks_falls_and_a_slow_sim() -> None:
-    slow = _telemetry(qp={"status": "ok", "solve_us": 80_000.0, "failures": 0})
+    slow = _telemetry(qp={"solve_us": 80_000.0, "failures": 0})
     text = status_markdown(slow, rtf=0.01, fps=30.0)
     assert "(ok)" not in text and "(**slow**)" in text
     assert "80.0 ms per tick, over the 1.0 ms period" in text
     assert "0.01× real time" in text
     # the recent typical time decides, not one tick
     assert "slow" not in warnings_of(slow, control_us=500.0)
-    failed = _telemetry(qp={"status": "failed", "solve_us": 100.0, "failures": 3}, fell=True)
+    failed = _telemetry(
+        status={"status": "failed", "level": None, "reason": "QPFailure: daqp found no solution"},
+        qp={"solve_us": 100.0, "failures": 3},
+        fell=True,
+    )
     assert set(warnings_of(failed)) == {"fallback", "fell"}
-    assert "(**fallback**)" in status_markdown(failed, rtf=1.0, fps=30.0)
+    assert "(**failed**)" in status_markdown(failed, rtf=1.0, fps=30.0)
     # after Reset the telemetry says not fallen: nothing stale is left
     assert "fell" not in status_markdown(_telemetry(), rtf=1.0, fps=30.0)
     paused = _telemetry(paused=True)
     assert "behind" not in warnings_of(paused, rtf=0.0)  # a paused sim is not slow
+
+
+def test_status_line_shows_what_ran_and_the_status_with_its_level_and_reason() -> None:
+    """The four fields of `ran` (not the request of `hierarchy`), and a status other than ok
+    with the level and reason telemetry carries."""
+    ran = {"kernel": "python", "method": "weighted", "solver": "clarabel"}
+    ran |= {"formulation": "qdd_force", "note": "solver 'clarabel' runs on the Python kernel"}
+    tel = _telemetry(
+        ran=ran,
+        kernel="python",
+        status={"status": "fallback", "level": 2, "reason": "the QP of level 2 failed"},
+    )
+    text = status_markdown(tel, rtf=1.0, fps=30.0)
+    assert "weighted/clarabel · python kernel" in text and "nullspace" not in text
+    assert "(**fallback**)" in text
+    assert "controller fallback at level 2: the QP of level 2 failed" in text
+    assert "python kernel ran: solver 'clarabel' runs on the Python kernel" in text
+    violated = {"status": "violated", "level": 0, "reason": "level 0 friction: exceeded by 2.5"}
+    assert "(**violated**)" in status_markdown(_telemetry(status=violated), rtf=1.0, fps=30.0)
 
 
 def test_status_line_warns_of_a_controller_warning_and_the_log_gets_it_once() -> None:

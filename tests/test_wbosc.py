@@ -154,7 +154,7 @@ def test_bolt_stands_under_wbosc_and_holds_the_internal_force() -> None:
         errors.append(measured[0] - 2.0)
     assert not session.fell
     assert abs(np.mean(errors)) < 0.1
-    assert session.telemetry()["solution"]["status"] == "ok"
+    assert session.telemetry()["status"]["status"] == "ok"
 
 
 def test_bolt_switches_live_between_cascade_and_wbosc() -> None:

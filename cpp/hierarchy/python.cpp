@@ -87,7 +87,17 @@ nb::tuple active_set_search(
   const ActiveSetSolution out = active_set_least_squares(levels, n, cap, start ? &*start : nullptr,
                                                          point ? &*point : nullptr);
   return nb::make_tuple(out.z, out.projections, out.capped, out.feasible, out.active);
-}
+
+  /// The minimum-norm least squares of A u = b and an orthonormal basis of null(A), the cascade's
+  /// rank decision (RowSpaceQR against kRankRtol): (u, N).
+  std::tuple<Eigen::VectorXd, Eigen::MatrixXd> least_squares_null_space(const Eigen::MatrixXd& A,
+                                                                        const Eigen::VectorXd& b) {
+    if (A.rows() != b.size()) throw nb::value_error("b must have one entry per row of A");
+    Eigen::VectorXd u;
+    Eigen::MatrixXd N;
+    least_squares_and_null_space(A, b, u, N);
+    return {u, N};
+  }
 
 }  // namespace
 
@@ -99,12 +109,17 @@ void bind_hierarchy(nb::module_& m) {
         nb::arg("A"), nb::arg("b"),
         "min 1/2 x'Px + q'x s.t. Gx <= h, Ax = b with the kernel's QP backend (DAQP): "
         "(x, ok, exit flag, its name, iterations).");
+  m.def("least_squares_and_null_space", &least_squares_null_space, nb::arg("A"), nb::arg("b"),
+        "The cascade's least-squares step and null space of A u = b, with its rank decision "
+        "(pivoted QR against rank_rtol): (u, N).");
   m.attr("qp_iteration_limit") = qp_iteration_limit();
   m.def("active_set_search", &active_set_search, nb::arg("levels"), nb::arg("n"),
         nb::arg("cap") = kMaxProjections, nb::arg("start") = nb::none(),
         nb::arg("point") = nb::none(),
         "nullspace's active-set search alone (nullspace.py active_set_least_squares): levels "
         "are (A, b, C, d) over z; returns (z, projections, capped, feasible, active rows).");
+
+  m.attr("rank_rtol") = kRankRtol;
 }
 
 }  // namespace lab

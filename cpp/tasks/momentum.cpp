@@ -8,8 +8,9 @@
 namespace lab {
 namespace {
 
-/// A_G q̈ = ḣ_des − Ȧ_G v with ḣ_des = −K_h s (eqs. 20, 22, 24), s = [c − c_ref;
-/// h_lin − m ċ_ref; h_ang] (world axes, about the CoM); the error is s.
+/// A_G q̈ = ḣ_des − Ȧ_G v with ḣ_des = −K_h s + ḣ_ref (eqs. 20, 22, 24), s = [c − c_ref;
+/// h_lin − m ċ_ref; h_ang] (world axes, about the CoM), ḣ_ref = [m c̈_ref; 0] fed forward; the
+/// error is s.
 class MomentumTask : public Task {
  public:
   void compute(const RobotModel& robot, const References& refs) override {
@@ -21,6 +22,7 @@ class MomentumTask : public Task {
     error << robot.com - refs.com, h.head<3>() - robot.mass * refs.com_velocity, h.tail<3>();
     b.noalias() = -gain * error;
     b -= robot.centroidal_drift();
+    b.head<3>() += robot.mass * refs.com_acceleration;
   }
 
   Eigen::Matrix<double, 6, 9> gain = Eigen::Matrix<double, 6, 9>::Zero();

@@ -5,7 +5,7 @@ state → RobotModel.update → tasks and constraints become rows, level by leve
 """
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -21,7 +21,10 @@ from lab.controller.constraints import (
     TorqueLimitConstraint,
 )
 from lab.controller.hierarchy import (
+    FORMULATION_METHODS,
     METHODS,
+    NO_SOLVER,
+    QP_METHODS,
     STACK_CHECKS,
     HierarchyProblem,
     HierarchySolution,
@@ -29,7 +32,9 @@ from lab.controller.hierarchy import (
 )
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.hierarchy.problem import DynamicsTerms
+from lab.controller.hierarchy.solution import SolveStatus
 from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.momentum import GainFuture, LqrProblem
 from lab.controller.qp import SOLVERS
 from lab.controller.references import References
 from lab.controller.rows import PerContactSet, no_rows, read_only
@@ -55,6 +60,48 @@ class ControllerConfig:
     kernel: str = "native"
 
 
+@dataclass(frozen=True)
+class Ran:
+    """What computed a tick: the kernel (`native` or `python`), the hierarchy method, the QP
+    solver (`none` for a method that solves no QP) and the formulation (the decision variable:
+    `qdd_force`, x = [q̈, F], for every method but nullspace, whose formulation is chosen)."""
+
+    kernel: str
+    method: str
+    solver: str
+    formulation: str
+
+    def report(self) -> dict[str, str]:
+        """JSON-ready: telemetry's and the scenario report's `ran`."""
+        return {
+            "kernel": self.kernel,
+            "method": self.method,
+            "solver": self.solver,
+            "formulation": self.formulation,
+        }
+
+
+def ran_by(kernel: str, config: "ControllerConfig") -> Ran:
+    """What a tick of `kernel` computes under `config`: the method's own solver and formulation."""
+    method = config.method
+    solver = config.solver if method in QP_METHODS else NO_SOLVER
+    formulation = config.formulation if method in FORMULATION_METHODS else "qdd_force"
+    return Ran(kernel, method, solver, formulation)
+
+
+def hierarchy_note(config: "ControllerConfig") -> str:
+    """Why the solver or formulation `config` asks for does not run under its method ('' when
+    they do): nullspace and wbosc solve no QP; only nullspace has formulations."""
+    notes = []
+    if config.method not in QP_METHODS:
+        notes.append(f"{config.method} solves no QP (solver {config.solver!r} unused)")
+    if config.method not in FORMULATION_METHODS and config.formulation != "qdd_force":
+        notes.append(
+            f"formulation {config.formulation!r} is nullspace's: {config.method} computes [q̈, F]"
+        )
+    return "; ".join(notes)
+
+
 @dataclass
 class ControlOutput:
     """One tick's result: joint torques τ (N m, pinocchio joint order), x = [q̈, F] split into
@@ -72,6 +119,10 @@ class ControlOutput:
     def fallback_levels(self) -> tuple[int, ...]:
         """The solution's fallback levels (HierarchySolution.fallback_levels)."""
         return self.solution.fallback_levels
+
+    def solve_status(self) -> SolveStatus:
+        """How the hierarchy found x: ok, fallback, capped or violated, with level and reason."""
+        return self.solution.solve_status()
 
     def torques_finite(self) -> bool:
         """Whether every torque is finite (NaN and inf propagate into the dot product)."""
@@ -117,6 +168,8 @@ class WholeBodyController:
         # nullspace: where the last tick's active-set searches stopped, this tick's start
         self._active_sets: tuple[list[np.ndarray], ...] = ()
         self._last_x: np.ndarray | None = None
+        self._ran: dict[tuple, Ran] = {}  # by (kernel, method, solver, formulation): one each
+        self.ran = ran_by("python", config)  # what computed the last tick
         self.set_stack(config.stack)
         self.set_hierarchy(config.method, config.solver, config.formulation)
 
@@ -247,12 +300,23 @@ class WholeBodyController:
         references in between)."""
         problem = self.build_problem()
         problem.active_start, problem.x_start = self._active_sets, self._last_x
+        self.ran = self.ran_on("python")
         solution = METHODS[self.config.method](problem, self.config.solver)
         self._active_sets, self._last_x = solution.active_sets, solution.x
         x, nv = solution.x, self.robot.nv
         return ControlOutput(
             self.robot.joint_torques(x), x[:nv], x[nv:], solution, self.task_errors()
         )
+
+    def ran_on(self, kernel: str) -> Ran:
+        """What a tick of `kernel` computes under the current config (one Ran per combination:
+        the tick allocates none)."""
+        config = self.config
+        key = (kernel, config.method, config.solver, config.formulation)
+        ran = self._ran.get(key)
+        if ran is None:
+            ran = self._ran[key] = ran_by(kernel, config)
+        return ran
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each task's tracking error at the last `build_problem` (tasks in the stack
@@ -328,6 +392,19 @@ class WholeBodyController:
         if "momentum" not in self.config.stack.names():
             return None
         return self.tasks["momentum"].target_gain(self.robot, self.references)
+
+    def set_momentum_designer(self, submit: Callable[[LqrProblem], GainFuture] | None) -> None:
+        """Design the momentum task's LQR gains through `submit` (off the caller's thread: it
+        returns a future) or, with None, at once (GainSchedule)."""
+        self.tasks["momentum"].schedule.submit = submit
+
+    def momentum_gain_in_use(self) -> dict | None:
+        """Which LQR K_h the momentum task applies (GainSchedule.in_use); None under `pd` or
+        while the task is not in the stack."""
+        task = self.tasks["momentum"]
+        if task.mode == "pd" or "momentum" not in self.config.stack.names():
+            return None
+        return task.schedule.in_use()
 
     def set_momentum_mode(self, mode: str) -> None:
         """Switch the momentum task's feedback law; raises ValueError naming the modes."""

@@ -20,6 +20,7 @@ linear and angular momentum errors about the CoG, world axes) and the momentum t
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -53,6 +54,9 @@ LQR_COSTS: dict[str, LqrCost] = {
     ),
 }
 MOMENTUM_MODES = ("pd", *LQR_COSTS)
+# m: an LQR gain is designed again when an arm p_i − c of a contact in support has moved this far
+# from the pose it was designed at (GainSchedule; the choice is measured in docs/controller.md).
+ARM_TOLERANCE = 0.02
 
 
 def pd_gain(mass: float, kp: float, kd: float) -> np.ndarray:
@@ -81,6 +85,18 @@ def contact_map(robot: RobotModel, active: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class LqrProblem:
+    """The LQR of eq. 21 linearized at one state, as plain arrays (a snapshot: it can be solved
+    anywhere, another process included): ṡ = A s + B δλ, cost sᵀQs + δλᵀRδλ (eq. 26)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    supported: tuple[str, ...]  # the contacts in support, for error messages
+
+
+@dataclass(frozen=True)
 class LqrDesign:
     """The linearized momentum dynamics ṡ = A s + B δλ (eq. 21), the Riccati solution P (cost to
     go sᵀ P s), the force feedback δλ = −K s (eq. 23) and the momentum-space gain
@@ -93,10 +109,9 @@ class LqrDesign:
     momentum_gain: np.ndarray
 
 
-def lqr_design(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> LqrDesign:
-    """The infinite-horizon LQR of eq. 21 linearized at the current state (the contact
-    configuration `active` and its pose), for the cost of eq. 26. Raises LinAlgError, naming
-    the contacts, where no gain exists (no contact in support, or no stabilizing solution)."""
+def lqr_problem(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> LqrProblem:
+    """Eq. 21 linearized at the current state (the contact configuration `active` and its pose)
+    with the cost of eq. 26. Raises LinAlgError where no contact is in support."""
     G = contact_map(robot, active)
     columns = np.flatnonzero(np.any(G != 0.0, axis=0))
     if columns.size == 0:
@@ -107,15 +122,39 @@ def lqr_design(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> LqrDesig
     A[:3, 3:6] = np.eye(3) / robot.mass
     A[6:, :3] = pin.skew(-robot.mass * robot.gravity)  # [F₀]×: ∂ḣ_ang/∂c
     R = np.diag(_force_costs(robot, active, cost))
+    supported = tuple(c.name for c, on in zip(robot.contacts, active, strict=True) if on)
+    return LqrProblem(A, B, np.diag(cost.Q), R, supported)
+
+
+def solve_lqr(problem: LqrProblem) -> LqrDesign:
+    """The infinite-horizon LQR of `problem` (scipy's Riccati solver). Raises LinAlgError,
+    naming the contacts, where no stabilizing gain exists."""
+    A, B, R = problem.A, problem.B, problem.R
     try:
-        P = scipy.linalg.solve_continuous_are(A, B, np.diag(cost.Q), R)
+        P = scipy.linalg.solve_continuous_are(A, B, problem.Q, R)
     except (np.linalg.LinAlgError, ValueError) as error:
-        supported = [c.name for c, on in zip(robot.contacts, active, strict=True) if on]
         raise np.linalg.LinAlgError(
-            f"no stabilizing LQR momentum gain on the contacts {supported}: {error}"
+            f"no stabilizing LQR momentum gain on the contacts {list(problem.supported)}: {error}"
         ) from error
     K = np.linalg.solve(R, B.T @ P)
     return LqrDesign(A, B, P, K, B[3:] @ K - A[3:])
+
+
+def momentum_gain_of(problem: LqrProblem) -> np.ndarray:
+    """K_h of `problem`'s LQR: what a worker computes off the loop (`GainSchedule.submit`)."""
+    return solve_lqr(problem).momentum_gain
+
+
+def lqr_design(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> LqrDesign:
+    """The infinite-horizon LQR of eq. 21 linearized at the current state (the contact
+    configuration `active` and its pose), for the cost of eq. 26. Raises LinAlgError, naming
+    the contacts, where no gain exists (no contact in support, or no stabilizing solution)."""
+    return solve_lqr(lqr_problem(robot, active, cost))
+
+
+def contact_arms(robot: RobotModel, active: np.ndarray) -> np.ndarray:
+    """p_i − c of each contact in support (m, world axes): the pose eq. 24's G reads."""
+    return robot.contact_positions[active] - robot.com
 
 
 def _force_costs(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> np.ndarray:
@@ -124,50 +163,112 @@ def _force_costs(robot: RobotModel, active: np.ndarray, cost: LqrCost) -> np.nda
     return np.concatenate([cost.R[: contact.force_dim] for contact, on in pairs if on])
 
 
+class GainFuture(Protocol):
+    """A design running elsewhere (concurrent.futures.Future has these)."""
+
+    def done(self) -> bool: ...
+
+    def result(self) -> np.ndarray: ...
+
+
 @dataclass
 class GainSchedule:
-    """K_h per contact configuration, computed once per configuration (Herzog §3.2 remark) and
-    interpolated over `transition_ticks` ticks after a switch, so the command stays continuous."""
+    """K_h per contact configuration, designed at the configuration's pose and designed again
+    when an arm p_i − c of a contact in support has moved more than ARM_TOLERANCE since (a step,
+    a reset, the squat's CoG): Herzog's "gains for key poses of the robot, one for each contact
+    configuration" (§3.2 remark), kept at the pose eq. 24 reads. After a switch or a redesign
+    the gain in use moves to the new one over `transition_ticks` ticks (the command stays
+    continuous, as the paper interpolates across a contact switch).
+
+    `submit` (set by the server's session layer, e.g. a worker process's executor) designs off
+    the loop: it takes the design problem and returns a future; the gain in use stays until the
+    new one arrives (`pending`). Unset, or before any gain exists, a design runs at once."""
 
     transition_ticks: int = 100  # 0.1 s at 1 kHz
+    solve: Callable[[LqrProblem], np.ndarray] = momentum_gain_of  # a design run at once
+    submit: Callable[[LqrProblem], GainFuture] | None = None
+    designs: int = 0  # gains designed since the schedule was made or cleared
     _gains: dict[bytes, np.ndarray] = field(default_factory=dict)
+    _arms: dict[bytes, np.ndarray] = field(default_factory=dict)  # the pose of each gain
+    _pending: tuple[bytes, np.ndarray, GainFuture] | None = None
     _current: np.ndarray | None = None
     _previous: np.ndarray | None = None
+    _target: np.ndarray | None = None
     _key: bytes = b""
     _ticks: int = 0
 
-    def target(self, key: bytes, design: Callable[[], np.ndarray]) -> np.ndarray:
-        """K_h of configuration `key`, the one the interpolation ends at; `design()` computes it
-        the first time."""
-        target = self._gains.get(key)
-        if target is None:
-            target = self._gains[key] = design()
-        return target
+    def _moved(self, key: bytes, arms: np.ndarray) -> bool:
+        designed = self._arms.get(key)
+        return designed is None or np.abs(arms - designed).max(initial=0.0) > ARM_TOLERANCE
 
-    def gain(self, key: bytes, design: Callable[[], np.ndarray]) -> np.ndarray:
-        """This tick's K_h for configuration `key`; `design()` computes it the first time."""
-        target = self.target(key, design)
-        if key != self._key:
-            self._previous = self._current if self._current is not None else target
-            self._key, self._ticks = key, 0
-        self._ticks = min(self._ticks + 1, self.transition_ticks)
-        alpha = self._ticks / self.transition_ticks
-        self._current = (1.0 - alpha) * self._previous + alpha * target
+    def _install(self, key: bytes, arms: np.ndarray, gain: np.ndarray) -> None:
+        self._gains[key], self._arms[key] = gain, arms.copy()
+        self.designs += 1
+
+    def target(self, key: bytes, arms: np.ndarray, problem: Callable[[], LqrProblem]) -> np.ndarray:
+        """K_h of configuration `key` at the pose `arms` (contact_arms), the gain the
+        interpolation ends at: designed when none is stored or the stored one's pose is more
+        than ARM_TOLERANCE away (off the loop when `submit` is set and a gain is in use: the
+        stored one, or the one in use, serves until it arrives)."""
+        pending = self._pending
+        if pending is not None and pending[2].done():
+            self._pending = None
+            self._install(pending[0], pending[1], pending[2].result())  # raises its LinAlgError
+        if self._moved(key, arms):
+            if self.submit is None or self._current is None:
+                self._install(key, arms, self.solve(problem()))
+            elif self._pending is None:  # one design at a time: the newest pose goes next
+                self._pending = (key, arms.copy(), self.submit(problem()))
+        return self._gains.get(key, self._target)
+
+    def gain(self, key: bytes, arms: np.ndarray, problem: Callable[[], LqrProblem]) -> np.ndarray:
+        """This tick's K_h for configuration `key` at pose `arms`."""
+        target = self.target(key, arms, problem)
+        if target is not self._target:  # a switch, a redesign, or the design that arrived
+            self._target, self._key = target, key
+            if self._current is None:  # the first gain: nothing to move from
+                self._current, self._ticks = target, self.transition_ticks
+                return target
+            self._previous, self._ticks = self._current, 0
+        if self._ticks < self.transition_ticks:
+            self._ticks += 1
+            alpha = self._ticks / self.transition_ticks
+            done = self._ticks == self.transition_ticks
+            self._current = target if done else (1.0 - alpha) * self._previous + alpha * target
         return self._current
 
-    def settled(self, key: bytes) -> bool:
-        """Whether `gain(key)` would return `current` unchanged (the configuration has not
-        switched and no interpolation runs): a caller holding that gain may skip the call."""
-        done = self._ticks >= self.transition_ticks
-        return self._current is not None and key == self._key and done
+    def settled(self, key: bytes, arms: np.ndarray) -> bool:
+        """Whether `gain(key, arms, …)` would return `current` unchanged (same configuration and
+        pose, no interpolation or design running): a caller holding that gain may skip it."""
+        return (
+            self._current is not None
+            and self._pending is None
+            and self._ticks >= self.transition_ticks
+            and self._target is self._gains.get(key)
+            and not self._moved(key, arms)
+        )
 
     @property
     def current(self) -> np.ndarray | None:
         """The K_h the last `gain` returned (None before the first, or after `clear`)."""
         return self._current
 
+    def in_use(self) -> dict:
+        """Which gain is in use (telemetry's `momentum_control.gain`): the contact configuration
+        it was designed for (flags, from the key), whether it is still blending in, whether a
+        design is running off the loop, and how many were designed."""
+        return {
+            "configuration": np.frombuffer(self._key, dtype=bool).tolist(),
+            "blending": self._ticks < self.transition_ticks,
+            "pending": self._pending is not None,
+            "designs": self.designs,
+        }
+
     def clear(self) -> None:
         """Forget every configuration's gain (the cost or the robot changed)."""
         self._gains.clear()
-        self._current = self._previous = None
+        self._arms.clear()
+        self._current = self._previous = self._target = None
+        self._pending = None
         self._key = b""
+        self._ticks = 0

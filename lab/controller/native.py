@@ -15,9 +15,15 @@ import warnings
 
 import numpy as np
 
-from lab.controller.controller import ControllerConfig, ControlOutput, WholeBodyController
+from lab.controller.controller import (
+    ControllerConfig,
+    ControlOutput,
+    WholeBodyController,
+    hierarchy_note,
+)
 from lab.controller.hierarchy import HierarchySolution
 from lab.controller.hierarchy.nullspace import ActiveSetCapWarning
+from lab.controller.hierarchy.solution import SOLVED, SolveStatus
 from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
@@ -34,6 +40,9 @@ else:
 
 KERNELS = ("native", "python")
 NATIVE_METHODS = ("cascade", "weighted", "nullspace", "wbosc")
+# The kernel compiles DAQP in; Clarabel (a Rust library) is not linked into it: a Clarabel
+# request runs on the Python kernel, with a note (docs/controller.md, "Two kernels").
+NATIVE_SOLVERS = ("daqp",)
 
 
 def native_available() -> bool:
@@ -98,6 +107,16 @@ class NativeOutput(ControlOutput):
     def fallback_levels(self) -> tuple[int, ...]:
         return self._outcome.fallback_levels
 
+    def solve_status(self) -> SolveStatus:
+        """ok, or fallback, capped (nullspace) or violated (wbosc) with its level and reason:
+        the solution is built only then."""
+        o = self._outcome
+        return (
+            self.solution.solve_status()
+            if o.fallback_levels or o.capped or o.violations
+            else SOLVED
+        )
+
     def torques_finite(self) -> bool:
         """True: the kernel fails a tick whose τ is not finite."""
         return True
@@ -146,7 +165,18 @@ class NativeController(WholeBodyController):
             return NOT_BUILT
         if self.config.method not in NATIVE_METHODS:
             return f"the native kernel has no method {self.config.method!r}"
+        if self.config.solver not in NATIVE_SOLVERS:
+            return (
+                f"the native kernel solves its QPs with {', '.join(NATIVE_SOLVERS)} only: "
+                f"solver {self.config.solver!r} runs on the Python kernel"
+            )
         return self._unsupported
+
+    @property
+    def note(self) -> str:
+        """Why what runs differs from what the config asks ('' when it does not): the kernel
+        (`kernel_note`), and a solver or formulation the method does not use."""
+        return "; ".join(n for n in (self.kernel_note, hierarchy_note(self.config)) if n)
 
     def set_kernel(self, kernel: str) -> None:
         """Run the next ticks on `kernel` (native or python); raises KeyError for another name."""
@@ -247,6 +277,7 @@ class NativeController(WholeBodyController):
             self._sync_momentum_gain()
         if self._has_internal_force:
             self._sync_internal_force()
+        self.ran = self.ran_on("native")
         outcome = native.tick_into(self.references, self._tau, self._x, q, v)
         if q is not None:
             self.robot.filled_elsewhere()
@@ -275,13 +306,8 @@ class NativeController(WholeBodyController):
                 self._native.set_momentum_gain(task.gain(self.robot, refs))
                 self._momentum_pd, self._momentum_lqr = pd, None
             return
-        schedule = task.schedule
         held = self._momentum_lqr
-        if (
-            held is not None
-            and held is schedule.current
-            and schedule.settled(refs.contact_active.tobytes())
-        ):
+        if held is not None and held is task.schedule.current and task.settled(self.robot, refs):
             return
         gain = task.gain(self.robot, refs)
         self._native.set_momentum_gain(gain)

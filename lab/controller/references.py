@@ -17,6 +17,8 @@ class References:
     base_height: float
     base_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     com_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # The CoM's reference acceleration (m/s²), fed forward by the momentum task (ḣ_ref, eq. 22).
+    com_acceleration: np.ndarray = field(default_factory=lambda: np.zeros(3))
     base_angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     contact_active: np.ndarray = field(default_factory=lambda: np.ones(0, dtype=bool))
     # Per-contact upper bound on the normal force (N); a behaviour ramps it down before lift-off

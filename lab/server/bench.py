@@ -12,7 +12,10 @@ native kernel run back to back on the same run, and the table gives native/pytho
 medians. `tick` is what the session pays per control period (model update, behaviour,
 controller); `solve` is the controller alone (`controller.solve()`, the native kernel's whole
 tick from q, v and references), repeated at the final state. `kernel` is the native kernel's own
-model update + rows + solve per tick, timed inside it (no Python around it).
+model update + rows + solve per tick, timed inside it (no Python around it). `--solvers daqp
+clarabel` times both QP backends; the native kernel solves with DAQP only, so a Clarabel run
+asked of it runs on the Python kernel and its row says so (kernel python, `note`). Every row
+names what ran (`controller.ran`: kernel, method, solver).
 """
 
 import argparse
@@ -32,6 +35,7 @@ METHODS = ("cascade", "weighted", "nullspace", "wbosc")
 # Bolt and no other robot of the lab.
 WBOSC_ROBOTS = ("bolt",)
 KERNELS = ("python", "native")
+SOLVERS = ("daqp", "clarabel")
 TROT_SPEED = 0.3  # m/s forward
 STEERING = {"vx": 0.2, "vy": 0.0, "yaw_rate": 0.3}  # the velocity command of biped_step's rows
 PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fraction of the weight
@@ -73,16 +77,21 @@ def _stats(us: np.ndarray) -> dict[str, float]:
 
 
 def bench_one(
-    robot: str, method: str, seconds: float, kernel: str = "python", gait: str = "stand"
+    robot: str,
+    method: str,
+    seconds: float,
+    kernel: str = "python",
+    gait: str = "stand",
+    solver: str = "daqp",
 ) -> dict:
-    session = Session(SessionConfig(robot=robot, method=method, kernel=kernel))
+    """One run: the ticks of `seconds` of `gait` with a push, then the solve repeated; the row
+    names what ran (kernel, method, solver) and the note when it is not what was asked."""
+    session = Session(SessionConfig(robot=robot, method=method, kernel=kernel, solver=solver))
     for verb, payload in GAITS[gait].commands:
         reply = session.handle(verb, payload)
         if not reply["ok"]:
             raise ValueError(f"lab bench: {robot} {gait}: {verb}: {reply['error']}")
-        if (
-            "preset" in reply
-        ):  # the gait brought its stack: the benched method replaces the preset's
+        if "preset" in reply:  # the gait brought its stack: the benched method replaces its own
             session.handle("hierarchy", {"method": method})
     force, duration = PUSH_FRACTION_OF_WEIGHT_OF.get(robot, PUSH_FRACTION_OF_WEIGHT), 0.1
     force *= session.model.mass * 9.81
@@ -114,8 +123,10 @@ def bench_one(
     return {
         "robot": robot,
         "gait": gait,
-        "method": controller.config.method,  # what ran
-        "kernel": controller.kernel_ran,
+        "method": controller.ran.method,
+        "kernel": controller.ran.kernel,
+        "solver": controller.ran.solver,
+        "note": controller.note,
         "ticks": ticks,
         "controller_us": _stats(control_us),
         "kernel_us": _stats(kernel_us) if np.isfinite(kernel_us).any() else None,
@@ -134,6 +145,7 @@ def bench_main(argv: list[str]) -> int:
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), choices=ROBOT_NAMES)
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--kernels", nargs="+", default=list(KERNELS), choices=KERNELS)
+    parser.add_argument("--solvers", nargs="+", default=["daqp"], choices=SOLVERS)
     parser.add_argument(
         "--gaits",
         nargs="+",
@@ -153,12 +165,17 @@ def bench_main(argv: list[str]) -> int:
         for m in args.methods
         if _applies(r, m, g)
     ]
-    rows = [bench_one(r, m, args.seconds, k, g) for r, m, g in runs for k in args.kernels]
+    rows = [
+        bench_one(r, m, args.seconds, k, g, s)
+        for r, m, g in runs
+        for s in args.solvers
+        for k in args.kernels
+    ]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
     print(
-        f"{'robot':10} {'gait':10} {'method':9} {'kernel':7} {'tick p50 µs':>12} "
+        f"{'robot':10} {'gait':10} {'method':9} {'solver':8} {'kernel':7} {'tick p50 µs':>12} "
         f"{'tick p99 µs':>12} {'solve p50 µs':>13} {'solve p99 µs':>13} "
         f"{'kernel p50/p99 µs':>18} {'RTF':>6}  fell  capped"
     )
@@ -166,16 +183,20 @@ def bench_main(argv: list[str]) -> int:
         tick, solve, inside = row["controller_us"], row["solve_us"], row["kernel_us"]
         kernel = f"{inside['p50']:.0f} / {inside['p99']:.0f}" if inside else "-"
         print(
-            f"{row['robot']:10} {row['gait']:10} {row['method']:9} {row['kernel']:7} "
+            f"{row['robot']:10} {row['gait']:10} {row['method']:9} {row['solver']:8} "
+            f"{row['kernel']:7} "
             f"{tick['p50']:12.0f} "
             f"{tick['p99']:12.0f} {solve['p50']:13.1f} {solve['p99']:13.1f} {kernel:>18} "
             f"{row['realtime_factor']:6.2f}  {row['fell']!s:5} {row['capped_ticks']}"
         )
-    pairs = {(r["robot"], r["gait"], r["method"], r["kernel"]): r for r in rows}
+    for row in rows:
+        if row["note"]:
+            print(f"{row['robot']} {row['gait']} {row['method']} {row['solver']}: {row['note']}")
+    pairs = {(r["robot"], r["gait"], r["method"], r["solver"], r["kernel"]): r for r in rows}
     for robot, method, gait in runs:
         python, native = (
-            pairs.get((robot, gait, method, "python")),
-            pairs.get((robot, gait, method, "native")),
+            pairs.get((robot, gait, method, "daqp", "python")),
+            pairs.get((robot, gait, method, "daqp", "native")),
         )
         if python and native:
             print(

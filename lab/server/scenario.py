@@ -211,6 +211,18 @@ def _event(path: Path, index: int, raw: object, duration: float) -> Event:
     return Event(float(t), verb, raw[verb])
 
 
+def ran_report(session: Session) -> dict:
+    """What computed the run's ticks: `kernel`, `method`, `solver` and `formulation` of the last
+    tick, `note` (why they differ from the request, '' when they do not) and `ran`, every
+    combination that computed ticks with their count (a scenario may switch method or kernel)."""
+    controller = session.controller
+    return {
+        **controller.ran.report(),
+        "note": controller.note,
+        "ran": [{**ran.report(), "ticks": n} for ran, n in session.ran_ticks.items()],
+    }
+
+
 def run_scenario(
     scenario: Scenario, duration: float | None = None, record: str | Path | None = None
 ) -> dict:
@@ -249,9 +261,7 @@ def run_scenario(
     return {
         "scenario": scenario.name,
         "robot": scenario.config.robot,
-        "method": session.controller.config.method,
-        "solver": session.controller.config.solver,
-        "kernel": session.controller.kernel_ran,
+        **ran_report(session),
         "fell": session.fell,
         "divergences": session.divergences,
         "sim_time_s": session.time,

@@ -174,11 +174,14 @@ def serve_main(argv: list[str]) -> int:
     except AccessError as error:
         print(error, file=sys.stderr)
         return 2
+    from lab.server.gain_designer import GainDesigner
     from lab.server.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
+    designer = GainDesigner()  # LQR gains designed off the loop (issue 26 item 2)
     try:
-        session = Session(SessionConfig(robot=args.robot, scene=args.scene))
+        session = Session(SessionConfig(robot=args.robot, scene=args.scene), designer.submit)
     except KeyError as error:
+        designer.close()
         print(f"lab serve: {error.args[0]}", file=sys.stderr)
         return 2
     if note := session.controller.kernel_note:
@@ -186,6 +189,7 @@ def serve_main(argv: list[str]) -> int:
     try:
         transport = ServerTransport(config, lab_id)
     except zenoh.ZError as error:  # a port in use, a Zenoh configuration it cannot use
+        designer.close()
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
     from lab.server.recording import Recorder, RecordingTransport
@@ -197,6 +201,7 @@ def serve_main(argv: list[str]) -> int:
             recorder = Recorder(args.record, session)
         except OSError as error:
             transport.close()
+            designer.close()
             print(f"lab serve: --record: {error}", file=sys.stderr)
             return 2
     recording = RecordingTransport(
@@ -259,6 +264,7 @@ def serve_main(argv: list[str]) -> int:
         switcher.close()
         transport.close()
         recording.close()
+        designer.close()
         if ui is not None:
             stop_process(ui)
     if loop.error is not None:

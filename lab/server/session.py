@@ -19,11 +19,12 @@ from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.behaviours.stance import Stance
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.constraints import ContactLimits
-from lab.controller.controller import ControllerConfig, ControlOutput
+from lab.controller.controller import ControllerConfig, ControlOutput, Ran
 from lab.controller.hierarchy import METHODS, HierarchySolution
 from lab.controller.hierarchy.formulations import FORMULATIONS
+from lab.controller.hierarchy.solution import SOLVED, SolveStatus
 from lab.controller.model import BASE_DOF, RobotModel
-from lab.controller.momentum import MOMENTUM_MODES
+from lab.controller.momentum import MOMENTUM_MODES, GainFuture, LqrProblem
 from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
@@ -59,6 +60,13 @@ FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
 # s of sim time a warning of the controller (e.g. nullspace's ActiveSetCapWarning) stays in
 # telemetry's `controller_warnings` after the last tick that raised it
 WARNING_HOLD_S = 0.5
+# The event each status other than ok raises (at most one per FAILURE_EVENT_PERIOD each).
+STATUS_EVENTS = {
+    "failed": "solver_failure",
+    "fallback": "solver_fallback",
+    "capped": "solver_capped",
+    "violated": "solver_violation",
+}
 # A fallen robot's joints are damped, as drives in a fall protection's damping mode: b = τ_max /
 # this speed, so the drive's full torque brakes a joint turning at it. Undamped, Solo12's 38 g
 # shanks spun at up to 900 rad/s (1 ms steps) and MuJoCo's integration diverged
@@ -164,10 +172,21 @@ def build_parts(config: SessionConfig) -> SessionParts:
 
 
 class Session:
-    def __init__(self, config: SessionConfig | None = None) -> None:
+    """One robot in one MuJoCo world under the whole-body controller (module docstring).
+    `gain_designer`, when given (`lab serve`: a worker process, gain_designer.py), designs the
+    momentum task's LQR gains off the loop; headless sessions design them at once."""
+
+    def __init__(
+        self,
+        config: SessionConfig | None = None,
+        gain_designer: Callable[[LqrProblem], GainFuture] | None = None,
+    ) -> None:
         self.config = config or SessionConfig()
+        self._gain_designer = gain_designer
         self._events: list[dict] = []
         self.divergences = 0  # sim divergences since the session started
+        # ticks computed by each (kernel, method, solver, formulation), since the session started
+        self.ran_ticks: dict[Ran, int] = {}
         # ticks whose controller failed since the session started (telemetry's qp.failures):
         # a reset or a robot switch does not clear it, so it never reads fewer than the
         # solver_failure events seen (the soak's report once said 0 beside 35 of them)
@@ -185,6 +204,7 @@ class Session:
         )
         for name in SessionParts.__dataclass_fields__:
             setattr(self, name, getattr(parts, name))
+        self.controller.set_momentum_designer(self._gain_designer)
         self._output = None
         self._gait_stack: list[list[str]] | None = None  # the levels a gait brought along
         self._reset_state()
@@ -216,8 +236,9 @@ class Session:
         self._non_foot_contact_since: float | None = None
         self.ticks = 0
         self.qp_ok = True
+        self._failure = ""  # why the last failed tick failed
         self._output: ControlOutput | None = None  # the last tick's, None after a fallback
-        self._unreported = {kind: 0 for kind in ("solver_failure", "solver_fallback")}
+        self._unreported = dict.fromkeys(STATUS_EVENTS.values(), 0)
         self._last_report = dict.fromkeys(self._unreported, -FAILURE_EVENT_PERIOD)
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
@@ -328,24 +349,37 @@ class Session:
                     raise FloatingPointError("non-finite torques")
                 self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
                 self._output = out
-                if out.fallback_levels:
-                    levels = list(out.fallback_levels)  # 0-based, as telemetry's tasks
+                status = out.solve_status()
+                if status is not SOLVED:
+                    extra = {"levels": list(out.fallback_levels)} if out.fallback_levels else {}
                     self._report(
-                        "solver_fallback",
-                        f"the QP of stack level {levels} failed (counting from 0): the level "
-                        "keeps the solution of the levels above",
-                        levels=levels,
+                        STATUS_EVENTS[status.status],
+                        status.reason,
+                        status=status.status,
+                        level=status.level,
+                        **extra,
                     )
             except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
                 self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
                 self.qp_ok, self._output = False, None
                 self.qp_failures += 1
-                self._report("solver_failure", f"{type(error).__name__}: {error}; fallback torques")
+                self._failure = f"{type(error).__name__}: {error}; fallback torques"
+                self._report("solver_failure", self._failure, status="failed", level=None)
+        ran = controller.ran
+        self.ran_ticks[ran] = self.ran_ticks.get(ran, 0) + 1
         self.control_us = (time.perf_counter() - start) * 1e6
         for caught_warning in caught:
             kind = caught_warning.category.__name__
             count = self._warnings[kind].ticks + 1 if kind in self._warnings else 1
             self._warnings[kind] = ControllerWarning(str(caught_warning.message), self.time, count)
+
+    @property
+    def status(self) -> SolveStatus:
+        """The last tick's status: `failed` (fallback torques) with the error, or how the
+        hierarchy found x (ok before the first tick)."""
+        if not self.qp_ok:
+            return SolveStatus("failed", None, self._failure)
+        return SOLVED if self._output is None else self._output.solve_status()
 
     @property
     def solution(self) -> HierarchySolution | None:
@@ -373,8 +407,8 @@ class Session:
         )
 
     def _report(self, kind: str, message: str, **extra: object) -> None:
-        """One event of `kind` (solver_failure, solver_fallback) per FAILURE_EVENT_PERIOD at
-        most, with the count of ticks since the last one."""
+        """One event of `kind` (a value of STATUS_EVENTS) per FAILURE_EVENT_PERIOD at most, with
+        the count of ticks since the last one."""
         self._unreported[kind] += 1
         if self.time - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
             self._event(kind, message, count=self._unreported[kind], **extra)

@@ -10,6 +10,7 @@ from typing import Protocol
 import numpy as np
 
 from lab.controller.hierarchy import HierarchySolution
+from lab.controller.hierarchy.solution import SolveStatus
 from lab.controller.model import RobotModel
 from lab.controller.native import NativeController
 from lab.protocol import TaskGains
@@ -55,6 +56,7 @@ class SessionView(Protocol):
     qp_ok: bool
     qp_failures: int
     solution: HierarchySolution | None
+    status: SolveStatus
     control_us: float
 
     def recent_warnings(self) -> list[dict]: ...
@@ -119,8 +121,10 @@ def stepping_report(behaviour: BehaviourView, model: RobotModel) -> dict | None:
 
 
 def momentum_report(controller: NativeController) -> dict:
-    """The momentum task's feedback law (Herzog 2016 §3)."""
-    return {"mode": controller.momentum_mode()}
+    """The momentum task's feedback law (Herzog 2016 §3) and which LQR gain is in use (its
+    contact configuration, blending in, designed off the loop and not arrived yet, how many were
+    designed; None under `pd` or without the task)."""
+    return {"mode": controller.momentum_mode(), "gain_in_use": controller.momentum_gain_in_use()}
 
 
 def momentum_gain_report(controller: NativeController) -> list[list[float]] | None:
@@ -231,13 +235,16 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
     this tick with None for the parts that read no state the next tick overwrites, and
     `finish`, which fills them in later: the stack's tasks with this tick's errors, this tick's
     solution summary, and the controller's configuration (stack, method, momentum mode, kernel
-    note; as of `finish` when a command changed them in between)."""
+    note; as of `finish` when a command changed them in between). `ran` (kernel, method, solver,
+    formulation and the note saying why they differ from the request) and `status` are this
+    tick's."""
     model, controller = session.model, session.controller
     q = model.q[:7].tolist()
     rotation = model.base_rotation
     contacts, cop = _contacts(session)
     momentum = model.centroidal_momentum().tolist()
     solution, errors = session.solution, controller.task_errors()
+    status, ran = session.status, controller.ran
     message = {
         "t": session.time,
         "robot": session.config.robot,
@@ -264,9 +271,10 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
         "hierarchy": None,
         "kernel": controller.kernel_ran,
         "kernel_note": None,
+        "ran": {**ran.report(), "note": controller.note},
+        "status": status.report(),
         "controller_warnings": session.recent_warnings(),
         "qp": {
-            "status": "ok" if session.qp_ok else "failed",
             "solve_us": session.control_us,
             "failures": session.qp_failures,
         },

@@ -1,6 +1,8 @@
-"""The status line: what runs (the robot of the telemetry, not a remembered one), how fast, and
-every warning in effect: a fall, fallback torques, ticks slower than the loop period, a sim slower
-than real time, a loop that keeps few ticks on time or overruns (pure: tested in
+"""The status line: what runs (the robot of the telemetry, not a remembered one; the kernel,
+method, solver and formulation that computed the tick, telemetry's `ran`), how fast, the tick's
+status (ok, fallback, capped, violated, failed) and every warning in effect: a fall, fallback
+torques, a status other than ok with its level and reason, ticks slower than the loop period, a
+sim slower than real time, a loop that keeps few ticks on time or overruns (pure: tested in
 tests/test_ui_logic.py).
 
 Live figures are shown over the last few seconds beside the session's: a loop that collapsed
@@ -72,6 +74,12 @@ class LoopFigures:
         return LoopWindow(w1 - w0, t1 - t0, (on1 - on0) / (t1 - t0), over1 - over0)
 
 
+def status_of(tel: dict) -> dict:
+    """Telemetry's `status` (status, level, reason); a recording made before it existed (served
+    by `lab replay --serve`) has `qp.status` (ok or failed) instead."""
+    return tel.get("status") or {"status": tel["qp"]["status"], "level": None, "reason": ""}
+
+
 def warnings_of(
     tel: dict,
     control_us: float | None = None,
@@ -81,21 +89,25 @@ def warnings_of(
     """Warnings in effect, by kind: `control_us` is the recent typical controller time per tick
     (default: the last tick's), `rtf` the measured real-time factor, `loop` the loop's recent
     deadline figures."""
-    qp = tel["qp"]
+    qp, status = tel["qp"], status_of(tel)
     control_us = qp["solve_us"] if control_us is None else control_us
     budget = control_budget_us(tel)
     found = {}
     if tel["fell"]:
         found["fell"] = "the robot fell: torques off until Reset"
-    if qp["status"] != "ok":
-        found["fallback"] = f"controller {qp['status']}: fallback torques ({qp['failures']} ticks)"
+    if status["status"] == "failed":
+        found["fallback"] = f"controller failed: fallback torques ({qp['failures']} ticks)"
+    elif status["status"] != "ok":
+        level = "" if status["level"] is None else f" at level {status['level']}"
+        found["status"] = f"controller {status['status']}{level}: {status['reason']}"
     if control_us > budget:
         found["slow"] = (
             f"slow ticks: the controller takes {control_us / 1000:.1f} ms per tick, over the "
             f"{budget / 1000:.1f} ms period"
         )
-    if tel.get("kernel_note"):
-        found["kernel"] = f"{tel['kernel']} kernel ran: {tel['kernel_note']}"
+    note = tel.get("ran", {}).get("note") or tel.get("kernel_note")
+    if note:
+        found["kernel"] = f"{tel['kernel']} kernel ran: {note}"
     for warning in tel.get("controller_warnings", ()):
         found[f"controller {warning['kind']}"] = f"controller warning: {warning['message']}"
     realtime = tel.get("loop", {}).get("realtime", False)
@@ -122,13 +134,14 @@ def started_warnings(now: dict[str, str], before: set[str]) -> list[tuple[str, s
 
 def qp_state(tel: dict, warnings: dict) -> str:
     """`ok` only when nothing is wrong with the controller's ticks."""
-    if "fallback" in warnings:
-        return "**fallback**"
+    status = status_of(tel)["status"]
+    if status != "ok":
+        return f"**{status}**"
     if "slow" in warnings:
         return "**slow**"
     if any(kind.startswith("controller ") for kind in warnings):
         return "**warning**"
-    return tel["qp"]["status"]
+    return status
 
 
 def control_text(tel: dict, control_us: float, warnings: dict) -> str:
@@ -170,16 +183,17 @@ def status_markdown(
     """The status line for one telemetry message: `rtf` over the last seconds, `run_rtf` since
     this run (robot, scene, reset) began, `loop` the loop's recent deadline figures."""
     qp = tel["qp"]
-    hierarchy = tel["hierarchy"]
-    method = hierarchy["method"]
+    # what computed the tick; in a recording made before `ran` existed, what was asked
+    ran = tel.get("ran") or {**tel["hierarchy"], "kernel": tel.get("kernel", "?")}
+    method = ran["method"]
     if method == "nullspace":
-        method += f" ({hierarchy['formulation']})"
+        method += f" ({ran['formulation']})"
     flags = " · **paused**" if tel["paused"] else ""
     warnings = warnings_of(tel, control_us, rtf, loop)
     shown_us = qp["solve_us"] if control_us is None else control_us
     text = (
         f"**{tel['robot']}** on {tel['scene']} · {tel['gait']} · {method}/"
-        f"{hierarchy['solver']} · {tel.get('kernel', '?')} kernel{flags}  \n"
+        f"{ran['solver']} · {ran['kernel']} kernel{flags}  \n"
         f"t {tel['t']:.2f} s · RTF {_rtf(rtf)} last {WINDOW_S:.0f} s, {_rtf(run_rtf)} "
         f"run · {on_time_text(tel.get('loop', {}), loop)} · "
         f"{control_text(tel, shown_us, warnings)} · failures {qp['failures']} · view {fps:.0f} fps"

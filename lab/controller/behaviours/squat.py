@@ -1,7 +1,8 @@
 """Squat: the CoG tracks sine curves in double support (Herzog 2016 §5.3).
 
 After HOLD s the CoG reference moves as c(t) = c₀ + [A_x, 0, A_z] sin(2π t / period) with the
-paper's amplitudes (2 cm forward, 3 cm vertical) and its velocity as the momentum reference;
+paper's amplitudes (2 cm forward, 3 cm vertical), its velocity as the momentum reference and
+its acceleration as the momentum rate fed forward;
 the period is the gait option `cycle_time` (the paper ran 0.3 and 0.5 Hz: 3.33 s and 2 s).
 
 `squat_cop` is the variant of Fig. 10 whose CoP constraints bind: 4.5 cm forward instead of 2.
@@ -55,6 +56,9 @@ class Squat(Balance):
         active = t - self.start >= HOLD
         self.references.com = self.centre + self.amplitude * np.sin(omega * phase)
         self.references.com_velocity = self.amplitude * omega * np.cos(omega * phase) * active
+        self.references.com_acceleration = (
+            -self.amplitude * omega**2 * np.sin(omega * phase) * active
+        )
 
 
 class CopSquat(Squat):

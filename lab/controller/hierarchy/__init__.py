@@ -20,11 +20,20 @@ METHODS: dict[str, HierarchyMethod] = {
     "wbosc": solve_wbosc,
 }
 
+# The methods that solve QPs with the configured solver (nullspace and wbosc solve none), and the
+# one whose decision variable the formulation picks (the others compute x = [q̈, F]).
+QP_METHODS = ("cascade", "weighted")
+FORMULATION_METHODS = ("nullspace",)
+NO_SOLVER = "none"  # what ran as the solver of a method that solves no QP
+
 # A method that cannot realize every task says which before it runs: raises ValueError naming them.
 STACK_CHECKS: dict[str, Callable[[Iterable[str]], None]] = {"wbosc": wbosc_check_stack}
 
 __all__ = [
+    "FORMULATION_METHODS",
     "METHODS",
+    "NO_SOLVER",
+    "QP_METHODS",
     "STACK_CHECKS",
     "HierarchyMethod",
     "HierarchyProblem",

@@ -20,6 +20,29 @@ NO_FREEDOM = "no_freedom"  # nothing left in the null space of the levels above
 PROJECTED = "projected"  # null-space projection with active inequalities (Hutter §3)
 LEVEL_STATUSES = (EXACT, QP, KEPT_ABOVE, NO_FREEDOM, PROJECTED)
 
+# How a tick went, as TSID's HQPOutput status: `ok`; `fallback` (a level's QP failed and it kept
+# the solution of the levels above); `capped` (nullspace's active-set search stopped at its cap);
+# `violated` (wbosc, which does not enforce inequalities, found one that does not hold); `failed`
+# (no solution: the session applied fallback torques).
+SOLVE_STATUSES = ("ok", "fallback", "capped", "violated", "failed")
+
+
+@dataclass(frozen=True)
+class SolveStatus:
+    """One tick's status (SOLVE_STATUSES), the stack level it concerns (0 = the first; None when
+    it concerns no single level) and the reason, '' when ok."""
+
+    status: str
+    level: int | None = None
+    reason: str = ""
+
+    def report(self) -> dict:
+        """JSON-ready: telemetry's `status`."""
+        return {"status": self.status, "level": self.level, "reason": self.reason}
+
+
+SOLVED = SolveStatus("ok")
+
 
 @dataclass(frozen=True)
 class HierarchySolution:
@@ -61,11 +84,30 @@ class HierarchySolution:
             return "capped"
         return "violated" if self.violations else "ok"
 
+    def solve_status(self) -> SolveStatus:
+        """`status` with the level it concerns and why: the first level that fell back, or the
+        first a violation names ("level k name: exceeded by x")."""
+        status = self.status
+        if status == "ok":
+            return SOLVED
+        if status == "fallback":
+            levels = self.fallback_levels
+            others = f" (and levels {list(levels[1:])})" if len(levels) > 1 else ""
+            return SolveStatus(
+                status,
+                levels[0],
+                f"the QP of level {levels[0]}{others} failed: it keeps the solution of the levels "
+                "above",
+            )
+        if status == "capped":
+            return SolveStatus(status, None, "nullspace: the active-set search stopped at its cap")
+        level = int(self.violations[0].split()[1])
+        return SolveStatus(status, level, "; ".join(self.violations))
+
     def summary(self) -> dict:
-        """JSON-ready status, fallback levels, level statuses, residuals, QP count and the time
+        """JSON-ready fallback levels, level statuses, residuals, QP count and the time
         spent on each level (µs)."""
         return {
-            "status": self.status,
             "fallback_levels": list(self.fallback_levels),
             "levels": list(self.levels),
             "residuals": list(self.residuals),

@@ -2,10 +2,13 @@
 
 Rows over x = [q̈, F]: A_G q̈ = ḣ_des − Ȧ_G v (eq. 20, pinocchio's centroidal map and its drift),
 with ḣ_des = −K_h s + ḣ_ref from lab/controller/momentum.py: diagonal PD gains (eq. 22) or the
-LQR design of eqs. 23–26, chosen by `mode`. The reference momentum is [m ċ_ref; 0] and
-ḣ_ref = 0. The error is s, the CoG error and the momentum errors [Δc; Δh_lin; Δh_ang]
+LQR design of eqs. 23–26, chosen by `mode`. The reference momentum is [m ċ_ref; 0] and its
+rate ḣ_ref = [m c̈_ref; 0] is fed forward (the squat's known acceleration). The error is s,
+the CoG error and the momentum errors [Δc; Δh_lin; Δh_ang]
 (m, kg m/s, kg m²/s; world axes, about the CoM).
 """
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -14,7 +17,9 @@ from lab.controller.momentum import (
     LQR_COSTS,
     MOMENTUM_MODES,
     GainSchedule,
-    lqr_design,
+    LqrProblem,
+    contact_arms,
+    lqr_problem,
     pd_gain,
 )
 from lab.controller.references import References
@@ -44,26 +49,39 @@ class MomentumTask(Task):
             self.schedule.clear()
 
     def gain(self, robot: RobotModel, refs: References) -> np.ndarray:
-        """This tick's K_h (6 × 9): PD from the task's gains, LQR per contact configuration."""
+        """This tick's K_h (6 × 9): PD from the task's gains, LQR per contact configuration and
+        pose (GainSchedule)."""
         if self.mode == "pd":
             return pd_gain(robot.mass, self.gains.kp, self.gains.kd)
         active = refs.contact_active
-        return self.schedule.gain(active.tobytes(), lambda: self._design(robot, active))
+        return self.schedule.gain(
+            active.tobytes(), contact_arms(robot, active), self._problem(robot, active)
+        )
 
     def target_gain(self, robot: RobotModel, refs: References) -> np.ndarray:
-        """K_h (6 × 9) of the current contact configuration, without a tick: what `gain` gives
-        once a contact switch's interpolation is over (the UI shows it)."""
+        """K_h (6 × 9) of the current contact configuration and pose, without a tick: what
+        `gain` gives once an interpolation is over (the UI shows it)."""
         if self.mode == "pd":
             return pd_gain(robot.mass, self.gains.kp, self.gains.kd)
         active = refs.contact_active
-        return self.schedule.target(active.tobytes(), lambda: self._design(robot, active))
+        return self.schedule.target(
+            active.tobytes(), contact_arms(robot, active), self._problem(robot, active)
+        )
 
-    def _design(self, robot: RobotModel, active: np.ndarray) -> np.ndarray:
-        return lqr_design(robot, active, self.cost).momentum_gain
+    def settled(self, robot: RobotModel, refs: References) -> bool:
+        """Whether this tick's LQR K_h is the last tick's (GainSchedule.settled)."""
+        active = refs.contact_active
+        return self.schedule.settled(active.tobytes(), contact_arms(robot, active))
+
+    def _problem(self, robot: RobotModel, active: np.ndarray) -> Callable[[], LqrProblem]:
+        return lambda: lqr_problem(robot, active, self.cost)
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         h = robot.centroidal_momentum()
         s = np.concatenate((robot.com - refs.com, h[:3] - robot.mass * refs.com_velocity, h[3:]))
         A, view = self._matrix(robot, 6)
         A[:, : robot.nv] = robot.centroidal_map
-        return TaskRows(view, -self.gain(robot, refs) @ s - robot.centroidal_drift(), s)
+        # ḣ_des = −K_h s + ḣ_ref (eq. 22's feed-forward): ḣ_ref = [m c̈_ref; 0]
+        b = -self.gain(robot, refs) @ s - robot.centroidal_drift()
+        b[:3] += robot.mass * refs.com_acceleration
+        return TaskRows(view, b, s)
