@@ -1,5 +1,5 @@
 """`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
-`lab teleop`, `lab sweep`, `lab router`."""
+`lab teleop`, `lab sweep`, `lab report`, `lab router`."""
 
 import argparse
 import json
@@ -114,6 +114,12 @@ def _sweep(argv: list[str]) -> int:
     return sweep_main(argv)
 
 
+def _report(argv: list[str]) -> int:
+    from lab.sweep.report import report_main
+
+    return report_main(argv)
+
+
 def _teleop(argv: list[str]) -> int:
     from lab.teleop import teleop_main
 
@@ -128,6 +134,7 @@ COMMANDS = {
     "soak": _soak,
     "teleop": _teleop,
     "sweep": _sweep,
+    "report": _report,
     "router": _router,
 }
 
