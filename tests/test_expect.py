@@ -134,3 +134,10 @@ def test_every_shipped_scenario_runs_whole_in_exactly_one_group() -> None:
     assert len(groups()) == GROUPS
     for k in range(1, GROUPS + 1):
         assert (Path(__file__).parent / f"test_scenario_runs_{k}.py").exists()
+
+
+def test_every_metric_lists_its_keys() -> None:
+    from lab.server.expect import METRIC_KEYS
+    from lab.server.metrics import METRICS
+
+    assert set(METRIC_KEYS) == set(METRICS)
