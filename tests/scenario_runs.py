@@ -2,9 +2,11 @@
 
 The test modules `test_scenario_runs_<k>.py` each run one group, so that `./dev test`'s two
 pytest-xdist workers (`--dist loadfile`: a whole module per worker) share the runs. The groups
-balance WALL_S, each scenario's wall time measured on this 2-core machine while it was busy
-(`lab run scenarios/<name>.toml --json`, 2026-12-03); a scenario not in the table counts as
-NEW_SCENARIO_S_PER_SIM_S per simulated second, so a new file joins a group, never no group.
+balance WALL_S, each scenario's wall time measured on this 2-core machine while eight
+engineers built and tested on it (`lab run scenarios/<name>.toml --json`, one at a time,
+2026-12-03; "estimated": not run whole that day, scaled from a sibling on the same kernel).
+A scenario not in the table counts as NEW_SCENARIO_S_PER_SIM_S per simulated second, so a new
+file joins a group, never no group.
 """
 
 import math
@@ -33,7 +35,7 @@ WALL_S: dict[str, float] = {
     "anymal_walk_slope": 45,
     "bolt_push_recovery": 113,
     "bolt_step_in_place": 487,
-    "bolt_walk_planner": 2600,  # estimate: 40 s per simulated s, as bolt_step_in_place
+    "bolt_walk_planner": 2600,  # estimated: 40 s per simulated s
     "herzog_balance_board": 67,
     "herzog_balance_board_lateral": 94,
     "herzog_balance_board_lateral_pd": 66,
@@ -50,39 +52,39 @@ WALL_S: dict[str, float] = {
     "herzog_table3_lqr": 165,
     "herzog_table3_lqr_talos": 174,
     "herzog_table3_pd": 175,
-    "hutter_exp6_height_lowest": 75,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_exp7_pitch_lowest": 75,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_half_cylinder_aligned": 140,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_half_cylinder_vertical": 140,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim1_tau_min": 420,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim2_force_min": 420,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim3_tau_lim_tau_min": 420,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim4_tau_lim_force_min": 420,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim5_knee_hip_limited": 62,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim5_knee_limited": 62,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim9_interpolation": 140,  # estimate: 25 s per simulated s (nullspace, Python)
-    "hutter_sim9_without_interpolation": 140,  # estimate: 25 s per simulated s (nullspace, Python)
+    "hutter_exp6_height_lowest": 66,  # estimated: 22 s per simulated s
+    "hutter_exp7_pitch_lowest": 66,  # estimated: 22 s per simulated s
+    "hutter_half_cylinder_aligned": 123,  # estimated: 22 s per simulated s
+    "hutter_half_cylinder_vertical": 123,  # estimated: 22 s per simulated s
+    "hutter_sim1_tau_min": 369,
+    "hutter_sim2_force_min": 370,  # estimated: 22 s per simulated s
+    "hutter_sim3_tau_lim_tau_min": 370,  # estimated: 22 s per simulated s
+    "hutter_sim4_tau_lim_force_min": 370,  # estimated: 22 s per simulated s
+    "hutter_sim5_knee_hip_limited": 55,  # estimated: 22 s per simulated s
+    "hutter_sim5_knee_limited": 55,  # estimated: 22 s per simulated s
+    "hutter_sim9_interpolation": 123,  # estimated: 22 s per simulated s
+    "hutter_sim9_without_interpolation": 123,  # estimated: 22 s per simulated s
     "hyq_push_lateral": 52,
     "hyq_stand_cascade": 84,
     "hyq_stand_weighted": 65,
     "hyq_trot_rough": 54,
     "kim_wedges_100n": 158,
     "kim_wedges_100n_open_loop": 164,
-    "kim_wedges_100n_push_down": 159,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "kim_wedges_100n_push_side": 159,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "kim_wedges_10n": 159,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "kim_wedges_ellipse": 238,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "kim_wedges_ellipse_open_loop": 238,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "kim_wedges_impedance_down": 159,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "kim_wedges_impedance_side": 159,  # estimate: 53 s per simulated s, as kim_wedges_100n
-    "solo12_push_lateral": 24,  # estimate: 6 s per simulated s (native)
-    "solo12_stand_cascade": 60,  # estimate: 6 s per simulated s (native)
-    "solo12_stand_weighted": 60,  # estimate: 6 s per simulated s (native)
-    "solo12_trot_strafe": 60,  # estimate: 6 s per simulated s (native)
-    "solo12_trot_turn": 60,  # estimate: 6 s per simulated s (native)
-    "talos_push_lateral": 24,  # estimate: 6 s per simulated s (native)
-    "talos_stand_cascade": 60,  # estimate: 6 s per simulated s (native)
-    "talos_stand_weighted": 60,  # estimate: 6 s per simulated s (native)
+    "kim_wedges_100n_push_down": 91,
+    "kim_wedges_100n_push_side": 36,
+    "kim_wedges_10n": 39,
+    "kim_wedges_ellipse": 68,
+    "kim_wedges_ellipse_open_loop": 90,  # estimated: 20 s per simulated s
+    "kim_wedges_impedance_down": 60,  # estimated: 20 s per simulated s
+    "kim_wedges_impedance_side": 52,
+    "solo12_push_lateral": 14,
+    "solo12_stand_cascade": 32,
+    "solo12_stand_weighted": 19,
+    "solo12_trot_strafe": 34,
+    "solo12_trot_turn": 35,
+    "talos_push_lateral": 28,
+    "talos_stand_cascade": 45,
+    "talos_stand_weighted": 35,
 }
 
 # Scenarios whose documented outcome does not hold today, and why (docs say the same): run and
