@@ -83,3 +83,9 @@ def test_a_failed_run_is_not_written() -> None:
     rows = [{"point": "a", "scenario": "a", "error": "timeout: no result"}]
     with pytest.raises(ReportError, match="a: timeout"):
         reports_by_scenario(rows)
+
+
+def test_an_unknown_paper_is_named_with_exit_2() -> None:
+    from lab.sweep.report import report_main
+
+    assert report_main(["no_such_paper"]) == 2

@@ -83,7 +83,7 @@ def failed_expectations(reports: dict[str, dict]) -> list[str]:
 
 
 def report_main(argv: list[str]) -> int:
-    """`lab report PAPER [--workers N | --address HOST:PORT] [--doc FILE]`."""
+    """`lab report PAPER [--workers N | --address HOST:PORT] [--doc FILE] [--resume]`."""
     parser = argparse.ArgumentParser(
         prog="lab report",
         description="Run a paper's scenarios (as a sweep on Ray) and write its tables into "
@@ -94,13 +94,22 @@ def report_main(argv: list[str]) -> int:
     parser.add_argument("--address", help="an existing Ray cluster (HOST:PORT)")
     parser.add_argument("--doc", type=Path, default=DOC, help=f"the file to write ({DOC.name})")
     parser.add_argument("--output", help=f"results table (default {OUTPUT_DIR}/<paper>.csv)")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the runs already in the table (an interrupted report); default: rerun all",
+    )
     args = parser.parse_args(argv)
     if args.paper not in PAPERS:
-        print(f"lab report: unknown paper {args.paper!r} (known: {', '.join(PAPERS)})", sys.stderr)
+        print(
+            f"lab report: unknown paper {args.paper!r} (known: {', '.join(PAPERS)})",
+            file=sys.stderr,
+        )
         return 2
     paper = PAPERS[args.paper]
     output = Path(args.output or OUTPUT_DIR / f"{paper.name}.csv")
-    output.unlink(missing_ok=True)  # every table from this run, none resumed from an old one
+    if not args.resume:
+        output.unlink(missing_ok=True)  # every table from this run, none from an older one
     from lab.sweep.runner import RayUnavailable, run_sweep
 
     try:
