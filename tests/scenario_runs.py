@@ -2,9 +2,9 @@
 
 The test modules `test_scenario_runs_<k>.py` each run one group, so that `./dev test`'s two
 pytest-xdist workers (`--dist loadfile`: a whole module per worker) share the runs. The groups
-balance WALL_S, each scenario's wall time measured on this 2-core machine while eight
-engineers built and tested on it (`lab run scenarios/<name>.toml --json`, one at a time,
-2026-12-03; "estimated": not run whole that day, scaled from a sibling on the same kernel).
+balance WALL_S, each scenario's wall time measured on this 2-core machine (2026-12-03, the
+four modules on two workers, `--durations=0`, beside a third busy process; the Bolt and Kim
+scenarios and Hutter's on the Python kernel, the rest native).
 A scenario not in the table counts as NEW_SCENARIO_S_PER_SIM_S per simulated second, so a new
 file joins a group, never no group.
 """
@@ -24,67 +24,67 @@ GROUPS = 4  # modules tests/test_scenario_runs_1.py … _4.py
 NEW_SCENARIO_S_PER_SIM_S = 1.0  # a new scenario's guessed wall time per simulated second
 
 WALL_S: dict[str, float] = {
-    "anymal_crawl_trot_crawl_s1": 47,
-    "anymal_crawl_trot_crawl_s3": 33,
-    "anymal_push_lateral": 10,
-    "anymal_stand_cascade": 15,
-    "anymal_stand_weighted": 28,
-    "anymal_trot_flat": 37,
-    "anymal_trot_lateral_kicks": 11,
-    "anymal_trot_rough": 34,
-    "anymal_walk_slope": 45,
-    "bolt_push_recovery": 113,
-    "bolt_step_in_place": 487,
-    "bolt_walk_planner": 2600,  # estimated: 40 s per simulated s
-    "herzog_balance_board": 67,
-    "herzog_balance_board_lateral": 94,
-    "herzog_balance_board_lateral_pd": 66,
-    "herzog_balance_board_pd": 31,
-    "herzog_block": 30,
-    "herzog_block_pd": 10,
-    "herzog_leg_swing": 17,
-    "herzog_platform": 38,
-    "herzog_platform_pd": 61,
-    "herzog_single_support": 32,
-    "herzog_squat_03hz": 44,
-    "herzog_squat_05hz": 22,
-    "herzog_squat_cop": 40,
-    "herzog_table3_lqr": 165,
-    "herzog_table3_lqr_talos": 174,
-    "herzog_table3_pd": 175,
-    "hutter_exp6_height_lowest": 66,  # estimated: 22 s per simulated s
-    "hutter_exp7_pitch_lowest": 66,  # estimated: 22 s per simulated s
-    "hutter_half_cylinder_aligned": 123,  # estimated: 22 s per simulated s
-    "hutter_half_cylinder_vertical": 123,  # estimated: 22 s per simulated s
-    "hutter_sim1_tau_min": 369,
-    "hutter_sim2_force_min": 370,  # estimated: 22 s per simulated s
-    "hutter_sim3_tau_lim_tau_min": 370,  # estimated: 22 s per simulated s
-    "hutter_sim4_tau_lim_force_min": 370,  # estimated: 22 s per simulated s
-    "hutter_sim5_knee_hip_limited": 55,  # estimated: 22 s per simulated s
-    "hutter_sim5_knee_limited": 55,  # estimated: 22 s per simulated s
-    "hutter_sim9_interpolation": 123,  # estimated: 22 s per simulated s
-    "hutter_sim9_without_interpolation": 123,  # estimated: 22 s per simulated s
-    "hyq_push_lateral": 52,
-    "hyq_stand_cascade": 84,
-    "hyq_stand_weighted": 65,
-    "hyq_trot_rough": 54,
-    "kim_wedges_100n": 158,
-    "kim_wedges_100n_open_loop": 164,
-    "kim_wedges_100n_push_down": 91,
-    "kim_wedges_100n_push_side": 36,
-    "kim_wedges_10n": 39,
-    "kim_wedges_ellipse": 68,
-    "kim_wedges_ellipse_open_loop": 90,  # estimated: 20 s per simulated s
-    "kim_wedges_impedance_down": 60,  # estimated: 20 s per simulated s
-    "kim_wedges_impedance_side": 52,
-    "solo12_push_lateral": 14,
-    "solo12_stand_cascade": 32,
-    "solo12_stand_weighted": 19,
-    "solo12_trot_strafe": 34,
-    "solo12_trot_turn": 35,
-    "talos_push_lateral": 28,
-    "talos_stand_cascade": 45,
-    "talos_stand_weighted": 35,
+    "anymal_crawl_trot_crawl_s1": 2.5,
+    "anymal_crawl_trot_crawl_s3": 2.7,
+    "anymal_push_lateral": 3.2,
+    "anymal_stand_cascade": 12.4,
+    "anymal_stand_weighted": 1.3,
+    "anymal_trot_flat": 3.9,
+    "anymal_trot_lateral_kicks": 3.0,
+    "anymal_trot_rough": 5.3,
+    "anymal_walk_slope": 34.6,
+    "bolt_push_recovery": 27.3,
+    "bolt_step_in_place": 159.6,
+    "bolt_walk_planner": 451.0,
+    "herzog_balance_board": 2.2,
+    "herzog_balance_board_lateral": 2.6,
+    "herzog_balance_board_lateral_pd": 2.3,
+    "herzog_balance_board_pd": 2.8,
+    "herzog_block": 1.7,
+    "herzog_block_pd": 1.6,
+    "herzog_leg_swing": 2.7,
+    "herzog_platform": 3.6,
+    "herzog_platform_pd": 3.6,
+    "herzog_single_support": 1.6,
+    "herzog_squat_03hz": 4.1,
+    "herzog_squat_05hz": 4.9,
+    "herzog_squat_cop": 10.9,
+    "herzog_table3_lqr": 16.7,
+    "herzog_table3_lqr_talos": 30.4,
+    "herzog_table3_pd": 27.4,
+    "hutter_exp6_height_lowest": 6.0,
+    "hutter_exp7_pitch_lowest": 6.4,
+    "hutter_half_cylinder_aligned": 12.2,
+    "hutter_half_cylinder_vertical": 1.2,
+    "hutter_sim1_tau_min": 26.5,
+    "hutter_sim2_force_min": 25.3,
+    "hutter_sim3_tau_lim_tau_min": 28.6,
+    "hutter_sim4_tau_lim_force_min": 30.2,
+    "hutter_sim5_knee_hip_limited": 12.2,
+    "hutter_sim5_knee_limited": 4.1,
+    "hutter_sim9_interpolation": 18.3,
+    "hutter_sim9_without_interpolation": 8.7,
+    "hyq_push_lateral": 0.6,
+    "hyq_stand_cascade": 1.6,
+    "hyq_stand_weighted": 1.4,
+    "hyq_trot_rough": 5.0,
+    "kim_wedges_100n": 4.4,
+    "kim_wedges_100n_open_loop": 4.4,
+    "kim_wedges_100n_push_down": 4.5,
+    "kim_wedges_100n_push_side": 4.2,
+    "kim_wedges_10n": 1.2,
+    "kim_wedges_ellipse": 6.8,
+    "kim_wedges_ellipse_open_loop": 6.4,
+    "kim_wedges_impedance_down": 4.7,
+    "kim_wedges_impedance_side": 5.0,
+    "solo12_push_lateral": 0.6,
+    "solo12_stand_cascade": 1.4,
+    "solo12_stand_weighted": 1.3,
+    "solo12_trot_strafe": 1.9,
+    "solo12_trot_turn": 1.9,
+    "talos_push_lateral": 0.7,
+    "talos_stand_cascade": 1.5,
+    "talos_stand_weighted": 1.5,
 }
 
 # Scenarios whose documented outcome does not hold today, and why (docs say the same): run and
