@@ -1,5 +1,5 @@
 """`lab`: the command line. `lab run`, `lab replay`, `lab bench`, `lab serve`, `lab soak`,
-`lab teleop`, `lab sweep`, `lab router`, `lab robot`."""
+`lab teleop`, `lab sweep`, `lab report`, `lab router`, `lab robot`."""
 
 import argparse
 import json
@@ -8,9 +8,16 @@ from dataclasses import asdict
 
 
 def _run(argv: list[str]) -> int:
+    """`lab run`: exit 0 when the scenario's [expect] holds (without one, or cut short by
+    --duration: when the robot did not fall), 1 naming what failed, 2 for bad input."""
+    from lab.server.expect import failed_checks
     from lab.server.scenario import ScenarioError, check_duration, load_scenario, run_scenario
 
-    parser = argparse.ArgumentParser(prog="lab run", description="Run a headless scenario.")
+    parser = argparse.ArgumentParser(
+        prog="lab run",
+        description="Run a headless scenario and check its [expect] table (exit 1 naming "
+        "what failed; a run cut by --duration is not checked).",
+    )
     parser.add_argument("scenario", help="path to a scenario TOML file")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
     parser.add_argument("--duration", type=float, help="stop earlier than the scenario's duration")
@@ -37,7 +44,14 @@ def _run(argv: list[str]) -> int:
             f"tick p50 {report['tick_us']['p50']:.0f} µs p99 {report['tick_us']['p99']:.0f} µs, "
             f"QP failures {report['qp_failures']}; {metrics}"
         )
-    return 1 if report["fell"] else 0
+    expect = report["expect"]
+    if not expect["checked"]:
+        print(f"lab run: expectations not checked: {expect['note']}", file=sys.stderr)
+        return 1 if report["fell"] else 0
+    failed = failed_checks(expect)
+    for line in failed:
+        print(f"lab run: {report['scenario']}: expectation failed: {line}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _replay(argv: list[str]) -> int:
@@ -146,6 +160,12 @@ def _sweep(argv: list[str]) -> int:
     return sweep_main(argv)
 
 
+def _report(argv: list[str]) -> int:
+    from lab.sweep.report import report_main
+
+    return report_main(argv)
+
+
 def _teleop(argv: list[str]) -> int:
     from lab.teleop import teleop_main
 
@@ -160,6 +180,7 @@ COMMANDS = {
     "soak": _soak,
     "teleop": _teleop,
     "sweep": _sweep,
+    "report": _report,
     "router": _router,
     "robot": _robot,
 }

@@ -4,7 +4,8 @@ A scenario names `robot`, `scene` (with `terrain_seed`, an integer, for a scene 
 terrain: `rough`), `duration` (s), a `[controller]` table (`method`, `solver`,
 optional `kernel` — `native` or `python` —, optional `stack` — a list of levels or the name of a
 preset in `stacks/` — and `[controller.gains.<task>]` tables), `metrics` to report besides the
-standing ones, and `[[events]]`, each with a time `t` and exactly one command written with the
+standing ones, an `[expect]` table (the outcome the run must show: lab/server/expect.py) and
+`[[events]]`, each with a time `t` and exactly one command written with the
 protocol's verb and fields, for example
 
     [[events]]
@@ -27,6 +28,7 @@ import numpy as np
 from lab.controller.native import KERNELS
 from lab.scenes import SEEDED_SCENES
 from lab.server.commands import CommandError, parse_command
+from lab.server.expect import Expectation, ExpectError, check_expect, parse_expect, skipped_expect
 from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS
 from lab.server.recording import Recorder
@@ -44,7 +46,7 @@ SCENARIO_KEYS = {
     "metrics",
     "limits",
     "terrain_seed",
-    "expect",  # the expected outcome (checked by `lab run` once the checker lands)
+    "expect",
 }
 CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
 # s: the longest run a scenario may ask for (the longest shipped one is 65 s; an hour at 1 kHz
@@ -72,6 +74,7 @@ class Scenario:
     events: list[Event] = field(default_factory=list)
     metrics: tuple[str, ...] = ("standing",)
     limits: dict[str, dict[str, object]] = field(default_factory=dict)
+    expect: Expectation | None = None  # the outcome the whole run must show (expect.py)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -127,14 +130,25 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
     if not isinstance(raw_events, list):
         raise ScenarioError(f"{path}: events must be [[events]] tables")
     events = [_event(path, i, raw, duration) for i, raw in enumerate(raw_events)]
+    metrics = ("standing", *(name for name in metrics if name != "standing"))
     return Scenario(
         data.get("name", path.stem),
         duration,
         config,
         sorted(events, key=lambda e: e.t),
-        ("standing", *(name for name in metrics if name != "standing")),
+        metrics,
         limits=_limits(path, data),
+        expect=_expect(path, data, metrics),
     )
+
+
+def _expect(path: Path, data: dict, metrics: tuple[str, ...]) -> Expectation | None:
+    if "expect" not in data:
+        return None
+    try:
+        return parse_expect(data["expect"], metrics, path)
+    except ExpectError as error:
+        raise ScenarioError(str(error)) from error
 
 
 def _terrain_seed(path: Path, data: dict) -> int | None:
@@ -227,10 +241,12 @@ def run_scenario(
     scenario: Scenario, duration: float | None = None, record: str | Path | None = None
 ) -> dict:
     """Run headless and report; `duration` shortens the run (tests run short versions), `record`
-    names an MCAP file to record the run to (see recording.py)."""
+    names an MCAP file to record the run to (see recording.py). The report's `expect` section
+    checks the scenario's `[expect]` table when the run was not cut short."""
     session = Session(scenario.config)
     apply_limits(session.controller, scenario.limits)
     recorder = None if record is None else Recorder(record, session, scenario.limits)
+    cut = duration is not None and duration < scenario.duration
     duration = scenario.duration if duration is None else min(duration, scenario.duration)
     ticks = max(1, round(duration / scenario.config.timestep))
     pending = list(scenario.events)
@@ -258,7 +274,7 @@ def run_scenario(
     wall = time.perf_counter() - wall_start
     if recorder is not None:
         recorder.close()
-    return {
+    report = {
         "scenario": scenario.name,
         "robot": scenario.config.robot,
         **ran_report(session),
@@ -276,3 +292,13 @@ def run_scenario(
         "rejected_events": rejected,
         "metrics": {key: value for m in metrics for key, value in m.result().items()},
     }
+    if scenario.expect is None:
+        report["expect"] = skipped_expect("the scenario states no [expect]")
+    elif cut:
+        report["expect"] = skipped_expect(
+            f"run cut to {duration:g} s of {scenario.duration:g}: a whole-run expectation "
+            "is not checked"
+        )
+    else:
+        report["expect"] = check_expect(scenario.expect, report)
+    return report

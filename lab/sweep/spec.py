@@ -99,6 +99,8 @@ def load_sweep(path: str | Path) -> Sweep:
         base_data = tomllib.loads(base.read_text())
     except (OSError, tomllib.TOMLDecodeError) as error:
         raise SweepError(f"{path}: base scenario: {error}") from error
+    # A point changes the scenario (its duration too): the base's [expect] is not the point's.
+    base_data.pop("expect", None)
     if "duration" in data:
         base_data["duration"] = data["duration"]
     for name, value in data.get("set", {}).items():
