@@ -96,12 +96,15 @@ METRIC_KEYS: dict[str, tuple[str, ...]] = {
         "steps",
         "stepping_s",
         "swings_cut",
+        "swings_lengthened",
         "max_com_height_error_m",
         "max_base_height_error_m",
         "max_roll_pitch_error_rad",
         "max_com_wander_m",
         "com_travel_x_m",
         "com_travel_y_m",
+        "com_path_m",
+        "yaw_turned_rad",
     ),
 }
 
