@@ -121,7 +121,7 @@ def test_a_sweep_point_does_not_inherit_the_base_expectation(tmp_path: Path) -> 
     base = SCENARIOS / "anymal_push_lateral.toml"
     assert "expect" in tomllib.loads(base.read_text())
     sweep = tmp_path / "sweep.toml"
-    sweep.write_text(f'base = "{base}"\nduration = 0.5\n[grid]\n"push.force_n" = [10.0]\n')
+    sweep.write_text(f'base = "{base}"\nduration = 1.5\n[grid]\n"push.force_n" = [10.0]\n')
     (point,) = load_sweep(sweep).points
     assert check_scenario(point.scenario, base).expect is None
 

@@ -87,17 +87,18 @@ nb::tuple active_set_search(
   const ActiveSetSolution out = active_set_least_squares(levels, n, cap, start ? &*start : nullptr,
                                                          point ? &*point : nullptr);
   return nb::make_tuple(out.z, out.projections, out.capped, out.feasible, out.active);
+}
 
-  /// The minimum-norm least squares of A u = b and an orthonormal basis of null(A), the cascade's
-  /// rank decision (RowSpaceQR against kRankRtol): (u, N).
-  std::tuple<Eigen::VectorXd, Eigen::MatrixXd> least_squares_null_space(const Eigen::MatrixXd& A,
-                                                                        const Eigen::VectorXd& b) {
-    if (A.rows() != b.size()) throw nb::value_error("b must have one entry per row of A");
-    Eigen::VectorXd u;
-    Eigen::MatrixXd N;
-    least_squares_and_null_space(A, b, u, N);
-    return {u, N};
-  }
+/// The minimum-norm least squares of A u = b and an orthonormal basis of null(A), the cascade's
+/// rank decision (RowSpaceQR against kRankRtol): (u, N).
+std::tuple<Eigen::VectorXd, Eigen::MatrixXd> least_squares_null_space(const Eigen::MatrixXd& A,
+                                                                      const Eigen::VectorXd& b) {
+  if (A.rows() != b.size()) throw nb::value_error("b must have one entry per row of A");
+  Eigen::VectorXd u;
+  Eigen::MatrixXd N;
+  least_squares_and_null_space(A, b, u, N);
+  return {u, N};
+}
 
 }  // namespace
 
@@ -118,7 +119,6 @@ void bind_hierarchy(nb::module_& m) {
         nb::arg("point") = nb::none(),
         "nullspace's active-set search alone (nullspace.py active_set_least_squares): levels "
         "are (A, b, C, d) over z; returns (z, projections, capped, feasible, active rows).");
-
   m.attr("rank_rtol") = kRankRtol;
 }
 
