@@ -165,12 +165,8 @@ def bench_main(argv: list[str]) -> int:
         for m in args.methods
         if _applies(r, m, g)
     ]
-    rows = [
-        bench_one(r, m, args.seconds, k, g, s)
-        for r, m, g in runs
-        for s in args.solvers
-        for k in args.kernels
-    ]
+    asked = [(r, g, m, s, k) for r, m, g in runs for s in args.solvers for k in args.kernels]
+    rows = [bench_one(r, m, args.seconds, k, g, s) for r, g, m, s, k in asked]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
@@ -192,7 +188,7 @@ def bench_main(argv: list[str]) -> int:
     for row in rows:
         if row["note"]:
             print(f"{row['robot']} {row['gait']} {row['method']} {row['solver']}: {row['note']}")
-    pairs = {(r["robot"], r["gait"], r["method"], r["solver"], r["kernel"]): r for r in rows}
+    pairs = dict(zip(asked, rows, strict=True))  # by what was asked: a row says what ran
     for robot, method, gait in runs:
         python, native = (
             pairs.get((robot, gait, method, "daqp", "python")),
