@@ -9,6 +9,7 @@ import pytest
 from lab.description import ROBOT_NAMES, load_description
 from lab.robot import build_robot
 from lab.server.plant import MujocoPlant, SimulationDiverged
+from lab.server.robot_check import posture_hold_gains
 
 G = 9.81
 DT = 1e-3
@@ -122,11 +123,7 @@ def test_bad_input_is_rejected_and_changes_nothing(plant: MujocoPlant) -> None:
 def test_standing_touches_with_feet_only_and_feet_carry_the_weight(plant: MujocoPlant) -> None:
     robot = plant.robot
     plant.reset(robot.q_standing)
-    # A 60 rad/s PD on each joint's own inertia (the mass matrix's diagonal): stiff at every
-    # robot's scale and stable at 1 kHz (gains scaled by the torque limit chattered on the A1's
-    # light legs, lifting every foot).
-    inertia = np.diag(pin.crba(robot.model, robot.model.createData(), robot.q_standing))[6:]
-    kp, kd = 60.0**2 * inertia, 2.0 * 60.0 * inertia
+    kp, kd = posture_hold_gains(robot)  # a 60 rad/s PD on each joint's own inertia
     for _ in range(20):
         q, v = plant.state()
         plant.set_torques(kp * (robot.q_standing[7:] - q[7:]) - kd * v[6:])

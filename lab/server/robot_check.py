@@ -130,13 +130,19 @@ def _check_engines(robot: Robot) -> Finding:
     )
 
 
+def posture_hold_gains(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """(kp, kd) of a REST_BANDWIDTH PD on each joint's own inertia (the mass matrix's diagonal
+    at the standing posture): stiff at every robot's scale and stable at 1 kHz (gains scaled by
+    the torque limit chattered on the A1's light legs, lifting every foot)."""
+    inertia = np.diag(pin.crba(robot.model, robot.model.createData(), robot.q_standing))[6:]
+    return REST_BANDWIDTH**2 * inertia, 2.0 * REST_BANDWIDTH * inertia
+
+
 def _check_rest(robot: Robot) -> Finding:
     plant = MujocoPlant(robot)
     plant.reset(robot.q_standing)
-    # Held by a 60 rad/s PD on each joint's own inertia (the mass matrix's diagonal) while the
-    # contacts form: the feet stand exactly on the floor at the posture.
-    inertia = np.diag(pin.crba(robot.model, robot.model.createData(), robot.q_standing))[6:]
-    kp, kd = REST_BANDWIDTH**2 * inertia, 2.0 * REST_BANDWIDTH * inertia
+    # Held while the contacts form: the feet stand exactly on the floor at the posture.
+    kp, kd = posture_hold_gains(robot)
     for _ in range(REST_STEPS):
         q, v = plant.state()
         plant.set_torques(kp * (robot.q_standing[7:] - q[7:]) - kd * v[6:])
