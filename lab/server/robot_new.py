@@ -159,7 +159,9 @@ def _toml_path(path: Path) -> str:
     return str(path.relative_to(robots)) if path.is_relative_to(robots) else str(path)
 
 
-def render(name: str, urdf: Path, srdf: Path | None, posture: str | None, feet: list[FootGuess]):
+def render(
+    name: str, urdf: Path, srdf: Path | None, posture: str | None, feet: list[FootGuess]
+) -> str:
     """The text of robots/<name>.toml for these guesses (no standing_joints yet)."""
     flat = any(foot.kind == "flat" for foot in feet)
     limits = '["friction", "cop", "torque_limits"]' if flat else '["friction", "torque_limits"]'
