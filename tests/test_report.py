@@ -1,11 +1,16 @@
 """`lab report`: a paper's scenarios run as a sweep on Ray, their tables written between the
 markers of a doc from the runs' reports (values, not timing), the rest of the doc untouched."""
 
+import re
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import pytest
 
-from lab.sweep.papers import PAPERS, Paper, Table, fell_column, measured, name_column, value
+from lab.server.expect import METRIC_KEYS, REPORT_FIELDS
+from lab.server.scenario import load_scenario
+from lab.sweep.papers import PAPERS
+from lab.sweep.papers.tables import Paper, Table, fell_column, measured, name_column, value
 from lab.sweep.report import (
     SCENARIOS,
     ReportError,
@@ -76,7 +81,49 @@ def test_every_paper_table_has_its_markers_and_scenarios() -> None:
         for table in paper.tables:
             assert f"<!-- lab report {table.name} -->" in doc
             assert f"<!-- end lab report {table.name} -->" in doc
-            assert all((SCENARIOS / f"{row}.toml").exists() for row in table.rows)
+            assert set(table.scenarios) <= set(paper.scenarios)
+
+
+class DeclaredReport(Mapping[str, object]):
+    """A scenario's flattened report holding exactly the keys its metrics declare
+    (expect.METRIC_KEYS) and the report's own fields: reading any other key raises."""
+
+    def __init__(self, scenario: str) -> None:
+        loaded = load_scenario(SCENARIOS / f"{scenario}.toml")
+        self.patterns = [re.compile(k) for name in loaded.metrics for k in METRIC_KEYS[name]]
+        self.fields = {"fell": False, **dict.fromkeys(REPORT_FIELDS, loaded.duration)}
+
+    def __getitem__(self, key: str) -> object:
+        if key in self.fields:
+            return self.fields[key]
+        metric = key.removeprefix("metrics.")
+        if key.startswith("metrics.") and any(p.fullmatch(metric) for p in self.patterns):
+            return 0.5
+        raise KeyError(key)
+
+    def __contains__(self, key: object) -> bool:
+        try:
+            self[str(key)]
+        except KeyError:
+            return False
+        return True
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.fields)
+
+    def __len__(self) -> int:
+        return len(self.fields)
+
+
+@pytest.mark.parametrize("paper", PAPERS.values(), ids=list(PAPERS))
+def test_every_cell_reads_a_number_its_scenario_reports(paper: Paper) -> None:
+    """A column naming a metric key that the scenario's metrics do not report (a typo, a
+    renamed key) fails here, not after a campaign of runs."""
+    reports = {name: DeclaredReport(name) for name in paper.scenarios}
+    for table in paper.tables:
+        lines = render(table, reports).splitlines()  # type: ignore[arg-type]
+        assert len(lines) == 2 + len(table.rows)
+        assert all(line.count("|") == len(table.columns) + 1 for line in lines)
 
 
 def test_a_failed_run_is_not_written() -> None:

@@ -14,7 +14,8 @@ import sys
 import tomllib
 from pathlib import Path
 
-from lab.sweep.papers import PAPERS, Paper, Table
+from lab.sweep.papers import PAPERS
+from lab.sweep.papers.tables import Paper, Table
 from lab.sweep.spec import Point, Sweep
 from lab.sweep.table import ERROR, read_rows
 

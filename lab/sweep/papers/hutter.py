@@ -1,81 +1,17 @@
-"""The generated tables of docs/replications.md: per paper, the scenarios it runs and each
-table's columns, the measured ones read from the runs' reports beside the paper's numbers.
+"""Hutter et al. 2014's tables (docs/replications.md, §5.1): static walking, load distribution,
+torque limits, contact-force interpolation, the HFE limit and the half-cylinder walk."""
 
-A table has row ids (a scenario's name, or a push's index for Herzog's Table 3) and columns;
-a column's cell is computed from the row id and the reports of the paper's runs (flattened
-as in a sweep table: `metrics.<key>`, `fell`, `sim_time_s`, ...). `lab report PAPER` runs the
-scenarios and writes each table between its markers (report.py).
-"""
-
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-
-Reports = Mapping[str, Mapping[str, object]]  # scenario name -> flattened report
-
-
-@dataclass(frozen=True)
-class Column:
-    """A table column: its header and the text of its cell for a row id."""
-
-    header: str
-    cell: Callable[[object, Reports], str]
-
-
-@dataclass(frozen=True)
-class Table:
-    """One generated table: its marker name in the docs, row ids, columns."""
-
-    name: str
-    rows: tuple[object, ...]
-    columns: tuple[Column, ...]
-
-
-@dataclass(frozen=True)
-class Paper:
-    """A paper's replication: the scenarios `lab report` runs and the tables they fill."""
-
-    name: str
-    scenarios: tuple[str, ...]
-    tables: tuple[Table, ...]
-
-
-def value(reports: Reports, scenario: str, key: str) -> float:
-    """A number of a scenario's report (`metrics.` is prepended unless `key` is top-level)."""
-    report = reports[scenario]
-    return float(report[key] if key in report else report[f"metrics.{key}"])
-
-
-def name_column(header: str = "run") -> Column:
-    return Column(header, lambda row, _: f"`{row}`")
-
-
-def given(header: str, texts: Mapping[object, str]) -> Column:
-    """Text fixed per row: a description, or the paper's numbers."""
-    return Column(header, lambda row, _: texts[row])
-
-
-def measured(header: str, key: str, fmt: str, scale: float = 1.0, paper: dict | None = None):
-    """`key` of the row's scenario times `scale` in `fmt`, and the paper's number in brackets."""
-
-    def cell(row: object, reports: Reports) -> str:
-        text = format(scale * value(reports, str(row), key), fmt)
-        return f"{text} ({paper[row]})" if paper else text
-
-    return Column(header, cell)
-
-
-def fell_column(header: str = "fell") -> Column:
-    def cell(row: object, reports: Reports) -> str:
-        report = reports[str(row)]
-        return f"at {float(report['sim_time_s']):.2f} s" if report["fell"] else "no"
-
-    return Column(header, cell)
-
-
-def thousands(x: float) -> str:
-    """29358.4 -> '29 358' (the docs' grouping)."""
-    return f"{x:,.0f}".replace(",", " ")
-
+from lab.sweep.papers.tables import (
+    Column,
+    Table,
+    fell_column,
+    given,
+    measured,
+    name_column,
+    paper,
+    thousands,
+    value,
+)
 
 HUTTER_LOAD = ("tau_min", "force_min", "tau_lim_tau_min", "tau_lim_force_min")
 HUTTER_LOAD = tuple(f"hutter_sim{i}_{n}" for i, n in enumerate(HUTTER_LOAD, start=1))
@@ -112,7 +48,7 @@ HUTTER_TABLE5 = Table(
             "max τ_KFE [N m] (paper)",
             "max_knee_torque_nm",
             ".1f",
-            paper=per_load_run("12.2", "16.0", "10.0", "10.0"),
+            published=per_load_run("12.2", "16.0", "10.0", "10.0"),
         ),
     ),
 )
@@ -196,14 +132,4 @@ HUTTER_CYLINDER = Table(
     ),
 )
 
-HUTTER = Paper(
-    "hutter",
-    tuple(
-        name
-        for table in (HUTTER_TABLE5, HUTTER_SIM5, HUTTER_SIM9, HUTTER_EXP67, HUTTER_CYLINDER)
-        for name in table.rows
-    ),
-    (HUTTER_TABLE5, HUTTER_SIM5, HUTTER_SIM9, HUTTER_EXP67, HUTTER_CYLINDER),
-)
-
-PAPERS: dict[str, Paper] = {paper.name: paper for paper in (HUTTER,)}
+HUTTER = paper("hutter", HUTTER_TABLE5, HUTTER_SIM5, HUTTER_SIM9, HUTTER_EXP67, HUTTER_CYLINDER)
