@@ -2,8 +2,7 @@
 
 import pytest
 
-from lab.protocol import VX_MAX
-from lab.server.commands import parse_command
+from lab.protocol import VX_MAX, parse_command
 from lab.teleop import (
     PUSH_DURATION_S,
     TeleopState,

@@ -280,7 +280,7 @@ class LabApp:
             if self._pending is not None:  # a velocity or drag push on its way to the old lab
                 futures.wait([self._pending], SWITCH_WAIT_S)
             if not self._velocity.is_zero:  # the lab left behind stops now, not at its deadman
-                self.link.request("velocity", VelocityCommand().payload())
+                self.link.send(VelocityCommand())
             self._velocity, self._drag = VelocityCommand(), None
             self.link.select(wanted)
         if self.link.lab_id != self._watched_lab:
