@@ -25,6 +25,7 @@ from lab.client_core import (
     decode_message,
     find_labs,
     only_lab,
+    undeclare,
 )
 from lab.protocol import DEFAULT_ENDPOINT, CommandStruct
 
@@ -92,8 +93,7 @@ class LabClient:
                 self._connected.set()
             else:
                 self._connected.clear()
-        for subscriber in old:
-            subscriber.undeclare()
+        undeclare(*old)
         latest = {
             kind: self._link.subscribe(kind, zenoh.handlers.RingChannel(capacity))
             for kind, capacity in BACKLOG.items()
@@ -183,8 +183,7 @@ class LabClient:
 
     def close(self) -> None:
         """Undeclare every subscriber, close the link."""
-        for subscriber in [*(entry[-1] for entry in self._callbacks), *self._latest.values()]:
-            subscriber.undeclare()
+        undeclare(*(entry[-1] for entry in self._callbacks), *self._latest.values())
         self._callbacks.clear()
         self._latest.clear()
         self._link.close()

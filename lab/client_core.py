@@ -37,7 +37,8 @@ class LabNotFound(LookupError):
     """No lab, or several and none chosen, behind a client's endpoint."""
 
 
-class LabUnreachable(zenoh.ZError):
+# zenoh's stubs mark ZError final; it is subclassed fine at run time, and callers catch ZError
+class LabUnreachable(zenoh.ZError):  # type: ignore[misc]
     """No Zenoh session to an endpoint; the message says why, as far as it can be told."""
 
 
@@ -62,10 +63,10 @@ class LabLink:
         self._token: zenoh.LivelinessToken | None = None
         self._on_alive = on_alive
         self.session = open_session(endpoint, open_timeout, cancelled)
-        handler = (
+        handler: zenoh.handlers.FifoChannel[zenoh.Sample] | Callable[[zenoh.Sample], None] = (
             zenoh.handlers.FifoChannel(ALIVE_QUEUE) if on_alive is None else self._alive_sample
         )
-        self.alive = self.session.liveliness().declare_subscriber(
+        self.alive: zenoh.Subscriber[Any] = self.session.liveliness().declare_subscriber(
             ALL_LABS_ALIVE, handler, history=True
         )
 
@@ -98,7 +99,7 @@ class LabLink:
         Raises LabIdError for an id that cannot be one, changing nothing."""
         keys = LabKeys(lab_id)
         if self._token is not None:
-            self._token.undeclare()
+            undeclare(self._token)
         self._token = self.session.liveliness().declare_token(keys.client(self.client_id))
         self.keys = keys
         return keys
@@ -133,11 +134,15 @@ class LabLink:
 
     def close(self) -> None:
         """Undeclare the client token and the liveliness subscriber, close the session."""
-        if self._token is not None:
-            self._token.undeclare()
-            self._token = None
-        self.alive.undeclare()
-        self.session.close()
+        undeclare(*([self._token] if self._token is not None else []), self.alive)
+        self._token = None
+        self.session.close()  # type: ignore[no-untyped-call]  # (zenoh's stubs)
+
+
+def undeclare(*entities: zenoh.Subscriber[Any] | zenoh.LivelinessToken) -> None:
+    """Undeclare subscribers and tokens (zenoh's stubs leave `undeclare` untyped)."""
+    for entity in entities:
+        entity.undeclare()  # type: ignore[no-untyped-call]
 
 
 def _is_put(sample: zenoh.Sample) -> bool:

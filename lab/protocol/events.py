@@ -115,9 +115,11 @@ Event = (
 EVENT_KINDS: tuple[str, ...] = tuple(str(cls.__struct_config__.tag) for cls in get_args(Event))
 
 
+_DECODER = msgspec.json.Decoder(Event)
+
+
 def decode_event(raw: bytes | object) -> Event:
     """One event from its JSON bytes or decoded object; raises msgspec.ValidationError (or
     DecodeError) saying what does not fit."""
-    if isinstance(raw, bytes):
-        return msgspec.json.decode(raw, type=Event)  # type: ignore[arg-type]
-    return msgspec.convert(raw, Event)  # type: ignore[arg-type]
+    event: Event = _DECODER.decode(raw) if isinstance(raw, bytes) else msgspec.convert(raw, Event)
+    return event

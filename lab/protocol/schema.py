@@ -39,7 +39,7 @@ def _block(title: str, text: str, schema: dict[str, Any]) -> str:
     return f"### {title}\n\n{text}\n\n```json\n{body}\n```\n"
 
 
-def _components(types: list[Any]) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+def _components(types: list[Any]) -> tuple[tuple[dict[str, Any], ...], dict[str, Any]]:
     return msgspec.json.schema_components(types, ref_template="#/$defs/{name}")
 
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import zenoh
 
-from lab.client_core import LabLink, Reply, decode_message
+from lab.client_core import LabLink, Reply, decode_message, undeclare
 from lab.directory import LabDirectory
 from lab.protocol import DEFAULT_ENDPOINT, CommandStruct
 
@@ -51,8 +51,7 @@ class Link:
 
     def select(self, lab_id: str) -> None:
         """Watch lab `lab_id` from now on (its channels start empty)."""
-        for subscriber in self._streams:
-            subscriber.undeclare()
+        undeclare(*self._streams)
         self._link.select(lab_id)
         self._state = self._link.subscribe("state", zenoh.handlers.RingChannel(1))
         self._telemetry = self._link.subscribe("telemetry", zenoh.handlers.RingChannel(64))
@@ -108,6 +107,5 @@ class Link:
 
     def close(self) -> None:
         """Undeclare the channels, close the link."""
-        for subscriber in self._streams:
-            subscriber.undeclare()
+        undeclare(*self._streams)
         self._link.close()
