@@ -77,6 +77,16 @@ class LabClient:
         assert lab_id is not None
         return lab_id
 
+    @property
+    def session(self) -> zenoh.Session:
+        """The Zenoh session (raw queries with their own attachment, as the tests send)."""
+        return self._link.session
+
+    @property
+    def client_id(self) -> str:
+        """The id this client sends with each command (the control lock names its holder so)."""
+        return self._link.client_id
+
     def labs(self) -> dict[str, bool]:
         """Every lab seen since the client started, sorted by id: whether it is online now."""
         return self._link.directory.labs()

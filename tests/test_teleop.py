@@ -78,7 +78,7 @@ def test_gait_key_cycles_stand_trot_crawl_biped_step() -> None:
     assert press("w", state)[0].gait == "trot"  # other keys keep the gait
     assert press("r", state)[0].gait == "stand"  # the server resets to standing
     _, sent = press("g", TeleopState(gait="height_step"))  # a Hutter experiment behaviour
-    assert sent == [("gait", {"name": "stand"})]
+    assert sent == [GaitCommand("stand")]
 
 
 def test_a_rejected_gait_keeps_the_previous_one() -> None:
