@@ -3,8 +3,9 @@
 loop (no struct construction on a 1 kHz tick: docs/protocol.md says why) and the tests hold
 every message a session sends to these types; clients decode with them (`decode`).
 
-One file for the three because they share their parts (hierarchy, stack, loop statistics):
-about 300 lines of declarations, no logic.
+One file for the three, over 400 lines, because they share their parts (hierarchy, momentum,
+internal force, loop statistics, recording and playback) and it is declarations only, no logic:
+split, each part would be imported across three files.
 """
 
 from typing import Annotated, Literal, TypeVar
@@ -75,24 +76,41 @@ class StatsUs(Message, frozen=True):
 class Loop(Message, frozen=True):
     """The realtime loop's statistics (added by the sim process; docs/protocol.md)."""
 
-    rate_hz: float
-    realtime: Annotated[bool, Meta(description="false in --fast mode")]
-    fifo: bool
-    sched: Literal["fifo", "other"]
-    ticks: int
-    on_time_fraction: float
+    rate_hz: Annotated[float, Meta(description="scheduled rate")]
+    realtime: Annotated[bool, Meta(description="false in --fast mode (no sleeping)")]
+    fifo: Annotated[bool, Meta(description="SCHED_FIFO was granted (sched == 'fifo')")]
+    sched: Annotated[Literal["fifo", "other"], Meta(description="the loop thread's policy")]
+    ticks: Annotated[int, Meta(description="loop iterations since start")]
+    on_time_fraction: Annotated[
+        float, Meta(description="ticks that started <= 10 % of a period late, since start")
+    ]
     lateness_us: Annotated[StatsUs, Meta(description="tick start minus scheduled start")]
     tick_us: Annotated[StatsUs, Meta(description="work per iteration")]
-    overruns: int
-    late_wakeups: int
-    skipped: int
-    slice_us: float | None
-    nice: int | None
-    gc_collections: list[int]
-    tick_us_by_kind: dict[str, StatsUs]
-    late_lateness_us: dict[str, StatsUs]
-    gc_pause_us: dict[str, StatsUs]
-    clock_s: float | None = None
+    overruns: Annotated[
+        int, Meta(description="iterations whose work ended after the next deadline")
+    ]
+    late_wakeups: Annotated[
+        int, Meta(description="late ticks whose tick before ended in time (woken late)")
+    ]
+    skipped: Annotated[int, Meta(description="periods dropped after stalls > 50 ms")]
+    slice_us: Annotated[
+        float | None, Meta(description="EEVDF slice granted at SCHED_OTHER (--slice-ms), or null")
+    ]
+    nice: Annotated[int | None, Meta(description="nice value granted (--nice), or null")]
+    gc_collections: Annotated[
+        list[int], Meta(description="Python garbage collections since start, by generation")
+    ]
+    tick_us_by_kind: Annotated[
+        dict[str, StatsUs],
+        Meta(description="tick_us by what the loop did beside the tick: plain, telemetry, ..."),
+    ]
+    late_lateness_us: Annotated[
+        dict[str, StatsUs], Meta(description="lateness of late ticks: woken, pushed (overrun)")
+    ]
+    gc_pause_us: Annotated[dict[str, StatsUs], Meta(description="garbage collection pauses")]
+    clock_s: Annotated[
+        float | None, Meta(description="the loop's monotonic clock when the message was built")
+    ] = None
 
 
 class Recording(Message, frozen=True):
@@ -240,8 +258,8 @@ class TaskEntry(Message, frozen=True):
     """A name of the stack with its level, tracking error and gains (null: not read)."""
 
     name: str
-    level: int
-    error: float
+    level: Annotated[int, Meta(description="0 = highest priority")]
+    error: Annotated[float, Meta(description="norm of the tracking error this tick (0: none)")]
     kp: float | None
     kd: float | None
     weight: float | None
@@ -271,17 +289,25 @@ class Ran(Message, frozen=True):
 
     kernel: KernelName
     method: Literal["cascade", "weighted", "nullspace", "wbosc"]
-    solver: Literal["daqp", "clarabel", "none"]
-    formulation: Literal["qdd_force", "full", "qdd_tau", "sequential"]
+    solver: Annotated[
+        Literal["daqp", "clarabel", "none"], Meta(description="none: the method solves no QP")
+    ]
+    formulation: Annotated[
+        Literal["qdd_force", "full", "qdd_tau", "sequential"],
+        Meta(description="qdd_force (x = [q̈, F]) for every method but nullspace"),
+    ]
     note: str
 
 
 class Status(Message, frozen=True):
-    """How the last tick went."""
+    """How the last tick went (as TSID's HQPOutput status). fallback: a level's QP failed and
+    kept the solution of the levels above; capped: nullspace's active set stopped at its cap;
+    violated: wbosc (closed form) found a constraint of the stack violated and sent the torques
+    as they are; failed: no solution, fallback torques (joint PD + bias) were applied."""
 
     status: Literal["ok", "fallback", "capped", "violated", "failed"]
-    level: int | None
-    reason: str
+    level: Annotated[int | None, Meta(description="the first level concerned, or null")]
+    reason: Annotated[str, Meta(description="why ('' when ok)")]
 
 
 class ControllerWarning(Message, frozen=True):
@@ -303,12 +329,17 @@ class Qp(Message, frozen=True):
 class Solution(Message, frozen=True):
     """How the hierarchy found the last tick's x."""
 
-    fallback_levels: list[int]
-    levels: list[Literal["exact", "qp", "kept_above", "no_freedom", "projected"]]
-    residuals: list[float]
+    fallback_levels: Annotated[list[int], Meta(description="stack levels that fell back")]
+    levels: Annotated[
+        list[Literal["exact", "qp", "kept_above", "no_freedom", "projected"]],
+        Meta(description="one status per stack level"),
+    ]
+    residuals: Annotated[list[float], Meta(description="‖A x − b‖ of each level's equalities")]
     qp_solves: int
-    level_us: list[float]
-    violations: list[str]
+    level_us: Annotated[list[float], Meta(description="time spent on each level, µs")]
+    violations: Annotated[
+        list[str], Meta(description="wbosc: 'level k name: exceeded by x' per violation")
+    ]
 
 
 class VelocityInEffect(Message, frozen=True):
@@ -331,36 +362,50 @@ class PushInProgress(Message, frozen=True):
 class Telemetry(Message, frozen=True):
     """`lab/<id>/telemetry`: everything the UI plots and the tests check."""
 
-    t: Annotated[float, Meta(description="sim time, s (0 after reset or a switch)")]
+    t: Annotated[
+        float,
+        Meta(description="sim time, s: 0 after reset or a switch, never backwards otherwise"),
+    ]
     robot: str
     scene: str
     paused: bool
-    fell: bool
-    divergences: int
+    fell: Annotated[bool, Meta(description="fallen: torques off, joints damped until reset")]
+    divergences: Annotated[int, Meta(description="sim divergences since the process started")]
     gait: str
     base: Base
     com: Com
     momentum: Momentum
     contacts: list[Contact]
     cop: Cop
-    tasks: list[TaskEntry] | None
+    tasks: Annotated[list[TaskEntry] | None, Meta(description="every name in the stack")]
     stack: Stack | None
     momentum_control: MomentumControl | None
     internal_force: InternalForce
-    stepping: Stepping | None
-    hierarchy: Hierarchy | None
-    kernel: KernelName
-    kernel_note: str | None
+    stepping: Annotated[Stepping | None, Meta(description="biped_step only, else null")]
+    hierarchy: Annotated[
+        Hierarchy | None, Meta(description="what is asked; `ran` says what computed the tick")
+    ]
+    kernel: Annotated[KernelName, Meta(description="the kernel that ran the last tick")]
+    kernel_note: Annotated[
+        str | None,
+        Meta(description="why the native kernel asked for did not run ('' when it did)"),
+    ]
     ran: Ran
     status: Status
     controller_warnings: list[ControllerWarning]
     qp: Qp
-    solution: Solution | None
+    solution: Annotated[
+        Solution | None, Meta(description="null before the first tick and after fallback torques")
+    ]
     command: VelocityInEffect
     pushes: list[PushInProgress]
-    loop: Loop | None = None
-    recording: Recording | None = None
-    replay: Playback | None = None
+    loop: Annotated[Loop | None, Meta(description="added by the sim process")] = None
+    recording: Annotated[
+        Recording | None, Meta(description="added by lab serve: the recording running now")
+    ] = None
+    replay: Annotated[
+        Playback | None, Meta(description="added by lab replay --serve: where playback is")
+    ] = None
 
 
 # ---------------------------------------------------------------------------------- state
