@@ -23,6 +23,7 @@ import tty
 from dataclasses import dataclass, replace
 
 import zenoh
+from msgspec.structs import asdict
 
 from lab.client import LabClient, LabNotFound
 from lab.directory import next_online
@@ -243,7 +244,7 @@ def _run(
             state, commands = key_to_commands(data, state, body, push_force)
             for command in commands:
                 reply = lab.send(command)
-                print(f"\r\x1b[K{command!r} -> {reply}")
+                print(f"\r\x1b[K{command.VERB} {asdict(command)} -> {reply}")
                 # a gait this robot cannot run: the next one of the cycle, until one is taken
                 for _ in range(len(GAIT_CYCLE) - 2):
                     gait = isinstance(command, GaitCommand)
@@ -251,7 +252,7 @@ def _run(
                         break
                     state, [command] = key_to_commands("g", state, body, push_force)
                     reply = lab.send(command)
-                    print(f"\r\x1b[K{command!r} -> {reply}")
+                    print(f"\r\x1b[K{command.VERB} {asdict(command)} -> {reply}")
                 state = acknowledged(state, before, command, reply)
                 last_sent = time.monotonic()
         if not state.velocity().is_zero and time.monotonic() - last_sent > REFRESH_S:

@@ -108,6 +108,12 @@ def test_a_wrong_field_or_value_is_named_with_the_verb(verb: str) -> None:
         ("stance", {"swing": -1}, "stance: field 'swing' = -1 is out of range [0, 1]"),
         ("internal_force", {}, "internal_force: give at least one of 'reference', 'source'"),
         ("stack", {"levels": [["a", "a"]]}, "stack: field 'levels[0]' repeats task 'a'"),
+        (  # an optional field is left out for its default, never null
+            "push",
+            {"body": "base", "force": [0, 0, 1], "duration": 1, "point": None},
+            "push: field 'point' must be a list, got null",
+        ),
+        ("gains", {"task": "com", "kp": None}, "gains: field 'kp' must be a number, got null"),
     ],
 )
 def test_a_range_a_choice_or_a_rule_names_what_was_wrong(

@@ -43,6 +43,19 @@ def _components(types: list[Any]) -> tuple[tuple[dict[str, Any], ...], dict[str,
     return msgspec.json.schema_components(types, ref_template="#/$defs/{name}")
 
 
+def _not_null(definitions: dict[str, Any]) -> dict[str, Any]:
+    """Command definitions whose optional fields take no null: one is left out for its default
+    (`parse_command` refuses a null), so its schema is the field's own type."""
+    for definition in definitions.values():
+        for name, field in definition.get("properties", {}).items():
+            if field.get("default", 0) is None and "anyOf" in field:
+                options = [o for o in field["anyOf"] if o != {"type": "null"}]
+                rest = {k: v for k, v in field.items() if k not in ("anyOf", "default")}
+                field = {**rest, "anyOf": options} if len(options) > 1 else {**rest, **options[0]}
+                definition["properties"][name] = field
+    return definitions
+
+
 def schema_section() -> str:
     """The generated part of docs/protocol.md: one JSON Schema per channel, each with its
     definitions (a struct's docstring is its description)."""
@@ -61,7 +74,7 @@ def schema_section() -> str:
                 "$id": "lab/cmd",
                 "type": "object",
                 "properties": dict(zip(verbs, payloads, strict=True)),
-                "$defs": command_defs,
+                "$defs": _not_null(command_defs),
             },
         ),
         _block(

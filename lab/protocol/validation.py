@@ -42,6 +42,10 @@ def parse_command(verb: str, payload: object) -> Command:
             if old in payload:
                 raise CommandError(f"{verb}: field {old!r} is now called {new!r}")
     cls = COMMANDS[verb]
+    if isinstance(payload, Mapping):  # an optional field is left out, never null
+        for key, value in payload.items():
+            if value is None and key in cls.__struct_fields__:
+                raise CommandError(f"{verb}: field '{key}' must be {_expected(cls, key)}, got null")
     try:
         command: Command = msgspec.convert(payload, cls)  # type: ignore[assignment]
     except msgspec.ValidationError as error:
@@ -95,6 +99,15 @@ def _explain(cls: type, payload: object, error: str) -> str:
         choices = ", ".join(str(v) for v in _type_at(cls, path, inspect.LiteralType).values)
         return f"field '{field}' must be one of {choices}, got {value!r}"
     return f"field '{field}': {what}"
+
+
+def _expected(cls: type, field: str) -> str:
+    """What field `field` of struct `cls` takes, in words."""
+    node = _type_at(cls, f".{field}", inspect.Type)
+    if isinstance(node, inspect.LiteralType):
+        return "one of " + ", ".join(str(v) for v in node.values)
+    words = {inspect.FloatType: "a number", inspect.StrType: "a string"}
+    return words.get(type(node), "a list")
 
 
 def inspect_fields(cls: type) -> list[str]:
