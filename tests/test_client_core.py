@@ -46,3 +46,18 @@ def test_no_client_imports_the_server() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
     )
     assert result.stdout.strip() == "[]", result.stdout
+
+
+def test_the_protocol_is_light() -> None:
+    """Every process imports lab.protocol: it brings neither numpy, Zenoh, pinocchio nor MuJoCo,
+    nor any other part of the lab."""
+    code = (
+        "import sys, lab.protocol, lab.protocol.schema\n"
+        "heavy = {'numpy', 'zenoh', 'pinocchio', 'mujoco'}\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in heavy\n"
+        "             or m.startswith('lab.') and not m.startswith('lab.protocol')))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
+    assert result.stdout.strip() == "[]", result.stdout
