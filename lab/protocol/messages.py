@@ -1,7 +1,7 @@
 """Every reply, telemetry and state message of a lab, once, as msgspec Structs (docs/protocol.md,
-"Replies", "lab/telemetry", "lab/state"). The server builds these messages as plain dicts on its
-loop (typing them there costs 15-58 % of their build: docs/protocol.md, "Schemas") and the tests hold
-every message a session sends to these types; clients decode with them (`decode`).
+"Replies", "lab/telemetry", "lab/state"). The server builds these messages as plain dicts on
+its loop (typing them there costs 15-58 % of their build: docs/protocol.md, "Schemas") and the
+tests hold every message a session sends to these types; clients decode with them (`decode`).
 
 One file for the three, over 400 lines, because they share their parts (hierarchy, momentum,
 internal force, loop statistics, recording and playback) and it is declarations only, no logic:
