@@ -41,7 +41,7 @@ from lab.protocol.events import EVENT_KINDS, decode_event
 from lab.protocol.messages import InfoReply, Reply, State, Telemetry, decode
 from lab.server.loop import LoopConfig, SimLoop
 from lab.server.session import Session, SessionConfig
-from lab.ui.app import MOTION_ENDING_EVENTS
+from lab.ui.app import INFO_CHANGING_VERBS, MOTION_ENDING_EVENTS, MOTION_ENDING_VERBS
 from lab.ui.event_log import RECURRING_EVENTS, SERVER_EVENTS
 
 # One valid command of each verb (adding a verb adds its example here).
@@ -246,6 +246,7 @@ def test_what_the_loop_publishes_fits_the_structs() -> None:
     decode_event(msgspec.json.encode(transport.events[0]))
 
 
-def test_the_page_names_only_events_the_server_sends() -> None:
+def test_the_page_names_only_events_and_verbs_the_server_has() -> None:
     """The page once handled a `preset` event no server sent."""
     assert set(SERVER_EVENTS) | set(RECURRING_EVENTS) | MOTION_ENDING_EVENTS <= set(EVENT_KINDS)
+    assert set(VERBS) >= INFO_CHANGING_VERBS | MOTION_ENDING_VERBS
