@@ -33,7 +33,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from browser import CHROMIUM, CHROMIUM_ARGS, LabServe
 
-from lab.client import LabClient, client_id, open_session
+from lab.client import LabClient
+from lab.client_core import client_id, open_session
 from lab.protocol import LabKeys
 
 IN_FLIGHT = 32  # queries a flooding client keeps unanswered at most

@@ -166,6 +166,12 @@ def _report(argv: list[str]) -> int:
     return report_main(argv)
 
 
+def _protocol(argv: list[str]) -> int:
+    from lab.protocol.schema import schema_main
+
+    return schema_main(argv)
+
+
 def _teleop(argv: list[str]) -> int:
     from lab.teleop import teleop_main
 
@@ -183,6 +189,7 @@ COMMANDS = {
     "report": _report,
     "router": _router,
     "robot": _robot,
+    "protocol": _protocol,
 }
 
 

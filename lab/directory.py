@@ -52,4 +52,4 @@ def next_online(labs: dict[str, bool], lab_id: str | None) -> str | None:
     when none is online. What a "next lab" key steps to."""
     online = sorted(other for other, alive in labs.items() if alive)
     later = [other for other in online if lab_id is None or other > lab_id]
-    return (later or online or [None])[0]
+    return next(iter(later or online), None)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from lab.controller.tasks import TASK_TYPES
-from lab.server.commands import CommandError, parse_command
+from lab.protocol import CommandError, parse_command
 
 STACKS_DIR = Path(__file__).resolve().parent.parent / "stacks"
 PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))

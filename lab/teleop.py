@@ -23,10 +23,25 @@ import tty
 from dataclasses import dataclass, replace
 
 import zenoh
+from msgspec.structs import asdict
 
 from lab.client import LabClient, LabNotFound
 from lab.directory import next_online
-from lab.protocol import DEFAULT_ENDPOINT, VX_MAX, VY_MAX, YAW_RATE_MAX, LabIdError
+from lab.protocol import (
+    DEFAULT_ENDPOINT,
+    PUSH_FORCE_MAX,
+    VX_MAX,
+    VY_MAX,
+    YAW_RATE_MAX,
+    CommandStruct,
+    GaitCommand,
+    LabIdError,
+    PauseCommand,
+    PushCommand,
+    ResetCommand,
+    ResumeCommand,
+    VelocityCommand,
+)
 
 VX_STEP = 0.1  # m/s per key press
 VY_STEP = 0.1  # m/s
@@ -48,8 +63,9 @@ class TeleopState:
     paused: bool = False
     gait: str = "stand"  # the gait last asked for and not rejected
 
-    def velocity(self) -> dict[str, float]:
-        return {"vx": self.vx, "vy": self.vy, "yaw_rate": self.yaw_rate}
+    def velocity(self) -> VelocityCommand:
+        """The velocity command of this state."""
+        return VelocityCommand(self.vx, self.vy, self.yaw_rate)
 
 
 def _step(value: float, step: float, limit: float) -> float:
@@ -65,8 +81,8 @@ def next_gait(gait: str) -> str:
 
 def key_to_commands(
     key: str, state: TeleopState, body: str, push_force: float
-) -> tuple[TeleopState, list[tuple[str, dict[str, object]]]]:
-    """The new state and the commands (verb, payload) one key press sends; unknown keys send
+) -> tuple[TeleopState, list[CommandStruct]]:
+    """The new state and the commands (lab.protocol structs) one key press sends; unknown keys send
     nothing."""
     velocity_keys = {
         "w": ("vx", VX_STEP, VX_MAX),
@@ -79,29 +95,31 @@ def key_to_commands(
     if key in velocity_keys:
         field, step, limit = velocity_keys[key]
         state = replace(state, **{field: _step(getattr(state, field), step, limit)})
-        return state, [("velocity", state.velocity())]
+        return state, [state.velocity()]
     if key == " ":
         state = replace(state, vx=0.0, vy=0.0, yaw_rate=0.0)
-        return state, [("velocity", state.velocity())]
+        return state, [state.velocity()]
     if key in PUSH_DIRECTIONS:
         dx, dy = PUSH_DIRECTIONS[key]
-        force = [dx * push_force, dy * push_force, 0.0]
-        return state, [("push", {"body": body, "force": force, "duration": PUSH_DURATION_S})]
+        force = (dx * push_force, dy * push_force, 0.0)
+        return state, [PushCommand(body, force, PUSH_DURATION_S)]
     if key == "g":
         state = replace(state, gait=next_gait(state.gait))
-        return state, [("gait", {"name": state.gait})]
+        return state, [GaitCommand(state.gait)]
     if key == "r":  # the server resets to standing
-        return TeleopState(paused=state.paused), [("reset", {})]
+        return TeleopState(paused=state.paused), [ResetCommand()]
     if key == "p":
         return replace(state, paused=not state.paused), [
-            ("resume" if state.paused else "pause", {})
+            ResumeCommand() if state.paused else PauseCommand()
         ]
     return state, []
 
 
-def acknowledged(state: TeleopState, before: TeleopState, verb: str, reply: dict) -> TeleopState:
-    """The state once the server replied to `verb`: a rejected gait keeps the one `before`."""
-    if verb == "gait" and not reply.get("ok"):
+def acknowledged(
+    state: TeleopState, before: TeleopState, command: CommandStruct, reply: dict
+) -> TeleopState:
+    """The state once the server replied to `command`: a rejected gait keeps the one `before`."""
+    if isinstance(command, GaitCommand) and not reply.get("ok"):
         return replace(state, gait=before.gait)
     return state
 
@@ -157,7 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def teleop_main(argv: list[str]) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not 0.0 < args.push_force <= PUSH_FORCE_MAX:  # the push command's range
+        parser.error(f"--push-force {args.push_force:g}: must be in (0, {PUSH_FORCE_MAX:g}] N")
     try:
         lab = LabClient(args.connect, lab_id=args.lab_id, first=True)
     except (LabNotFound, LabIdError, zenoh.ZError) as error:  # ZError: client.LabUnreachable,
@@ -213,31 +234,29 @@ def _run(
                 if following is None or following == lab.lab_id:
                     print(f"\r\x1b[Kno other lab online; {labs_line(lab.labs(), lab.lab_id)}")
                     continue
-                if state.velocity() != TeleopState().velocity():  # the lab left behind stops
-                    lab.command("velocity", **TeleopState().velocity())
+                if not state.velocity().is_zero:  # the lab left behind stops
+                    lab.send(VelocityCommand())
                 lab.select(following)
                 started = _start(lab, body_asked)
                 state, body = started if started is not None else (TeleopState(), body)
                 continue
             before = state
             state, commands = key_to_commands(data, state, body, push_force)
-            for verb, payload in commands:
-                reply = lab.command(verb, **payload)
-                print(f"\r\x1b[K{verb} {payload} -> {reply}")
+            for command in commands:
+                reply = lab.send(command)
+                print(f"\r\x1b[K{command.VERB} {asdict(command)} -> {reply}")
                 # a gait this robot cannot run: the next one of the cycle, until one is taken
                 for _ in range(len(GAIT_CYCLE) - 2):
-                    if verb != "gait" or reply.get("ok") or state.gait == before.gait:
+                    gait = isinstance(command, GaitCommand)
+                    if not gait or reply.get("ok") or state.gait == before.gait:
                         break
-                    state, [(verb, payload)] = key_to_commands("g", state, body, push_force)
-                    reply = lab.command(verb, **payload)
-                    print(f"\r\x1b[K{verb} {payload} -> {reply}")
-                state = acknowledged(state, before, verb, reply)
+                    state, [command] = key_to_commands("g", state, body, push_force)
+                    reply = lab.send(command)
+                    print(f"\r\x1b[K{command.VERB} {asdict(command)} -> {reply}")
+                state = acknowledged(state, before, command, reply)
                 last_sent = time.monotonic()
-        if (
-            state.velocity() != TeleopState().velocity()
-            and time.monotonic() - last_sent > REFRESH_S
-        ):
-            lab.command("velocity", **state.velocity())
+        if not state.velocity().is_zero and time.monotonic() - last_sent > REFRESH_S:
+            lab.send(state.velocity())
             last_sent = time.monotonic()
         line = status_line(lab.latest_telemetry(), state, lab.lab_id, lab.connected)
         print(f"\r\x1b[K{line}", end="", flush=True)

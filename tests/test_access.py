@@ -17,9 +17,6 @@ from test_faults import ready_client, serve
 
 from lab.client import LabClient
 from lab.server.access import (
-    ENV_CONFIG,
-    ENV_PASSWORD,
-    ENV_USER,
     ListenAccess,
     is_loopback,
     listen_access,
@@ -27,6 +24,7 @@ from lab.server.access import (
     remote_listen_refusal,
 )
 from lab.server.transport import server_config
+from lab.zenoh_config import ENV_CONFIG, ENV_PASSWORD, ENV_USER
 
 CONNECT_S = 3.0  # a refused client gives up after this long
 

@@ -55,7 +55,7 @@ def test_queries_are_validated_off_the_loop_and_answered_on_their_key() -> None:
     transport = ServerTransport(server_config(port), LAB)
     try:
         with LabClient(f"tcp/127.0.0.1:{port}") as lab:
-            session = lab._session
+            session = lab.session
             push = b'{"body": "base", "force": [0, 10, 0], "duration": 0.1}'
             replies = lab_query(session, LAB, "push", push, attachment="tester-1")
             request = _receive(transport)
@@ -98,7 +98,7 @@ def test_a_client_over_its_rate_or_queue_is_told_so() -> None:
     transport = ServerTransport(server_config(port), LAB)  # nobody drains: commands wait
     try:
         with LabClient(f"tcp/127.0.0.1:{port}") as lab:
-            session = lab._session
+            session = lab.session
             sent = [
                 lab_query(session, LAB, "pause", b"{}", attachment="flood")
                 for _ in range(BURST * 2)

@@ -8,18 +8,20 @@ from lab.protocol import (
     GAIN_MAX,
     PUSH_DURATION_MAX,
     PUSH_FORCE_MAX,
+    VERBS,
     VX_MAX,
     VY_MAX,
     WEIGHT_MAX,
     YAW_RATE_MAX,
+    CommandError,
     GainsCommand,
     HierarchyCommand,
     InfoCommand,
     PushCommand,
     StackCommand,
     VelocityCommand,
+    parse_command,
 )
-from lab.server.commands import VERBS, CommandError, parse_command
 
 
 def test_verbs_are_the_protocol_verbs() -> None:

@@ -35,7 +35,7 @@ def test_the_lock_through_zenoh() -> None:
             assert b.command("pause")["ok"] and b.command("resume")["ok"]  # no holder
             taken = a.command("take")
             a_id = taken["control"]["holder"]
-            assert taken["ok"] and a_id == str(a._session.zid())
+            assert taken["ok"] and a_id == a.client_id
             refused = b.command("pause")
             assert not refused["ok"] and a_id in refused["error"], refused
             assert refused["error"].startswith("pause:")

@@ -2,7 +2,7 @@
 payloads that fail in the parser (shape, type, range) and in the session (a name it does not
 know, a value this robot cannot take), and every refusal reads `<verb>: ...`."""
 
-from lab.server.commands import VERBS
+from lab.protocol import VERBS
 from lab.server.session import Session, SessionConfig
 
 # Payloads each verb refuses in the session, after parsing: names it does not know, values out of

@@ -320,7 +320,7 @@ def test_a_subscriber_that_never_reads_does_not_slow_the_loop(tmp_path: Path) ->
     its channel: the loop keeps its schedule and other clients get fresh telemetry."""
     stuck = (
         "import sys, threading, zenoh\n"
-        "from lab.server.transport import client_config\n"
+        "from lab.zenoh_config import client_config\n"
         "never = threading.Event()\n"
         "session = zenoh.open(client_config(sys.argv[1]))\n"
         "blocked = session.declare_subscriber('lab/**', lambda sample: never.wait())\n"

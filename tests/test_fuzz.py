@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 from lab.controller.tasks import TASK_TYPES
 from lab.description import ROBOT_NAMES
+from lab.protocol import VERBS
 from lab.scenes import SCENES
-from lab.server.commands import VERBS
 from lab.server.session import Session, SessionConfig
 
 BATCHES, BATCH = 200, 50  # 10,000 commands

@@ -69,7 +69,7 @@ def _key(keys: LabKeys, verb: str) -> str:
 def _fuzz(server: LiveServer, examples: int) -> dict[str, int]:
     client = server.client
     keys = LabKeys(client.lab_id)
-    session = client._session
+    session = client.session
     counts = {"ok": 0, "error": 0}
     sent = [0]
 

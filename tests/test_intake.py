@@ -5,8 +5,7 @@ import json
 
 import zenoh
 
-from lab.protocol import MAX_PAYLOAD_BYTES, LabKeys
-from lab.server.commands import parse_command
+from lab.protocol import MAX_PAYLOAD_BYTES, LabKeys, parse_command
 from lab.server.intake import BURST, CLIENT_QUEUE, RATE_HZ, CommandIntake
 
 KEYS = LabKeys("intake")

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from lab.server.access import ENV_PASSWORD, ENV_USER
+from lab.zenoh_config import ENV_PASSWORD, ENV_USER
 
 STARTUP_S = 90.0  # two sim processes importing MuJoCo and pinocchio at once on a busy machine
 WAIT_S = 30.0  # for what takes a fraction of a second on an idle machine

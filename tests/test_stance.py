@@ -12,7 +12,7 @@ from lab.controller.behaviours.stance import (
     Stance,
     flexion_joints,
 )
-from lab.server.commands import CommandError, parse_command
+from lab.protocol import CommandError, parse_command
 from lab.server.session import Session, SessionConfig
 
 

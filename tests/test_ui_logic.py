@@ -539,15 +539,18 @@ def test_the_urdf_visuals_sit_where_pinocchio_puts_them(name) -> None:
             assert np.allclose(visual.size, geom.meshScale)
 
 
-def test_the_ui_process_imports_neither_pinocchio_nor_mujoco() -> None:
+def test_the_ui_process_imports_neither_pinocchio_nor_mujoco_nor_the_server() -> None:
     """The UI is a Zenoh client that draws: every module of lab.ui imports only light parts of
-    the lab (lab.protocol, lab.description, lab.scenes are plain data), never the controller's
-    pinocchio or the sim's MuJoCo."""
+    the lab (lab.protocol, lab.description, lab.scenes are plain data, lab.client_core its
+    link), never the controller's pinocchio, the sim's MuJoCo or the server's side of Zenoh
+    (lab.server: its configuration, queryable and publishers)."""
     code = (
         "import importlib, pkgutil, sys, lab.ui\n"
         "for m in pkgutil.iter_modules(lab.ui.__path__):\n"
         "    importlib.import_module('lab.ui.' + m.name)\n"
-        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pinocchio', 'mujoco')))\n"
+        "heavy = ('pinocchio', 'mujoco')\n"
+        "print(sorted(m for m in sys.modules\n"
+        "             if m.split('.')[0] in heavy or m.startswith('lab.server')))\n"
     )
     result = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300

@@ -11,35 +11,15 @@ users for a password or serves TLS, or unless asked for with `--open`. docs/prot
 """
 
 import json
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import zenoh
 
-ENV_USER = "LAB_ZENOH_USER"
-ENV_PASSWORD = "LAB_ZENOH_PASSWORD"
-ENV_CONFIG = "LAB_ZENOH_CONFIG"  # a client's Zenoh configuration file (TLS: the CA to trust)
+from lab.zenoh_config import Credentials
+
 _LOOPBACK_HOST = re.compile(r"^(127\.\d+\.\d+\.\d+|localhost|\[::1\])$")
-
-
-@dataclass(frozen=True)
-class Credentials:
-    """A user and password that a Zenoh session presents when it opens a link."""
-
-    user: str
-    password: str
-
-    def env(self) -> dict[str, str]:
-        """The environment variables that hand these credentials to a child process."""
-        return {ENV_USER: self.user, ENV_PASSWORD: self.password}
-
-
-def credentials_from_env() -> Credentials | None:
-    """Credentials from LAB_ZENOH_USER and LAB_ZENOH_PASSWORD, or None when they are unset."""
-    user, password = os.environ.get(ENV_USER), os.environ.get(ENV_PASSWORD)
-    return Credentials(user, password) if user and password is not None else None
 
 
 def read_users(path: str | Path) -> list[Credentials]:
@@ -68,18 +48,6 @@ def local_endpoint(endpoint: str) -> str:
     """Where a process on this host reaches a session listening on `endpoint` (all
     interfaces, `0.0.0.0` or `[::]`, reached on loopback)."""
     return endpoint.replace("/0.0.0.0:", "/127.0.0.1:").replace("/[::]:", "/[::1]:")
-
-
-def usrpwd_settings(
-    users_file: str | Path | None = None, credentials: Credentials | None = None
-) -> dict[str, str]:
-    """Zenoh's `transport/auth/usrpwd`: the users it accepts, the credentials it presents."""
-    settings = {}
-    if users_file is not None:
-        settings["dictionary_file"] = str(Path(users_file).resolve())
-    if credentials is not None:
-        settings |= {"user": credentials.user, "password": credentials.password}
-    return settings
 
 
 TLS_PROTOCOLS = ("tls", "quic")  # Zenoh's links that take transport/link/tls's certificate

@@ -25,7 +25,7 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader
 from mcap.writer import MCAP0_MAGIC, Writer
 
-from lab.server.commands import CommandError, parse_command
+from lab.protocol import CommandError, parse_command
 from lab.server.limits import apply_limits
 from lab.server.session import Session, SessionConfig
 from lab.server.transport import Request, ServerTransport, encode

@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from lab.controller.native import KERNELS
+from lab.protocol import CommandError, parse_command
 from lab.scenes import SEEDED_SCENES
-from lab.server.commands import CommandError, parse_command
 from lab.server.expect import Expectation, ExpectError, check_expect, parse_expect, skipped_expect
 from lab.server.limits import LimitsError, apply_limits, check_limits
 from lab.server.metrics import METRICS

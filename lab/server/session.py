@@ -2,19 +2,22 @@
 
 The same object runs headless (tests, scenarios, benchmarks: as fast as the CPU allows) and
 inside the realtime sim process (which adds the schedule and Zenoh around it). Commands arrive as
-(verb, JSON payload), are validated by `parse_command`, and are applied between ticks; a rejected
-command changes nothing and the reply names the problem. What a session publishes (telemetry,
-the drawing state) is built in `telemetry.py`.
+(verb, JSON payload), are validated into their lab.protocol struct by `parse_command`, and are
+applied between ticks (`_apply`: one case per struct); a rejected command changes nothing and the
+reply names the problem. What a session publishes (telemetry, the drawing state) is built in
+`telemetry.py`.
 """
 
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import assert_never
 
 import numpy as np
 import pinocchio as pin
 
+from lab import protocol as cmd
 from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.behaviours.stance import Stance
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
@@ -32,7 +35,6 @@ from lab.description import ROBOT_NAMES, load_description, robot_names
 from lab.protocol import TaskGains
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
-from lab.server import commands as cmd
 from lab.server.memory import release_free_memory
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
@@ -491,19 +493,23 @@ class Session:
         return {"ok": False, "error": message}
 
     def _apply(self, command: cmd.Command) -> dict:
+        """Apply `command`: one case per command struct (lab.protocol.commands)."""
         match command:
             case cmd.InfoCommand():
                 return self.info()
             case cmd.VelocityCommand(vx=vx, vy=vy, yaw_rate=yaw_rate):
                 self.velocity = np.array([vx, vy, yaw_rate])
+                return {}
             case cmd.PushCommand(body=body, force=force, duration=duration, point=point):
                 self._push(
                     body, np.array(force), duration, None if point is None else np.array(point)
                 )
+                return {}
             case cmd.RobotCommand() | cmd.SceneCommand():
                 old = self.install(build_parts(self.switch_config(command)))
                 del old  # the old session's parts, freed here...
                 release_free_memory()  # ...and the heap they took given back (memory.py)
+                return {}
             case cmd.HierarchyCommand(
                 method=method, solver=solver, formulation=formulation, kernel=kernel
             ):
@@ -535,8 +541,10 @@ class Session:
                 return {"stack": self.controller.config.stack.as_lists()} if restored else {}
             case cmd.PauseCommand():
                 self.paused = True
+                return {}
             case cmd.ResumeCommand():
                 self.paused = False
+                return {}
             case cmd.GaitCommand(name=name) as gait:
                 options = {
                     key: getattr(gait, key)
@@ -557,7 +565,10 @@ class Session:
                 return {"momentum": {**momentum_report(self.controller), "gain": gain}}
             case cmd.StanceCommand(side=side, swing=swing):
                 return self._stance(side, swing)
-        return {}
+            case cmd.TakeCommand() | cmd.ReleaseCommand():  # one user: nothing to lock
+                return {}
+            case _:  # a command struct without a case here: mypy names it
+                assert_never(command)
 
     def _stance(self, side: str | None, swing: float | None = None) -> dict:
         """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py; None: where it

@@ -26,8 +26,7 @@ import time
 from dataclasses import asdict, dataclass, field
 
 from lab.controller.tasks.internal_force import SENSED_SOURCES
-from lab.protocol import LIMITS, SWING_HZ_MAX
-from lab.server.commands import CommandError, parse_command
+from lab.protocol import LIMITS, SWING_HZ_MAX, CommandError, parse_command
 from lab.server.loop import LoopConfig, SimLoop
 from lab.server.transport import Request, encode
 

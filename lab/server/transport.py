@@ -8,8 +8,6 @@ publishes it encodes itself; another thread of ours (`PutThread`) puts the bytes
 See docs/protocol.md.
 """
 
-import json
-import os
 import queue
 import threading
 from collections.abc import Callable, Sequence
@@ -19,19 +17,10 @@ import msgspec
 import numpy as np
 import zenoh
 
-from lab.protocol import DEFAULT_ENDPOINT, DEFAULT_PORT, LabKeys
-from lab.server.access import (
-    ENV_CONFIG,
-    Credentials,
-    ListenAccess,
-    credentials_from_env,
-    listen_access,
-    read_users,
-    remote_listen_refusal,
-    usrpwd_settings,
-)
-from lab.server.commands import parse_command
+from lab.protocol import DEFAULT_PORT, LabKeys, parse_command
+from lab.server.access import ListenAccess, listen_access, read_users, remote_listen_refusal
 from lab.server.intake import CommandIntake, Request
+from lab.zenoh_config import Credentials, usrpwd_settings, zenoh_config
 
 # Queries Zenoh keeps for the intake thread; beyond this the oldest get no reply. The intake
 # answers each at once, so this fills only while that thread is starved.
@@ -40,8 +29,6 @@ INTAKE_STOP_S = 2.0  # how long `close` waits for the intake thread
 MAX_CLIENT_CHANGES = 1024  # clients' liveliness changes kept between two commands (the oldest go)
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
 PUBLISH_BACKLOG = 64
-
-_NO_SCOUTING = {"scouting/multicast/enabled": False, "scouting/gossip/enabled": False}
 
 
 def _plain(value: object) -> object:
@@ -82,7 +69,7 @@ def server_config(
     }
     if users_file is not None or credentials is not None:
         settings["transport/auth/usrpwd"] = usrpwd_settings(users_file, credentials)
-    return _config(settings, base_file)
+    return zenoh_config(settings, base_file)
 
 
 class AccessError(ValueError):
@@ -117,28 +104,6 @@ def checked_server_config(
     if refusal := remote_listen_refusal(program, access, opened):
         raise AccessError(refusal)
     return config, access, credentials
-
-
-def client_config(
-    endpoint: str = DEFAULT_ENDPOINT, credentials: Credentials | None = None
-) -> zenoh.Config:
-    """Client connecting to exactly `endpoint`, no scouting; presenting `credentials`, by
-    default those of LAB_ZENOH_USER / LAB_ZENOH_PASSWORD if set, over the Zenoh configuration
-    file LAB_ZENOH_CONFIG names if set (TLS: the CA to trust; access.py)."""
-    settings: dict[str, object] = {"mode": "client", "connect/endpoints": [endpoint]}
-    credentials = credentials or credentials_from_env()
-    if credentials is not None:
-        settings["transport/auth/usrpwd"] = usrpwd_settings(credentials=credentials)
-    return _config(settings, os.environ.get(ENV_CONFIG) or None)
-
-
-def _config(settings: dict[str, object], base_file: str | Path | None = None) -> zenoh.Config:
-    """`settings` (keys are Zenoh configuration paths) over `base_file` or Zenoh's defaults,
-    with scouting off."""
-    config = zenoh.Config.from_file(str(base_file)) if base_file is not None else zenoh.Config()
-    for key, value in (settings | _NO_SCOUTING).items():
-        config.insert_json5(key, json.dumps(value))
-    return config
 
 
 class PutThread:

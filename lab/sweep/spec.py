@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lab.server.commands import VERBS
+from lab.protocol import VERBS
 from lab.server.scenario import SCENARIO_KEYS, Scenario, ScenarioError, parse_scenario
 
 SWEEP_KEYS = {"name", "description", "base", "duration", "timeout", "set", "grid", "sample"}

@@ -26,7 +26,7 @@ import viser
 import zenoh
 
 from lab.description import load_description
-from lab.protocol import VelocityCommand
+from lab.protocol import CommandStruct, PushCommand, VelocityCommand
 from lab.ui.drag_push import Spring, spring_force
 from lab.ui.event_log import ALL, CATEGORIES, EventLog, log_server_event
 from lab.ui.guard_rails import error_growth
@@ -280,7 +280,7 @@ class LabApp:
             if self._pending is not None:  # a velocity or drag push on its way to the old lab
                 futures.wait([self._pending], SWITCH_WAIT_S)
             if not self._velocity.is_zero:  # the lab left behind stops now, not at its deadman
-                self.link.request("velocity", VelocityCommand().payload())
+                self.link.send(VelocityCommand())
             self._velocity, self._drag = VelocityCommand(), None
             self.link.select(wanted)
         if self.link.lab_id != self._watched_lab:
@@ -309,7 +309,7 @@ class LabApp:
         self._drag = None
         if not self._velocity.is_zero:
             self._velocity = VelocityCommand()
-            self._send_background("velocity", self._velocity.payload())
+            self._send_background(self._velocity)
 
     # ---- commands ----------------------------------------------------------------------------
     def send(self, client: viser.ClientHandle, verb: str, payload: dict) -> dict | None:
@@ -356,13 +356,13 @@ class LabApp:
             return
         self._velocity = cmd
         self._velocity_sent = time.monotonic()
-        self._send_background("velocity", cmd.payload())
+        self._send_background(cmd)
 
-    def _send_background(self, verb: str, payload: dict) -> None:
+    def _send_background(self, command: CommandStruct) -> None:
         """Fire-and-forget for streams (velocity refresh, drag push): skip if one is in flight."""
         if self._pending is not None and not self._pending.done():
             return
-        self._pending = self._sender.submit(self.link.request, verb, payload)
+        self._pending = self._sender.submit(self.link.send, command)
 
     def base_yaw(self) -> float:
         return 0.0 if self.telemetry is None else _yaw(self.telemetry["base"]["quaternion"])
@@ -402,9 +402,9 @@ class LabApp:
         force = spring_force(grab, pointer, self._spring)
         if self.overlays is not None:
             self.overlays.show_drag(grab, pointer)
-        payload = {"body": body, "force": force.tolist(), "duration": DRAG_PUSH_S}
-        payload["point"] = grab.tolist()
-        self._send_background("push", payload)
+        fx, fy, fz = force.tolist()
+        x, y, z = grab.tolist()
+        self._send_background(PushCommand(body, (fx, fy, fz), DRAG_PUSH_S, (x, y, z)))
 
     # ---- drawing -----------------------------------------------------------------------------
     def _toggle_overlay(self, name: str, visible: bool) -> None:
@@ -626,7 +626,7 @@ class LabApp:
             if self._drag is not None:
                 self._drag_push()
             elif not self._velocity.is_zero:
-                self._send_background("velocity", self._velocity.payload())
+                self._send_background(self._velocity)
         if now - clock.plot >= PLOT_S:
             clock.plot = now
             self.plots.draw()

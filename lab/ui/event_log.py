@@ -159,16 +159,20 @@ class EventLog:
         return "\n".join(lines)
 
 
-# The server's events (`lab/<id>/events`, docs/protocol.md) by the log's category and level.
+# The server's events (`lab/<id>/events`, lab.protocol.events) by the log's category and level;
+# any other kind is logged as an info warning (tests/test_protocol_messages.py: only kinds the
+# server sends are named here).
 SERVER_EVENTS = {
     "fall": ("fall", "error"),
     "reset": ("reset", "info"),
     "session_rebuilt": ("reset", "info"),
-    "preset": ("info", "info"),
     "rejected_command": ("refusal", "error"),
     "solver_failure": ("fault", "error"),
     "solver_fallback": ("fault", "warning"),
+    "solver_capped": ("fault", "warning"),
+    "solver_violation": ("fault", "warning"),
     "sim_diverged": ("fault", "error"),
+    "stall": ("fault", "warning"),
 }
 RECURRING_EVENTS = {"overrun": "count"}  # server events counted on one line, by their field
 

@@ -1,21 +1,25 @@
-"""The UI's Zenoh link to a lab: commands as queries, telemetry/state/events as latest-value
-channels the render loop drains (no Python runs on Zenoh's threads), and the labs it can see.
+"""The UI's Zenoh link to a lab, on the client core (`lab.client_core.LabLink`, as `LabClient`
+is): commands as queries, telemetry/state/events as latest-value channels the render loop drains
+(no Python runs on Zenoh's threads), and the labs it can see.
 
 Behind a router several labs may be visible (`lab/<id>/alive`): the link watches one at a time,
 the one named at start or else the first seen, and `select` switches to another. Only the render
 loop drains the channels and switches; commands may be sent from any thread.
 """
 
-import json
-from collections.abc import Callable
+from __future__ import annotations  # zenoh's generic types are not subscriptable at run time
+
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import zenoh
 
-from lab.client import client_id, open_session, query
+from lab.client_core import LabLink, Reply, decode_message, undeclare
 from lab.directory import LabDirectory
-from lab.protocol import ALL_LABS_ALIVE, DEFAULT_ENDPOINT, LabKeys
+from lab.protocol import DEFAULT_ENDPOINT, CommandStruct
 
 OPEN_TIMEOUT_S = 60.0  # how long a starting UI waits for the sim process's endpoint
+Message = dict[str, Any]
 
 
 class Link:
@@ -27,82 +31,72 @@ class Link:
         cancelled: Callable[[], bool] = lambda: False,
         lab_id: str | None = None,
     ) -> None:
-        self.keys = LabKeys(lab_id) if lab_id is not None else None
         # a UI started beside its sim waits for it (until `cancelled()`); once open, the
         # session reconnects by itself
-        self._session = open_session(endpoint, OPEN_TIMEOUT_S, cancelled)
-        # Every lab's liveliness token: PUT while it runs, DELETE when it dies or the link breaks.
-        self._alive = self._session.liveliness().declare_subscriber(
-            ALL_LABS_ALIVE, zenoh.handlers.FifoChannel(256), history=True
-        )
-        self.directory = LabDirectory()
+        self._link = LabLink(endpoint, OPEN_TIMEOUT_S, cancelled=cancelled)
         self.connected = False
-        self._streams: tuple[zenoh.Subscriber, ...] = ()
-        self._token: zenoh.LivelinessToken | None = None  # this UI's, at the lab watched
-        if self.keys is not None:
-            self.select(self.keys.lab_id)
+        self._streams: tuple[zenoh.Subscriber[Any], ...] = ()
+        if lab_id is not None:
+            self.select(lab_id)
+
+    @property
+    def directory(self) -> LabDirectory:
+        """Every lab seen: online or not."""
+        return self._link.directory
 
     @property
     def lab_id(self) -> str | None:
         """The lab watched (None until one is seen, when none was named)."""
-        return None if self.keys is None else self.keys.lab_id
+        return self._link.lab_id
 
     def select(self, lab_id: str) -> None:
         """Watch lab `lab_id` from now on (its channels start empty)."""
-        keys = LabKeys(lab_id)
-        for subscriber in self._streams:
-            subscriber.undeclare()
-        self._state = self._session.declare_subscriber(keys.state, zenoh.handlers.RingChannel(1))
-        self._telemetry = self._session.declare_subscriber(
-            keys.telemetry, zenoh.handlers.RingChannel(64)
-        )
-        self._events = self._session.declare_subscriber(keys.events, zenoh.handlers.RingChannel(64))
+        undeclare(*self._streams)
+        self._link.select(lab_id)
+        self._state = self._link.subscribe("state", zenoh.handlers.RingChannel(1))
+        self._telemetry = self._link.subscribe("telemetry", zenoh.handlers.RingChannel(64))
+        self._events = self._link.subscribe("events", zenoh.handlers.RingChannel(64))
         self._streams = (self._state, self._telemetry, self._events)
-        if self._token is not None:
-            self._token.undeclare()
-        # held while the link is up: a control lock this UI holds goes when it vanishes
-        self._token = self._session.liveliness().declare_token(
-            keys.client(client_id(self._session))
-        )
-        self.keys = keys
         self.connected = self.directory.is_online(lab_id)
 
-    def request(self, verb: str, payload: dict | None = None, timeout: float | None = None) -> dict:
+    def request(
+        self, verb: str, payload: Mapping[str, object] | None = None, timeout: float | None = None
+    ) -> Reply:
         """Send one command and wait for its reply; no reply gives {"ok": False, "error": ...}."""
-        keys = self.keys
-        if keys is None:
-            return {"ok": False, "error": f"{verb}: no lab seen yet"}
-        return query(self._session, keys, verb, json.dumps(payload or {}), timeout)
+        return self._link.command(verb, payload, timeout)
 
-    def latest_state(self) -> dict | None:
+    def send(self, command: CommandStruct, timeout: float | None = None) -> Reply:
+        """Send one typed command (`lab.protocol`'s struct) and wait for its reply."""
+        return self._link.send(command, timeout)
+
+    def latest_state(self) -> Message | None:
+        """The newest drawing state since the last call, or None."""
         sample = self._state.try_recv() if self._streams else None
-        return None if sample is None else json.loads(sample.payload.to_bytes())
+        return None if sample is None else decode_message(sample)
 
-    def _drain(self, subscriber: zenoh.Subscriber) -> list[dict]:
+    def _drain(self, subscriber: zenoh.Subscriber[Any]) -> list[Message]:
         out = []
         while (sample := subscriber.try_recv()) is not None:
-            out.append(json.loads(sample.payload.to_bytes()))
+            out.append(decode_message(sample))
         return out
 
-    def telemetry(self) -> list[dict]:
+    def telemetry(self) -> list[Message]:
         """Every telemetry message since the last call (at most the channel's last 64)."""
         return self._drain(self._telemetry) if self._streams else []
 
-    def events(self) -> list[dict]:
+    def events(self) -> list[Message]:
+        """Every event since the last call (at most the channel's last 64)."""
         return self._drain(self._events) if self._streams else []
 
     def poll_labs(self) -> bool:
         """Take the liveliness changes seen since the last call into `directory`; with no lab
         watched yet, watch the first one online. Whether anything changed."""
-        changed = False
-        while (sample := self._alive.try_recv()) is not None:
-            alive = sample.kind == zenoh.SampleKind.PUT
-            changed |= self.directory.seen(str(sample.key_expr), alive)
-        if self.keys is None and (first := self.directory.next_online(None)) is not None:
+        changed = self._link.poll_alive()
+        if self.lab_id is None and (first := self.directory.next_online(None)) is not None:
             self.select(first)
             changed = True
-        if self.keys is not None:
-            self.connected = self.directory.is_online(self.keys.lab_id)
+        if self.lab_id is not None:
+            self.connected = self.directory.is_online(self.lab_id)
         return changed
 
     def poll_connected(self) -> bool:
@@ -112,7 +106,6 @@ class Link:
         return self.connected
 
     def close(self) -> None:
-        tokens = (self._token,) if self._token is not None else ()
-        for sub in (*tokens, self._alive, *self._streams):
-            sub.undeclare()
-        self._session.close()
+        """Undeclare the channels, close the link."""
+        undeclare(*self._streams)
+        self._link.close()
