@@ -2,7 +2,8 @@
 // lab/controller/hierarchy/nullspace.py, whose docstring derives each rule. Each priority solves
 // its rows in the null space of all rows above (eqs. 8-11),
 //   z <- z + Z (A Z)⁺ (b − A z),   Z <- Z ∩ null(A Z),
-// with Z an orthonormal basis, the pseudo-inverse and the next null space from one SVD of A Z.
+// with Z an orthonormal basis, the pseudo-inverse and the next null space from one pivoted QR of
+// (A Z)ᵀ with linalg's rank rule (RowSpaceQR, the cascade's: one rule in both kernels).
 // Inequalities C z <= d are off until violated (§3.2), then a primal active set: the most
 // violated row of the highest violated level is activated (one per solve), a row is released
 // when the hierarchy solved without it keeps it inside its bound, and z steps towards each new
@@ -24,8 +25,6 @@
 namespace lab {
 namespace {
 
-constexpr double kSvdRankRtol = 1e-9;    // RANK_RTOL: singular values below this fraction of
-constexpr double kRankAtol = 1e-10;      // the largest, or below RANK_ATOL, do not count
 constexpr double kActivationTol = 1e-9;  // ACTIVATION_TOL: violated by more is activated
 constexpr double kRatioTie = 1e-12;      // RATIO_TIE: step lengths this close block together
 constexpr Eigen::Index kNone = -1;
@@ -57,7 +56,8 @@ class ActiveSetSearch {
   bool violates(const Eigen::VectorXd& at);
   void project(Eigen::Index first);
   void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
-  void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e);
+  void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e,
+                          RowSpaceQR& qr);
   Eigen::Index activate_violated();
   bool release_one();
   void walked();
@@ -69,9 +69,9 @@ class ActiveSetSearch {
   bool ran_out_ = false;
   std::vector<Entry> entry_, trial_;  // (z, Z) on entering each level; [L]: the solution
   Eigen::VectorXd target_, dz_, rows_, rate_;
-  Eigen::MatrixXd Ca_, AZ_, ZV_;  // the active rows of C; A Z; Z times V's null columns
-  Eigen::VectorXd da_, r_, w_, u_;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd_;
+  Eigen::MatrixXd Ca_, AZ_, ZV_;  // the active rows of C; A Z; Z's null columns
+  Eigen::VectorXd da_, r_, w_;
+  std::vector<RowSpaceQR> qr_;  // per level: [2k] its active rows of C, [2k + 1] its A
 };
 
 bool ActiveSetSearch::take() {
@@ -99,6 +99,7 @@ void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index 
   }
   entry_.resize(L + 1);
   trial_.resize(L + 1);
+  qr_.resize(2 * L);
   entry_[0].z.setZero(n);
   entry_[0].Z.setIdentity(n, n);
   project(0);
@@ -272,33 +273,28 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
           Ca_.row(row) = level.C.row(i);
           da_(row++) = level.d(i);
         }
-      least_squares_step(Ca_, da_, next);
+      least_squares_step(Ca_, da_, next, qr_[2 * k]);
     }
-    least_squares_step(level.A, level.b, next);
+    least_squares_step(level.A, level.b, next, qr_[2 * k + 1]);
   }
 }
 
 void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                         Entry& e) {
-  // z <- z + Z (A Z)⁺ (b − A z) with the rank of A Z's singular values; Z <- Z ∩ null(A Z).
+                                         Entry& e, RowSpaceQR& qr) {
+  // z <- z + Z (A Z)⁺ (b − A z), Z <- Z ∩ null(A Z) (eqs. 8-11), from the pivoted QR of
+  // (A Z)ᵀ = Q [R1; 0] Pᵀ with linalg's rank rule: (A Z)⁺ r = Q1 (R1ᵀ)⁺ Pᵀ r, the next Z is Z Q2.
   const Eigen::Index cols = e.Z.cols();
   if (b.size() == 0 || cols == 0) return;
   AZ_.noalias() = A * e.Z;
-  svd_.compute(AZ_, Eigen::ComputeThinU | Eigen::ComputeFullV);
-  const auto& s = svd_.singularValues();
-  const double threshold = s.size() ? std::max(kRankAtol, kSvdRankRtol * s(0)) : 0.0;
-  Eigen::Index rank = 0;
-  while (rank < s.size() && s(rank) > threshold) ++rank;
-  const auto& V = svd_.matrixV();
-  if (rank) {
-    r_ = b;
-    r_.noalias() -= A * e.z;
-    w_.noalias() = svd_.matrixU().leftCols(rank).transpose() * r_;
-    w_.array() /= s.head(rank).array();
-    u_.noalias() = V.leftCols(rank) * w_;
-    e.z.noalias() += e.Z * u_;
-  }
-  ZV_.noalias() = e.Z * V.rightCols(cols - rank);
+  qr.compute(AZ_);
+  const Eigen::Index rank = qr.rank();
+  if (rank == 0) return;
+  r_ = b;
+  r_.noalias() -= A * e.z;
+  qr.solve(r_, w_);
+  qr.apply_q_on_the_right(e.Z);  // Z Q: the first `rank` columns step, the rest stay free
+  e.z.noalias() += e.Z.leftCols(rank) * w_;
+  ZV_ = e.Z.rightCols(cols - rank);
   e.Z.swap(ZV_);
 }
 
