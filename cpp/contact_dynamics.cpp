@@ -8,7 +8,8 @@
 namespace lab {
 
 // psd_pinv / _psd_pinv_and_null_space: one eigendecomposition of the symmetric part.
-void PsdPinv::compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double scale) {
+void PsdPinv::compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double scale,
+                      bool with_null_space) {
   const Eigen::Index n = matrix.rows();
   if (n == 0) {
     inverse_.resize(0, 0);
@@ -16,6 +17,7 @@ void PsdPinv::compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double sc
     return;
   }
   symmetric_ = 0.5 * (matrix + matrix.transpose());
+  if (!with_null_space && decided_by_bounds(scale)) return;
   eigen_.compute(symmetric_);
   const auto& values = eigen_.eigenvalues();  // ascending, as numpy's eigh
   const double threshold =
@@ -25,7 +27,29 @@ void PsdPinv::compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double sc
   rank_ = n - zero;
   const auto kept = eigen_.eigenvectors().rightCols(rank_);
   scaled_ = kept * values.tail(rank_).cwiseInverse().asDiagonal();
-  inverse_.noalias() = scaled_ * kept.transpose();
+  inverse_.noalias() = scaled_.lazyProduct(kept.transpose());
+}
+
+bool PsdPinv::decided_by_bounds(double scale) {
+  const Eigen::Index n = symmetric_.rows();
+  const double frobenius = symmetric_.norm();  // >= |every eigenvalue|
+  // The threshold, or (scale < 0: it depends on the largest eigenvalue) a bound above it.
+  const double threshold =
+      kContactRankTolerance * std::max(scale < 0.0 ? frobenius : scale, 1e-300);
+  if (scale >= 0.0 && kPsdRankMargin * frobenius <= threshold) {  // every eigenvalue below it
+    inverse_.setZero(n, n);
+    rank_ = 0;
+    return true;
+  }
+  llt_.compute(symmetric_);
+  if (llt_.info() != Eigen::Success) return false;
+  L_inverse_.setIdentity(n, n);
+  llt_.matrixL().solveInPlace(L_inverse_);
+  const double lambda_min_bound = 1.0 / L_inverse_.squaredNorm();  // 0 or NaN: not proven
+  if (!(lambda_min_bound > kPsdRankMargin * threshold)) return false;
+  inverse_.noalias() = L_inverse_.transpose().lazyProduct(L_inverse_);  // S^-1 = L^-T L^-1
+  rank_ = n;
+  return true;
 }
 
 Eigen::Block<const Eigen::MatrixXd, Eigen::Dynamic, Eigen::Dynamic, true> PsdPinv::null_space()
@@ -46,24 +70,24 @@ void ContactDynamics::compute(const Eigen::Ref<const Eigen::MatrixXd>& M,
   const Eigen::MatrixXd& Minv = inertia_inverse;
   Ns_ = identity_;
   if (ns) {
-    Minv_JsT_.noalias() = Minv * Js.transpose();
-    scratch_.noalias() = Js * Minv_JsT_;
-    lambda_s_.compute(scratch_);                        // Λ_s = (J_s A⁻¹ J_sᵀ)⁻¹
-    Jbar_.noalias() = Minv_JsT_ * lambda_s_.inverse();  // J̄_s, eq. 31
-    Ns_.noalias() -= Jbar_ * Js;                        // eq. 32
+    Minv_JsT_.noalias() = Minv.lazyProduct(Js.transpose());
+    scratch_.noalias() = Js.lazyProduct(Minv_JsT_);
+    lambda_s_.compute(scratch_);                                   // Λ_s = (J_s A⁻¹ J_sᵀ)⁻¹
+    Jbar_.noalias() = Minv_JsT_.lazyProduct(lambda_s_.inverse());  // J̄_s, eq. 31
+    Ns_.noalias() -= Jbar_.lazyProduct(Js);                        // eq. 32
     Lambda_drift_.noalias() = lambda_s_.inverse() * drift;
   } else {
     Jbar_.resize(nv, 0);
     Lambda_drift_.resize(0);
   }
-  qdd_of_torque.noalias() = Minv * Ns_.bottomRows(na).transpose();  // A⁻¹ N_sᵀ Uᵀ (eq. 30)
+  qdd_of_torque.noalias() = Minv.lazyProduct(Ns_.bottomRows(na).transpose());  // eq. 30
   force_free = h;  // scratch for N_sᵀ h + J_sᵀ Λ_s J̇_s v
   qdd_free.noalias() = Ns_.transpose() * force_free;
   if (ns) qdd_free.noalias() += Js.transpose() * Lambda_drift_;
   force_free = qdd_free;
   qdd_free.noalias() = -Minv * force_free;
-  phi.noalias() = Ns_.bottomRows(na) * qdd_of_torque;  // Φ*
-  phi_pinv_.compute(phi);
+  phi.noalias() = Ns_.bottomRows(na).lazyProduct(qdd_of_torque);  // Φ*
+  phi_pinv_.compute(phi, -1.0, true);  // its null space is the internal-force torques'
   // λ = J̄_sᵀ (Uᵀτ − h) + Λ_s J̇_s v (eq. 29) and F = −λ.
   force_of_torque = -Jbar_.bottomRows(na).transpose();
   force_free.noalias() = Jbar_.transpose() * h;
@@ -72,8 +96,8 @@ void ContactDynamics::compute(const Eigen::Ref<const Eigen::MatrixXd>& M,
 
 void ContactDynamics::contact_consistent_jacobian(const Eigen::Ref<const Eigen::MatrixXd>& J,
                                                   Eigen::MatrixXd& out) const {
-  JB_.noalias() = J * qdd_of_torque;
-  out.noalias() = JB_ * phi_pinv();
+  JB_.noalias() = J.lazyProduct(qdd_of_torque);
+  out.noalias() = JB_.lazyProduct(phi_pinv());
 }
 
 }  // namespace lab

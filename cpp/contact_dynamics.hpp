@@ -11,22 +11,37 @@ namespace lab {
 /// Relative size below which an eigenvalue of Φ* (or of a task's Λ*⁻¹) counts as zero.
 constexpr double kContactRankTolerance = 1e-9;
 
+/// Safety factor of PsdPinv's shortcuts on the bounds they compare (rounding is ~1e-16 of them).
+constexpr double kPsdRankMargin = 1e3;
+
 /// The pseudo-inverse of a symmetric positive semi-definite matrix, its rank and an orthonormal
 /// basis of its null space, from one eigendecomposition (psd_pinv and _psd_pinv_and_null_space):
 /// eigenvalues below kContactRankTolerance times `scale` (the largest eigenvalue when scale < 0)
 /// count as zero. One object per use keeps its storage: no allocation while the size stays.
+///
+/// Without the null space (`with_null_space` false) two cases skip the eigendecomposition and
+/// decide the rank as it would, proven by bounds with a margin of kPsdRankMargin: every
+/// eigenvalue is at most ||S||_F, so ||S||_F that far below the threshold is rank 0; and an LLT
+/// S = L L^T gives lambda_min >= 1 / ||L^-1||_F^2, so that far above it is full rank, the inverse
+/// L^-T L^-1. Between the two (a level partly used up above) the eigendecomposition decides.
 class PsdPinv {
  public:
   /// Factorizes the symmetric part of `matrix`.
-  void compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double scale = -1.0);
+  void compute(const Eigen::Ref<const Eigen::MatrixXd>& matrix, double scale = -1.0,
+               bool with_null_space = false);
   const Eigen::MatrixXd& inverse() const { return inverse_; }
-  /// The eigenvectors of the eigenvalues counted as zero (columns).
+  /// The eigenvectors of the eigenvalues counted as zero (columns); after a compute with
+  /// `with_null_space` only.
   Eigen::Block<const Eigen::MatrixXd, Eigen::Dynamic, Eigen::Dynamic, true> null_space() const;
   Eigen::Index rank() const { return rank_; }
 
  private:
-  Eigen::MatrixXd symmetric_, inverse_, scaled_;
+  /// The shortcuts above; false when neither applies.
+  bool decided_by_bounds(double scale);
+
+  Eigen::MatrixXd symmetric_, inverse_, scaled_, L_inverse_;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::Index rank_ = 0;
 };
 

@@ -1,11 +1,12 @@
 """The native kernel's `nullspace` method (cpp/hierarchy/nullspace.cpp) against the Python one
 (lab/controller/hierarchy/nullspace.py), its oracle, in every formulation of Hutter 2014 §4.
 
-Each case records states from a Python-kernel session (standing, pushed, trotting; Talos in
-Herzog's single support under Table 4, and under Table 2), then hands both kernels the same
-sequence of states, each followed by randomly disturbed copies of it (state and references):
-both carry their last tick's active rows and x into the next search, so the warm starts are
-compared as well. Skipped as a whole when the kernel is not built.
+Each case records states from a Python-kernel session (standing, pushed, trotting; Talos
+standing on its default stack and under Table 2, and in Herzog's single support under Table 4),
+then hands both kernels the same sequence of states, each followed by randomly disturbed copies
+of it (state and references): both carry their last tick's active rows and x into the next
+search, so the warm starts are compared as well. Skipped as a whole when the kernel is not
+built.
 """
 
 import copy
@@ -29,8 +30,8 @@ _kernel = pytest.importorskip(
 )
 pytestmark = pytest.mark.skipif(not native_available(), reason=NOT_BUILT or "built")
 
-# Both kernels run the same arithmetic in another float order (Eigen's one-sided Jacobi SVD
-# against LAPACK's divide and conquer, other summation orders): ~1e-15 relative per step, grown by
+# Both kernels run the same arithmetic in another float order (Eigen's column-pivoted Householder
+# QR against LAPACK's dgeqp3, other summation orders): ~1e-15 relative per step, grown by
 # the conditioning of the levels (forces of hundreds of newtons next to accelerations of a few
 # rad/s²) and by the few dozen projections of a search. 1e-8 (1 + |x|) leaves four orders of
 # magnitude above what was measured and still fails on any difference of rows, sign or rule.
@@ -39,12 +40,13 @@ X_TOL = 1e-8
 TAU_TOL = 1e-6  # N m
 DISTURBED = 3  # disturbed copies of each recorded state
 # The path of an active-set search to its optimum is as sensitive to rounding as the rows are
-# ill-conditioned: a pushed ANYmal under qdd_tau takes 55, 64 or 65 solves when its rows are
-# perturbed by 1e-15 (relative) and the eom rows rotated, in either kernel (measured), while x and
-# the final active rows stay the same. So the solve counts are held to agree on most ticks and
-# within a few percent of the solves in all: a wrong rule (another row activated, released or
-# blocking) shows on every tick that exercises it.
-COUNT_TOL = 0.05  # of all solves of a case
+# ill-conditioned: a pushed ANYmal under `full` or `qdd_tau` takes 55, 64, 65 or 69 solves when
+# its rows are perturbed by 1e-15 (relative), in either kernel (measured), while x and the final
+# active rows stay the same. So the solve counts are held to agree on most ticks, and where they
+# differ the native count must be one that the Python search takes on its own rows perturbed by
+# 1e-15 in one of PATH_DRAWS draws: a wrong rule (another row activated, released or blocking)
+# shows on every tick that exercises it, and as a count no rounding of the rows gives.
+PATH_DRAWS = 32
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,6 +67,7 @@ CASES = (
     Case("hyq trotting", "hyq", "raiola_s3", walk=True),
     Case("solo12 standing", "solo12", None),
     Case("solo12 trotting", "solo12", "raiola_s3", walk=True),
+    Case("talos standing", "talos", None),
     Case(
         "talos table 4 single support",
         "talos",
@@ -121,30 +124,52 @@ def disturbed(refs, q: np.ndarray, v: np.ndarray, rng: np.random.Generator) -> t
     return q, v, refs
 
 
-class ProjectionCounter:
-    """Counts the Python searches' hierarchy solves (nullspace._project calls)."""
+class SearchRecorder:
+    """Records the Python searches of a tick (nullspace.active_set_least_squares calls) and
+    their solve counts, and counts the solves of the same searches with their rows perturbed."""
 
     def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        self.calls: list[tuple] = []
         self.count = 0
-        project = nullspace._project
+        self.search = nullspace.active_set_least_squares
 
-        def counted(*args, **kwargs):
-            self.count += 1
-            return project(*args, **kwargs)
+        def recorded(levels, n, cap=None, start=None, point=None):
+            solution = self.search(levels, n, cap=cap, start=start, point=point)
+            self.calls.append((levels, n, start, point))
+            self.count += solution.projections
+            return solution
 
-        monkeypatch.setattr(nullspace, "_project", counted)
+        monkeypatch.setattr(nullspace, "active_set_least_squares", recorded)
 
-    def take(self) -> int:
-        """The solves since the last take."""
-        count, self.count = self.count, 0
-        return count
+    def take(self) -> tuple[int, list[tuple]]:
+        """The solves of the searches since the last take, and those searches."""
+        taken = self.count, self.calls
+        self.count, self.calls = 0, []
+        return taken
+
+    def perturbed_counts(self, calls: list[tuple], rng: np.random.Generator) -> set[int]:
+        """The solve counts of the searches `calls` over PATH_DRAWS draws of their rows, each
+        entry of A and C scaled by 1 + 1e-15 ξ (ξ standard normal)."""
+
+        def nudged(M: np.ndarray) -> np.ndarray:
+            return M * (1.0 + 1e-15 * rng.standard_normal(M.shape))
+
+        counts = set()
+        for _ in range(PATH_DRAWS):
+            total = 0
+            for levels, n, start, point in calls:
+                rows = [Level(nudged(lv.A), lv.b, nudged(lv.C), lv.d) for lv in levels]
+                total += self.search(rows, n, start=start, point=point).projections
+            counts.add(total)
+        return counts
 
 
 @pytest.mark.parametrize("formulation", FORMULATIONS)
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_native_nullspace_agrees_with_python(case: Case, formulation: str, monkeypatch) -> None:
     """x, τ, the active rows and the cap agree on every state, warm starts included, and the
-    solve counts within COUNT_TOL."""
+    solve counts on most states; where they differ, the native count is one a rounding of the
+    rows gives the Python search too."""
     states = recorded_states(case.name)
     session = session_of(case)
     controller = session.controller
@@ -153,7 +178,7 @@ def test_native_nullspace_agrees_with_python(case: Case, formulation: str, monke
     kernel.set_stack(controller.config.stack.as_lists())
     kernel.set_method("nullspace")
     kernel.set_formulation(formulation)
-    counter = ProjectionCounter(monkeypatch)
+    recorder = SearchRecorder(monkeypatch)
     rng = np.random.default_rng(26)
     tau, x_native = np.zeros(controller.robot.na), np.zeros(controller.robot.nx)
     ticks, counts = [], []
@@ -166,7 +191,7 @@ def test_native_nullspace_agrees_with_python(case: Case, formulation: str, monke
         controller.references = refs
         controller.robot.update(q, v)
         python = controller.solve()
-        projections = counter.take()
+        projections, searches = recorder.take()
         send_python_feedback(controller, kernel)
         outcome = kernel.tick_into(refs, tau, x_native, q, v)
         assert outcome.ok, f"{what}: {outcome.message}"
@@ -179,15 +204,16 @@ def test_native_nullspace_agrees_with_python(case: Case, formulation: str, monke
         np.testing.assert_allclose(tau, python.tau, rtol=0.0, atol=TAU_TOL, err_msg=what)
         assert outcome.capped == solution.capped, what
         counts.append((outcome.projections, projections))
+        if outcome.projections != projections:  # another path: one rounding also takes?
+            reachable = recorder.perturbed_counts(searches, np.random.default_rng(15))
+            assert outcome.projections in reachable | {projections}, (what, counts[-1], reachable)
         native_sets, python_sets = outcome.active_sets, solution.active_sets
         assert len(native_sets) == len(python_sets), what
         for native_rows, python_rows in zip(native_sets, python_sets, strict=True):
             assert [r.tolist() for r in native_rows] == [r.tolist() for r in python_rows], what
         assert outcome.qp_solves == 0 and solution.qp_solves == 0, what
     native_counts, python_counts = np.array(counts).T
-    differing = np.abs(native_counts - python_counts)
-    assert differing.sum() <= COUNT_TOL * python_counts.sum(), counts
-    assert np.count_nonzero(differing) <= max(1, len(counts) // 10), counts
+    assert np.count_nonzero(native_counts != python_counts) <= max(1, len(counts) // 10), counts
 
 
 def test_the_kernel_forgets_its_start_and_reports_what_ran() -> None:

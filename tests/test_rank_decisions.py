@@ -1,6 +1,7 @@
-"""Both kernels decide the rank of a level's rows the same way (issue 27 item 6): LAPACK's
-`dgeqp3` in Python (hierarchy/linalg.py) and Eigen's pivoted QR in C++ (cpp/hierarchy/linalg.cpp)
-count the diagonal entries of R above the same threshold, RANK_RTOL · max(1, |R₀₀|). On matrices
+"""Both kernels decide the rank of a level's rows the same way (issue 27 item 6), under the
+cascade and under nullspace (round 12): LAPACK's `dgeqp3` in Python (hierarchy/linalg.py) and
+Eigen's pivoted QR in C++ (cpp/hierarchy/linalg.cpp) count the diagonal entries of R above the
+same threshold, RANK_RTOL · max(1, |R₀₀|). On matrices
 built with singular values on either side of it, both find the intended rank, the same null
 space and the same least-squares step."""
 
@@ -8,6 +9,8 @@ import numpy as np
 import pytest
 
 from lab.controller.hierarchy.linalg import RANK_RTOL, least_squares_and_null_space
+from lab.controller.hierarchy.nullspace import active_set_least_squares
+from lab.controller.hierarchy.problem import Level
 from lab.controller.native import NOT_BUILT
 
 if NOT_BUILT:
@@ -21,6 +24,9 @@ MARGIN = 30.0
 # Relative: the two steps solve the same full-rank triangular system in another float order; the
 # step's size grows as 1 / σ_min ≤ 1 / (MARGIN · RANK_RTOL), so rounding is amplified up to ~3e7.
 STEP_RTOL = 1e-6
+# nullspace's z against the intended rank's truncated SVD, relative to 1 + |z|: over these draws
+# the right rank is within 0.4 of it, one rank more or less 12 times it or more (measured).
+INTENDED_RTOL = 3.0 / MARGIN**2
 
 
 def near_rank_deficient(
@@ -56,3 +62,38 @@ def test_both_kernels_find_the_same_rank_null_space_and_step(scale: float) -> No
             assert np.linalg.norm(u_native - u) <= STEP_RTOL * (1.0 + np.linalg.norm(u)), what
             cases += 1
     assert cases == 2 + 3 + 6 + 7
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3])
+def test_the_nullspace_method_decides_each_levels_rank_the_same_in_both_kernels(
+    scale: float,
+) -> None:
+    """nullspace's level step is the same pivoted QR (nullspace.py via linalg.py's
+    least_squares_step, nullspace.cpp via RowSpaceQR): a near rank-deficient level above an
+    objective z = c over every coordinate. With the intended rank r, z is the level's minimum-norm
+    step plus c projected on its null space, as the level's truncated SVD gives it (to the
+    1 / MARGIN² tilt a QR's truncation leaves between the kept and dropped directions); one rank
+    more or less moves z by the step along a dropped direction (≥ MARGIN / threshold) or by a
+    kept direction's share of c, which b pulls the other way. Both kernels give that z, and the
+    same z."""
+    rng = np.random.default_rng(7)
+    cases = 0
+    for rows, cols in ((3, 12), (6, 18), (12, 12), (20, 14)):
+        for rank in range(1, min(rows, cols), 2):  # a null space left for the objective
+            A = near_rank_deficient(rng, rows, cols, rank, scale)
+            c = rng.normal(size=cols)
+            b = -(A @ c) + 1e-3 * rng.normal(size=rows)  # the level pulls against c
+            level = Level(A, b, np.zeros((0, cols)), np.zeros(0))
+            objective = Level(np.eye(cols), c, np.zeros((0, cols)), np.zeros(0))
+            z = active_set_least_squares([level, objective], cols).z
+            rows_of = [(lv.A, lv.b, lv.C, lv.d) for lv in (level, objective)]
+            z_native = _kernel.active_set_search(rows_of, cols)[0]
+            U, sigma, Vt = np.linalg.svd(A)
+            V = Vt[:rank].T
+            intended = V @ ((U[:, :rank].T @ b) / sigma[:rank]) + c - V @ (V.T @ c)
+            what = f"{rows}x{cols} rank {rank} scale {scale:g}"
+            size = 1.0 + np.linalg.norm(intended)
+            assert np.linalg.norm(z - intended) <= INTENDED_RTOL * size, f"python: {what}"
+            assert np.linalg.norm(z_native - z) <= STEP_RTOL * (1.0 + np.linalg.norm(z)), what
+            cases += 1
+    assert cases == 1 + 3 + 6 + 7

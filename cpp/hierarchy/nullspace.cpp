@@ -2,7 +2,8 @@
 // lab/controller/hierarchy/nullspace.py, whose docstring derives each rule. Each priority solves
 // its rows in the null space of all rows above (eqs. 8-11),
 //   z <- z + Z (A Z)⁺ (b − A z),   Z <- Z ∩ null(A Z),
-// with Z an orthonormal basis, the pseudo-inverse and the next null space from one SVD of A Z.
+// with Z an orthonormal basis, the pseudo-inverse and the next null space from one pivoted QR of
+// (A Z)ᵀ with linalg's rank rule (RowSpaceQR, the cascade's: one rule in both kernels).
 // Inequalities C z <= d are off until violated (§3.2), then a primal active set: the most
 // violated row of the highest violated level is activated (one per solve), a row is released
 // when the hierarchy solved without it keeps it inside its bound, and z steps towards each new
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hierarchy/formulations.hpp"
@@ -24,18 +26,33 @@
 namespace lab {
 namespace {
 
-constexpr double kSvdRankRtol = 1e-9;    // RANK_RTOL: singular values below this fraction of
-constexpr double kRankAtol = 1e-10;      // the largest, or below RANK_ATOL, do not count
 constexpr double kActivationTol = 1e-9;  // ACTIVATION_TOL: violated by more is activated
 constexpr double kRatioTie = 1e-12;      // RATIO_TIE: step lengths this close block together
 constexpr Eigen::Index kNone = -1;
 
 using Flags = Eigen::Array<bool, Eigen::Dynamic, 1>;
 
-/// (z, Z) on entering one level of a hierarchy solve (nullspace.py's `entry`).
+/// (z, Z) on entering one level of a hierarchy solve (nullspace.py's `entry`). Z is the `cols`
+/// columns of `Z_buffer` (n x n, kept from tick to tick) from `first` on: each level's step
+/// takes the leading columns of Z Q, so the null space left is the window's tail.
 struct Entry {
   Eigen::VectorXd z;
-  Eigen::MatrixXd Z;
+  Eigen::MatrixXd Z_buffer;
+  Eigen::Index first = 0, cols = 0;
+
+  void swap(Entry& other) {
+    z.swap(other.z);
+    Z_buffer.swap(other.Z_buffer);
+    std::swap(first, other.first);
+    std::swap(cols, other.cols);
+  }
+};
+
+/// The storage of one equality step (a level's A, or its active rows of C): sized once.
+struct StepWork {
+  RowSpaceQR qr;
+  Eigen::MatrixXd AZ;
+  Eigen::VectorXd r, y;
 };
 
 /// One active-set search over z (nullspace.py active_set_least_squares), its buffers kept from
@@ -57,7 +74,8 @@ class ActiveSetSearch {
   bool violates(const Eigen::VectorXd& at);
   void project(Eigen::Index first);
   void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
-  void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e);
+  void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e,
+                          StepWork& work);
   Eigen::Index activate_violated();
   bool release_one();
   void walked();
@@ -69,9 +87,9 @@ class ActiveSetSearch {
   bool ran_out_ = false;
   std::vector<Entry> entry_, trial_;  // (z, Z) on entering each level; [L]: the solution
   Eigen::VectorXd target_, dz_, rows_, rate_;
-  Eigen::MatrixXd Ca_, AZ_, ZV_;  // the active rows of C; A Z; Z times V's null columns
-  Eigen::VectorXd da_, r_, w_, u_;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd_;
+  Eigen::MatrixXd Ca_;  // the active rows of C
+  Eigen::VectorXd da_;
+  std::vector<StepWork> work_;  // per level: [2k] its active rows of C, [2k + 1] its A
 };
 
 bool ActiveSetSearch::take() {
@@ -99,8 +117,11 @@ void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index 
   }
   entry_.resize(L + 1);
   trial_.resize(L + 1);
+  work_.resize(2 * L);
   entry_[0].z.setZero(n);
-  entry_[0].Z.setIdentity(n, n);
+  entry_[0].Z_buffer.setIdentity(n, n);
+  entry_[0].first = 0;
+  entry_[0].cols = n;
   project(0);
   z = entry_[L].z;
   if (point && point->size() == n && violates(z)) {
@@ -192,10 +213,7 @@ bool ActiveSetSearch::release_one() {
       project_from(entry_[k], static_cast<Eigen::Index>(k), trial_);
       const Eigen::VectorXd& released = trial_[L].z;
       if (level.C.row(j).dot(released) - level.d(j) <= kActivationTol) {
-        for (std::size_t i = k + 1; i <= L; ++i) {
-          entry_[i].z.swap(trial_[i].z);
-          entry_[i].Z.swap(trial_[i].Z);
-        }
+        for (std::size_t i = k + 1; i <= L; ++i) entry_[i].swap(trial_[i]);
         target_ = entry_[L].z;
         return true;
       }
@@ -261,7 +279,11 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
     Entry& next = out[k + 1];
     const Entry& here = k == static_cast<std::size_t>(first) ? from : out[k];
     next.z = here.z;
-    next.Z = here.Z;
+    next.Z_buffer.resize(n_, n_);  // no allocation once sized
+    next.first = here.first;
+    next.cols = here.cols;
+    next.Z_buffer.middleCols(next.first, next.cols) =
+        here.Z_buffer.middleCols(here.first, here.cols);
     const Flags& on = active[k];
     const Eigen::Index count = on.count();
     if (count) {
@@ -272,34 +294,29 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
           Ca_.row(row) = level.C.row(i);
           da_(row++) = level.d(i);
         }
-      least_squares_step(Ca_, da_, next);
+      least_squares_step(Ca_, da_, next, work_[2 * k]);
     }
-    least_squares_step(level.A, level.b, next);
+    least_squares_step(level.A, level.b, next, work_[2 * k + 1]);
   }
 }
 
 void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                         Entry& e) {
-  // z <- z + Z (A Z)⁺ (b − A z) with the rank of A Z's singular values; Z <- Z ∩ null(A Z).
-  const Eigen::Index cols = e.Z.cols();
-  if (b.size() == 0 || cols == 0) return;
-  AZ_.noalias() = A * e.Z;
-  svd_.compute(AZ_, Eigen::ComputeThinU | Eigen::ComputeFullV);
-  const auto& s = svd_.singularValues();
-  const double threshold = s.size() ? std::max(kRankAtol, kSvdRankRtol * s(0)) : 0.0;
-  Eigen::Index rank = 0;
-  while (rank < s.size() && s(rank) > threshold) ++rank;
-  const auto& V = svd_.matrixV();
-  if (rank) {
-    r_ = b;
-    r_.noalias() -= A * e.z;
-    w_.noalias() = svd_.matrixU().leftCols(rank).transpose() * r_;
-    w_.array() /= s.head(rank).array();
-    u_.noalias() = V.leftCols(rank) * w_;
-    e.z.noalias() += e.Z * u_;
-  }
-  ZV_.noalias() = e.Z * V.rightCols(cols - rank);
-  e.Z.swap(ZV_);
+                                         Entry& e, StepWork& work) {
+  // z <- z + Z (A Z)⁺ (b − A z), Z <- Z ∩ null(A Z) (eqs. 8-11), from the pivoted QR of
+  // (A Z)ᵀ = Q [R1; 0] Pᵀ with linalg's rank rule: (A Z)⁺ r = Q1 (R1ᵀ)⁺ Pᵀ r, the next Z is Z Q2.
+  if (b.size() == 0 || e.cols == 0) return;
+  auto Z = e.Z_buffer.middleCols(e.first, e.cols);
+  work.AZ.noalias() = A * Z;
+  work.qr.compute(work.AZ);
+  const Eigen::Index rank = work.qr.rank();
+  if (rank == 0) return;
+  work.r = b;
+  work.r.noalias() -= A * e.z;
+  work.qr.solve(work.r, work.y);
+  work.qr.apply_q_on_the_right(Z);  // Z Q: the first `rank` columns step, the rest stay free
+  e.z.noalias() += Z.leftCols(rank) * work.y;
+  e.first += rank;
+  e.cols -= rank;
 }
 
 /// What solve_nullspace keeps from tick to tick (one set per thread, as the cascade's).

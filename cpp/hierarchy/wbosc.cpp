@@ -100,11 +100,11 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
     split(problem.levels[k], nv, k, work);
     if (work.motion) {
       dyn.contact_consistent_jacobian(work.J, work.J_star);
-      work.J_prior.noalias() = work.J_star * pass.null;  // J*_{k|p}
-      work.J_Minv.noalias() = work.J * dyn.inertia_inverse;
+      work.J_prior.noalias() = work.J_star.lazyProduct(pass.null);  // J*_{k|p}
+      work.J_Minv.noalias() = work.J.lazyProduct(dyn.inertia_inverse);
       const double scale = work.J_Minv.cwiseProduct(work.J).sum();  // trace J A⁻¹ Jᵀ
-      work.full.noalias() = work.J_prior * dyn.phi;
-      work.G.noalias() = work.full * work.J_prior.transpose();
+      work.full.noalias() = work.J_prior.lazyProduct(dyn.phi);
+      work.G.noalias() = work.full.lazyProduct(work.J_prior.transpose());
       work.pinv.compute(work.G, scale);  // Λ*_{k|p}
       if (work.pinv.rank()) {
         moved[k] = 1;
@@ -115,9 +115,9 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
         pass.scratch.noalias() = work.pinv.inverse() * work.error;
         pass.tau.noalias() += work.J_prior.transpose() * pass.scratch;
         // N*_p ← N*_p − Φ* J*_{k|p}ᵀ Λ*_{k|p} J*_{k|p}
-        work.step_map.noalias() = work.pinv.inverse() * work.J_prior;
-        work.phi_JT.noalias() = dyn.phi * work.J_prior.transpose();
-        pass.null_step.noalias() = work.phi_JT * work.step_map;
+        work.step_map.noalias() = work.pinv.inverse().lazyProduct(work.J_prior);
+        work.phi_JT.noalias() = dyn.phi.lazyProduct(work.J_prior.transpose());
+        pass.null_step.noalias() = work.phi_JT.lazyProduct(work.step_map);
         pass.null -= pass.null_step;
       }
     }
@@ -134,10 +134,11 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
     if (!work.force) continue;
     work.A_s.resize(work.A_F.rows(), ns);
     for (Eigen::Index r = 0; r < ns; ++r) work.A_s.col(r) = work.A_F.col(pass.support[r]);
-    work.full.noalias() = work.A_s * dyn.force_of_torque;  // how every torque moves these forces
-    pass.Z_room.noalias() = Z * pass.room;
-    work.sensitivity.noalias() = work.full * pass.Z_room;
-    work.gram.noalias() = work.sensitivity.transpose() * work.sensitivity;
+    work.full.noalias() =
+        work.A_s.lazyProduct(dyn.force_of_torque);  // how every torque moves these forces
+    pass.Z_room.noalias() = Z.lazyProduct(pass.room);
+    work.sensitivity.noalias() = work.full.lazyProduct(pass.Z_room);
+    work.gram.noalias() = work.sensitivity.transpose().lazyProduct(work.sensitivity);
     work.pinv.compute(work.gram, work.full.squaredNorm());
     if (work.pinv.rank() == 0) continue;
     moved[k] = 1;
@@ -147,11 +148,11 @@ void solve_pass(const HierarchyProblem& problem, const Eigen::VectorXd& bias,
     pass.forces.noalias() += dyn.force_of_torque * pass.scratch_na;
     work.error = work.b_F;
     work.error.noalias() -= work.A_s * pass.forces;
-    work.step_map.noalias() = pass.room * work.pinv.inverse();
+    work.step_map.noalias() = pass.room.lazyProduct(work.pinv.inverse());
     pass.scratch.noalias() = work.sensitivity.transpose() * work.error;
     pass.w.noalias() += work.step_map * pass.scratch;
     // room ← room (I − gram⁺ sᵀ s)
-    pass.room_step.noalias() = work.step_map * work.gram;
+    pass.room_step.noalias() = work.step_map.lazyProduct(work.gram);
     pass.room -= pass.room_step;
     clock.lap(k);
   }

@@ -5,8 +5,11 @@ Each priority i solves its rows as well as it can in the null space of all rows 
     x ← x + N_i (A_i N_i)⁺ (b_i − A_i x),     N_{i+1} = N_i ∩ null(A_i N_i)
 
 with N_i kept as an orthonormal basis Z (so (A_i Z Zᵀ)⁺ = Z (A_i Z)⁺) and the pseudo-inverse and
-the next null space taken from one SVD of A_i Z (§3.1 uses the SVD for its robustness near
-singular tasks). No QP is solved.
+the next null space taken from one column-pivoted QR of (A_i Z)ᵀ, the cascade's rank-revealing
+step (linalg.least_squares_step: A_i Z = Π R₁ᵀ Q₁ᵀ, (A_i Z)⁺ r = Q₁ (R₁ᵀ)⁺ Πᵀ r, the next Z is
+Z Q₂). §3.1 takes an SVD for its robustness near singular tasks; the pivoted QR decides the rank
+with one rule, a diagonal entry of R above RANK_RTOL · max(1, |R₀₀|), in both kernels, for a
+tenth of the cost. No QP is solved.
 
 Inequality rows C x ≤ d (§3.2, §5.1.3) are off until violated: a violated row becomes the
 equality C_j x = d_j at its own level, stacked with the other active rows of that level just above
@@ -50,19 +53,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lapack
 
 from lab.controller.hierarchy.formulations import (
     constrained_forward_dynamics,
     reparametrize,
     torque_step,
 )
-from lab.controller.hierarchy.linalg import SingularSystem
+from lab.controller.hierarchy.linalg import least_squares_step
 from lab.controller.hierarchy.problem import HierarchyProblem, Level
 from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, level_residuals
 
-RANK_RTOL = 1e-9  # singular values below this fraction of the largest do not count
-RANK_ATOL = 1e-10  # nor below this: a task with no freedom left in the null space is skipped
 ACTIVATION_TOL = 1e-9  # an inequality violated by more than this is activated
 RATIO_TIE = 1e-12  # step lengths this close block together (ties, broken by Bland's rule)
 # Hierarchy solves per call, at most: against cycling and against ticks far over their budget.
@@ -305,14 +305,7 @@ def _project(
         for A, b in ((level.C[on], level.d[on]), (level.A, level.b)):
             if len(b) == 0 or Z.shape[1] == 0:
                 continue
-            AZ = A @ Z
-            U, s, Vt, info = lapack.dgesdd(AZ, compute_uv=1, full_matrices=1)
-            if info != 0:
-                raise SingularSystem("the SVD of a level did not converge")
-            rank = int(np.sum(s > max(RANK_ATOL, RANK_RTOL * s[0]))) if len(s) else 0
-            u = Vt[:rank].T @ ((U[:, :rank].T @ (b - A @ z)) / s[:rank])
-            z = z + Z @ u
-            Z = Z @ Vt[rank:].T
+            Z, z = least_squares_step(Z, z, A, b)  # eqs. 8–11, linalg.py's rank rule
     return z
 
 
