@@ -110,6 +110,8 @@ YAW_RATE_MAX = 2.0  # rad/s, |yaw_rate|
 PUSH_FORCE_MAX = 2000.0  # N, Euclidean norm of the push force
 PUSH_DURATION_MAX = 5.0  # s, 0 < duration <= max
 POINT_COORD_MAX = 1000.0  # m, |x|, |y|, |z| of a push application point (world)
+HAND_RADIUS_MAX = 1.0  # m, 0 <= radius of a hand target's circle <= max
+HAND_PERIOD_MAX = 60.0  # s, 0 < period of a hand target's circle <= max
 GAIN_MAX = 1e5  # 0 <= kp, kd <= max
 WEIGHT_MAX = 1e8  # 0 < weight <= max
 NAME_MAX_LEN = 128  # characters in a robot / scene / task / link / method / gait name
@@ -263,6 +265,22 @@ class InternalForceCommand:
 
 
 @dataclass(frozen=True)
+class HandCommand:
+    """Set the target of one hand of the `hands` task: `name` (a hand of the robot's
+    description), `position` (m, world; finite, out of reach is the controller's to handle),
+    `rpy` (rad, world roll-pitch-yaw; None keeps the target's rotation); with `radius` > 0 (m)
+    the position circles about `position` once per `period` (s), counter-clockwise in the plane
+    normal to `axis` (world)."""
+
+    name: str
+    position: tuple[float, float, float]
+    rpy: tuple[float, float, float] | None = None
+    radius: float = 0.0
+    period: float = 4.0
+    axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class StanceCommand:
     """Stand on both soles or lift one (Herzog 2016 §5.4): `double`, `left` or `right` (a biped
     with flat feet; the stance sole is the one named). `swing` (Hz, None: unchanged) swings the
@@ -341,6 +359,7 @@ Command = (
     | RecordCommand
     | InternalForceCommand
     | StanceCommand
+    | HandCommand
     | TakeCommand
     | ReleaseCommand
 )

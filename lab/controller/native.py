@@ -193,6 +193,12 @@ class NativeController(WholeBodyController):
         if self._native is not None:
             self._native.forget_last_solution()
 
+    def set_hands(self, frames: tuple[str, ...]) -> None:
+        """As WholeBodyController.set_hands, mirrored into the kernel."""
+        super().set_hands(frames)
+        if self._native is not None:
+            self._native.set_hands(list(frames))
+
     def set_stack(self, stack: Stack) -> None:
         """As WholeBodyController.set_stack, mirrored into the kernel."""
         super().set_stack(stack)

@@ -16,6 +16,8 @@ from collections.abc import Callable, Mapping
 from lab.protocol import (
     CYCLE_TIME_MAX,
     GAIN_MAX,
+    HAND_PERIOD_MAX,
+    HAND_RADIUS_MAX,
     NAME_MAX_LEN,
     POINT_COORD_MAX,
     PUSH_DURATION_MAX,
@@ -32,6 +34,7 @@ from lab.protocol import (
     Command,
     GainsCommand,
     GaitCommand,
+    HandCommand,
     HierarchyCommand,
     InfoCommand,
     InternalForceCommand,
@@ -273,6 +276,22 @@ def _stance(f: _Fields) -> StanceCommand:
     return StanceCommand(side=f.name("side") if f.has("side") else None, swing=swing)
 
 
+def _hand(f: _Fields) -> HandCommand:
+    f.only("name", "position", "rpy", "radius", "period", "axis")
+    rpy = f.vector3("rpy", 2 * math.pi) if f.has("rpy") else None
+    axis = f.vector3("axis", POINT_COORD_MAX) if f.has("axis") else (1.0, 0.0, 0.0)
+    if math.hypot(*axis) < 1e-6:
+        raise f.error("axis", "must not be zero")
+    return HandCommand(
+        name=f.name("name"),
+        position=f.vector3("position", POINT_COORD_MAX),
+        rpy=rpy,
+        radius=f.number("radius", 0.0, HAND_RADIUS_MAX) if f.has("radius") else 0.0,
+        period=f.number("period", 0.0, HAND_PERIOD_MAX, lo_open=True) if f.has("period") else 4.0,
+        axis=axis,
+    )
+
+
 _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "info": _no_fields(InfoCommand),
     "velocity": _velocity,
@@ -290,6 +309,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "record": _record,
     "internal_force": _internal_force,
     "stance": _stance,
+    "hand": _hand,
     "take": _no_fields(TakeCommand),
     "release": _no_fields(ReleaseCommand),
 }
