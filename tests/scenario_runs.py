@@ -33,6 +33,8 @@ WALL_S: dict[str, float] = {
     "anymal_trot_lateral_kicks": 3.0,
     "anymal_trot_rough": 5.3,
     "anymal_walk_slope": 34.6,
+    "b1_z1_reach_circle_stand": 18.0,  # round 12, lab run alone at load 10-30
+    "b1_z1_reach_circle_trot": 13.4,
     "bolt_push_recovery": 27.3,
     "bolt_step_in_place": 159.6,
     "bolt_walk_planner": 451.0,
@@ -82,6 +84,8 @@ WALL_S: dict[str, float] = {
     "solo12_stand_weighted": 1.3,
     "solo12_trot_strafe": 1.9,
     "solo12_trot_turn": 1.9,
+    "talos_arms_reach_circle": 24.3,  # round 12, lab run alone at load 10-30
+    "talos_arms_reach_two_hands": 43.5,
     "talos_push_lateral": 0.7,
     "talos_stand_cascade": 1.5,
     "talos_stand_weighted": 1.5,
