@@ -169,3 +169,22 @@ def test_hand_targets_hold_each_hand_where_it_stands() -> None:
     controller.robot.update(robot.q_standing, np.zeros(robot.model.nv))
     error = controller.tasks["hands"].rows(controller.robot, refs).error
     np.testing.assert_allclose(error, 0.0, atol=1e-12)
+
+
+def test_a_target_set_after_a_write_reaches_the_references_at_the_next_write() -> None:
+    """Still targets are written once per references object; a new target (or a moving one)
+    is written again."""
+    controller, robot = controller_for("g1")
+    targets = HandTargets.holding(robot.model, robot.q_standing, load_description("g1").hands)
+    refs = controller.references
+    targets.write(refs, 0.0)
+    still = targets.target("left")
+    moved = HandTarget(still.position + 0.1, still.rotation)
+    targets.set("left", moved)
+    targets.write(refs, 0.1)
+    np.testing.assert_allclose(refs.hand_position[0], moved.position)
+    circling = HandTarget(still.position, still.rotation, radius=0.05, period=1.0, start=0.0)
+    targets.set("left", circling)
+    for t in (0.25, 0.5):
+        targets.write(refs, t)
+        np.testing.assert_allclose(refs.hand_position[0], circling.at(t)[0])

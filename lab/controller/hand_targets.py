@@ -69,6 +69,7 @@ class HandTargets:
     def __init__(self, names: tuple[str, ...], targets: list[HandTarget]) -> None:
         self.names = names
         self.targets = targets
+        self._written: References | None = None  # the references last written, while current
 
     @classmethod
     def holding(
@@ -97,6 +98,7 @@ class HandTargets:
         """Replace the target of hand `name`; raises KeyError naming the hands for another
         name."""
         self.targets[self._index(name)] = target
+        self._written = None
 
     def command(self, command: HandCommand, t: float) -> dict:
         """Apply a `hand` command at sim time t (the circle starts then); the new target as
@@ -121,7 +123,9 @@ class HandTargets:
 
     def write(self, refs: References, t: float) -> None:
         """The targets at sim time t into `refs`' hand rows (allocated when their count
-        differs)."""
+        differs); nothing to do when these references already hold still targets."""
+        if refs is self._written:
+            return
         n = len(self.targets)
         if len(refs.hand_position) != n:
             refs.hand_position = np.zeros((n, 3))
@@ -134,3 +138,5 @@ class HandTargets:
             refs.hand_velocity[k] = v
             refs.hand_acceleration[k] = a
             refs.hand_rotation[k] = target.rotation
+        moving = any(target.radius > 0.0 for target in self.targets)
+        self._written = None if moving else refs
