@@ -32,14 +32,12 @@ def frames_of(name: str) -> tuple[str, ...]:
 def test_the_hands_rows_agree_between_kernels(name: str) -> None:
     _kernel = pytest.importorskip("lab._kernel", reason="the native kernel is not built")
     del _kernel
-    controller, robot = controller_for(name)
-    frames = frames_of(name)
-    controller.set_hands(frames)
-    kernel = kernel_for(controller)
-    kernel.set_hands(list(frames))
+    controller, robot = controller_for(name)  # with the robot's hands, as a session has them
+    kernel = kernel_for(controller)  # which mirrors them
     model, refs = controller.robot, controller.references
     rng = np.random.default_rng(29)
-    h = len(frames)
+    h = len(frames_of(name))
+    assert controller.hands == frames_of(name)
     for i in range(4):
         q, v = random_state(robot, rng)
         model.update(q, v)
@@ -61,8 +59,6 @@ def test_the_hands_rows_agree_between_kernels(name: str) -> None:
 
 def test_a_frame_the_model_lacks_is_refused_on_both_kernels_and_changes_nothing() -> None:
     controller, _ = controller_for("talos_arms")
-    frames = frames_of("talos_arms")
-    controller.set_hands(frames)
     with pytest.raises(ValueError, match="no frame 'nope'"):
         controller.set_hands(("nope",))
     assert len(controller.tasks["hands"].frame_ids) == 2
@@ -75,9 +71,21 @@ def test_a_frame_the_model_lacks_is_refused_on_both_kernels_and_changes_nothing(
 
 def test_without_targets_the_task_gives_no_rows() -> None:
     controller, _ = controller_for("g1")
-    controller.set_hands(frames_of("g1"))
     rows = controller.tasks["hands"].rows(controller.robot, controller.references)
     assert rows.A.shape == (0, controller.robot.nx)
+
+
+def test_references_with_another_number_of_hands_are_refused_on_both_kernels() -> None:
+    controller, _ = controller_for("g1")  # two hands
+    refs = controller.references
+    refs.hand_position, refs.hand_velocity = np.zeros((1, 3)), np.zeros((1, 3))
+    refs.hand_acceleration, refs.hand_rotation = np.zeros((1, 3)), np.eye(3)[None]
+    with pytest.raises(ValueError, match="hand_position has 1 rows, expected 0 or 2"):
+        controller.tasks["hands"].rows(controller.robot, refs)
+    _kernel = pytest.importorskip("lab._kernel", reason="the native kernel is not built")
+    del _kernel
+    with pytest.raises(ValueError, match="hand_position"):
+        send_references(kernel_for(controller), refs)
 
 
 def test_a_circle_target_moves_on_its_circle_with_its_derivatives() -> None:
@@ -165,7 +173,6 @@ def test_hand_targets_hold_each_hand_where_it_stands() -> None:
     targets = HandTargets.holding(robot.model, robot.q_standing, description.hands)
     refs = controller.references
     targets.write(refs, 0.0)
-    controller.set_hands(frames_of("g1"))
     controller.robot.update(robot.q_standing, np.zeros(robot.model.nv))
     error = controller.tasks["hands"].rows(controller.robot, refs).error
     np.testing.assert_allclose(error, 0.0, atol=1e-12)

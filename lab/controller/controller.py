@@ -199,9 +199,17 @@ class WholeBodyController:
     def set_hands(self, frames: tuple[str, ...]) -> None:
         """The frames the `hands` task moves, one hand each, in the order of the references' hand
         rows; raises ValueError naming a frame the model lacks, and changes nothing then."""
+        self._hands_task().set_frames(self.robot, tuple(frames))
+
+    @property
+    def hands(self) -> tuple[str, ...]:
+        """The frames the `hands` task moves (`set_hands`)."""
+        return self._hands_task().frames
+
+    def _hands_task(self) -> HandsTask:
         hands = self.tasks["hands"]
         assert isinstance(hands, HandsTask)
-        hands.set_frames(self.robot, tuple(frames))
+        return hands
 
     def set_gains(
         self,

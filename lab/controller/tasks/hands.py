@@ -35,17 +35,23 @@ class HandsTask(Task):
 
     def __init__(self, gains: TaskGains | None = None) -> None:
         super().__init__(gains)
+        self.frames: tuple[str, ...] = ()
         self.frame_ids: tuple[int, ...] = ()
 
     def set_frames(self, robot: RobotModel, frames: tuple[str, ...]) -> None:
         """Track these frames, one hand each, in the order of the references' hand rows; raises
         ValueError naming a frame the model lacks, and keeps the old ones then."""
         self.frame_ids = hand_frame_ids(robot.model, frames)
+        self.frames = frames
         self._fixed = FixedRows()  # another number of rows
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         n = len(self.frame_ids)
-        if n == 0 or len(refs.hand_position) != n:
+        if len(refs.hand_position) not in (0, n):  # as the kernel's check_references
+            raise ValueError(
+                f"references: hand_position has {len(refs.hand_position)} rows, expected 0 or {n}"
+            )
+        if n == 0 or len(refs.hand_position) == 0:
             return no_task_rows(robot.nx)
         model, data = robot.model, robot.data
         A, view = self._matrix(robot, 6 * n)
