@@ -31,6 +31,12 @@ def test_a_moved_gizmo_sends_its_pose_as_the_hands_target(viser_server) -> None:
     target = session.info()["hands"][0]
     np.testing.assert_allclose(target["position"], goal, atol=1e-6)
     np.testing.assert_allclose(target["rpy"], rpy, atol=1e-6)
+    sent = len(host.sent)
+    elsewhere = [0.3, 0.35, 0.95]  # another client (a scenario, teleop) sets the target
+    assert session.handle("hand", {"name": "left", "position": elsewhere})["ok"]
+    gizmos.show_info(session.info())
+    np.testing.assert_allclose(left.position, elsewhere, atol=1e-6)
+    assert len(host.sent) == sent  # following it sends nothing back
     gizmos.show_ownership(False)
     assert not left.visible  # only the browser in control drags
 

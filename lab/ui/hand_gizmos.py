@@ -25,12 +25,17 @@ class HandGizmos:
         self._acts = False
 
     def show_info(self, info: dict) -> None:
-        """New gizmos at the targets for another robot; shown while `hands` is in the stack."""
+        """New gizmos for another robot, each at its hand's target (moved there when another
+        client set it); shown while `hands` is in the stack."""
         if info["robot"] != self._robot:
             self._robot = info["robot"]
             for handle in self.handles.values():
                 handle.remove()
             self.handles = {hand["name"]: self._gizmo(hand) for hand in info.get("hands", [])}
+        for hand in info.get("hands", []):
+            handle = self.handles[hand["name"]]
+            handle.position = tuple(hand["position"])  # no update callback: nothing is sent
+            handle.wxyz = tf.SO3.from_rpy_radians(*hand["rpy"]).wxyz
         self._in_stack = any(TASK in level for level in info["stack"])
         self._show()
 
