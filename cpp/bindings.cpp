@@ -313,7 +313,7 @@ NB_MODULE(_kernel, m) {
         return fields;
       },
       "The references' fields the kernel reads (cpp/references.hpp kReferenceFields): (name, "
-      "declaring class, type: float, float64 or bool, shape in the robot's sizes n and na).");
+      "declaring class, type: float, float64 or bool, shape in the robot's sizes n, na and h).");
   lab::bind_frame_placements(m);
 
   nb::class_<TickOutcome>(m, "TickOutcome",
@@ -446,6 +446,9 @@ NB_MODULE(_kernel, m) {
       .def("set_internal_force", &lab::Kernel::set_internal_force, "reference"_a, "source"_a,
            "The internal-force task's F_int,ref (N) and sensed source (contacts or torques); "
            "raises ValueError for a non-finite reference or another source.")
+      .def("set_hands", &lab::Kernel::set_hands, "frames"_a,
+           "The frames the hands task moves, one hand each, in the order of the references' "
+           "hand rows; raises ValueError naming a frame the model lacks.")
       .def(
           "set_sensing",
           [](lab::Kernel& k, const Doubles& foot_forces, const InVector& applied_torques) {

@@ -154,6 +154,11 @@ void Kernel::set_internal_force(double reference, const std::string& source) {
   lab::set_internal_force(*tasks_.at("internal_force"), reference, source);
 }
 
+void Kernel::set_hands(const std::vector<std::string>& frames) {
+  lab::set_hand_frames(*tasks_.at("hands"), robot_, frames);
+  hand_count_ = static_cast<Eigen::Index>(frames.size());
+}
+
 void Kernel::set_sensing(const Eigen::Ref<const Eigen::VectorXd>& foot_forces,
                          const Eigen::Ref<const Eigen::VectorXd>& applied_torques) {
   check_finite(foot_forces, "sensing: foot_forces",
@@ -180,6 +185,12 @@ void Kernel::check_references() const {
   check_size(refs_.swing_tracked.size(), {0, n}, "swing_tracked");
   check_size(refs_.sole_position.size(), {0, 3 * n}, "sole_position");
   if (refs_.sole_position.size()) check_size(refs_.sole_rotation.size(), {9 * n}, "sole_rotation");
+  check_size(refs_.hand_position.size(), {0, 3 * hand_count_}, "hand_position");
+  if (refs_.hand_position.size()) {
+    check_size(refs_.hand_velocity.size(), {3 * hand_count_}, "hand_velocity");
+    check_size(refs_.hand_acceleration.size(), {3 * hand_count_}, "hand_acceleration");
+    check_size(refs_.hand_rotation.size(), {9 * hand_count_}, "hand_rotation");
+  }
   check_size(refs_.leg_swinging.size(), {0, n}, "leg_swinging");
   if (refs_.leg_swinging.size() && (refs_.leg_swinging && !refs_.contact_active).any()) {
     check_size(refs_.leg_position.size(), {robot_.na}, "leg_position");

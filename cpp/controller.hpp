@@ -60,6 +60,9 @@ class Kernel {
   void set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain);
   /// The internal-force task's reference (N) and sensed source (`contacts` or `torques`).
   void set_internal_force(double reference, const std::string& source);
+  /// The frames the hands task moves, one hand each (WholeBodyController.set_hands); throws
+  /// std::invalid_argument naming a frame the model lacks and keeps the old ones.
+  void set_hands(const std::vector<std::string>& frames);
   /// What the sensors measured over the last step, for the internal force's feedback (Kim
   /// eqs. 12–13): the terrain's force on each foot ((n_contacts, 3) flat, N, world) and the joint
   /// torques applied (N m); throws std::invalid_argument for other sizes or non-finite entries.
@@ -109,6 +112,7 @@ class Kernel {
   const std::string& formulation() const { return formulation_; }
 
  private:
+  Eigen::Index hand_count_ = 0;  // of set_hands: the rows of the references' hand targets
   struct StackLevel {
     std::vector<std::pair<std::string, Task*>> tasks;
     std::vector<Constraint*> constraints;

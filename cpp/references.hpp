@@ -22,6 +22,12 @@ struct References {
   Eigen::Array<bool, Eigen::Dynamic, 1> contact_active;
   Eigen::VectorXd normal_force_max;  // per contact (N); empty: the robot-wide bound
   Eigen::Vector3d base_linear_velocity = Eigen::Vector3d::Zero();  // world axes
+  // The hands task's targets, per hand (h, 3) and (h, 3, 3) row-major flat, or empty (no rows):
+  // world position, its velocity and acceleration, rotation.
+  Eigen::VectorXd hand_position;
+  Eigen::VectorXd hand_velocity;
+  Eigen::VectorXd hand_acceleration;
+  Eigen::VectorXd hand_rotation;
 
   // WalkReferences: per-contact rows (n_contacts, 3) stored row-major flat, or empty.
   Eigen::VectorXd foot_position;
@@ -51,9 +57,9 @@ enum class FieldType { number, doubles, flags };
 
 /// One field of the references' dataclasses as the kernel reads it: its name, the class that
 /// declares it, its type and its shape in the robot's sizes ("n" contacts, "na" actuated
-/// joints, comma-separated dimensions, "" for a number; a field whose dataclass default is empty
-/// may be empty), and the setter that stores `size` values into References (false: not a size
-/// the field can have).
+/// joints, "h" hands, comma-separated dimensions, "" for a number; a field whose dataclass default
+/// is empty may be empty), and the setter that stores `size` values into References (false: not a
+/// size the field can have).
 struct ReferenceField {
   const char* name;
   const char* declared_by;
@@ -92,14 +98,14 @@ bool flags(References& refs, const bool* data, Eigen::Index size) {
 }  // namespace reference_setters
 
 /// Every field of References, WalkReferences and SoleReferences, in their declaration order.
-inline const std::array<ReferenceField, 24> kReferenceFields = [] {
+inline const std::array<ReferenceField, 28> kReferenceFields = [] {
   namespace set = reference_setters;
   using R = References;
   constexpr auto doubles = FieldType::doubles;
   constexpr auto flags = FieldType::flags;
   constexpr const char* walk = "WalkReferences";
   constexpr const char* sole = "SoleReferences";
-  return std::array<ReferenceField, 24>{{
+  return std::array<ReferenceField, 28>{{
       {"com", "References", doubles, "3", set::vector3<&R::com>, nullptr},
       {"posture", "References", doubles, "na", set::doubles<&R::posture>, nullptr},
       {"base_height", "References", FieldType::number, "", set::base_height, nullptr},
@@ -112,6 +118,11 @@ inline const std::array<ReferenceField, 24> kReferenceFields = [] {
       {"normal_force_max", "References", doubles, "n", set::doubles<&R::normal_force_max>, nullptr},
       {"base_linear_velocity", "References", doubles, "3", set::vector3<&R::base_linear_velocity>,
        nullptr},
+      {"hand_position", "References", doubles, "h,3", set::doubles<&R::hand_position>, nullptr},
+      {"hand_velocity", "References", doubles, "h,3", set::doubles<&R::hand_velocity>, nullptr},
+      {"hand_acceleration", "References", doubles, "h,3", set::doubles<&R::hand_acceleration>,
+       nullptr},
+      {"hand_rotation", "References", doubles, "h,3,3", set::doubles<&R::hand_rotation>, nullptr},
       {"foot_position", walk, doubles, "n,3", set::doubles<&R::foot_position>, nullptr},
       {"foot_velocity", walk, doubles, "n,3", set::doubles<&R::foot_velocity>, nullptr},
       {"foot_acceleration", walk, doubles, "n,3", set::doubles<&R::foot_acceleration>, nullptr},

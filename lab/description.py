@@ -1,10 +1,10 @@
 """Robot descriptions: `robots/<name>.toml` as plain data (light: no pinocchio, the UI reads it).
 
 A description names the source URDF and SRDF in example-robot-data, the reference posture, the feet
-(`ContactSpec`), joints locked at the reference posture, torque limits, friction, and the
-controller's default stack and gains. `lab.robot.build_robot` turns it into a `Robot`: the
-pinocchio model with a free-flyer root (locked joints removed, contact frames added) and the
-standing posture.
+(`ContactSpec`), the hands (end-effector frames of the `hands` task), joints locked at the
+reference posture, torque limits, friction, and the controller's default stack and gains.
+`lab.robot.build_robot` turns it into a `Robot`: the pinocchio model with a free-flyer root
+(locked joints removed, contact frames added) and the standing posture.
 """
 
 import importlib.metadata
@@ -67,6 +67,8 @@ class RobotDescription:
     # The foothold planner of a walking gait on this robot when the gait command names none
     # (None: the behaviour's own default, robo-centric).
     footholds: str | None = None
+    # The hands task's hands, (name, frame) each, in the order of the references' hand rows.
+    hands: tuple[tuple[str, str], ...] = ()
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -133,4 +135,14 @@ def read_description(path: Path) -> RobotDescription:
         kernel=kernel,
         standing_joints={j: float(a) for j, a in data.get("standing_joints", {}).items()},
         footholds=data.get("footholds"),
+        hands=_hands(name, data.get("hands", {})),
     )
+
+
+def _hands(name: str, table: object) -> tuple[tuple[str, str], ...]:
+    """`[hands]`: hand name = frame name, both strings."""
+    if not isinstance(table, dict) or not all(
+        isinstance(k, str) and isinstance(v, str) for k, v in table.items()
+    ):
+        raise ValueError(f"robot {name!r}: [hands] must map hand names to frame names")
+    return tuple(table.items())

@@ -42,6 +42,7 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "internal_force",
         "record",
         "stance",
+        "hand",
         "take",
         "release",
     }

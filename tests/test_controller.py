@@ -37,7 +37,9 @@ def controller_for(name: str, method: str = "cascade", solver: str = "daqp"):
         ContactLimits(friction=description.friction),
     )
     refs = standing_references(model, robot.q_standing)
-    return WholeBodyController(model, refs, config, robot.torque_limits), robot
+    controller = WholeBodyController(model, refs, config, robot.torque_limits)
+    controller.set_hands(tuple(frame for _, frame in description.hands))  # as a session does
+    return controller, robot
 
 
 def disturbed_state(robot, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

@@ -21,7 +21,7 @@ def robot(request):
 
 def test_the_papers_robots_and_the_unitree_robots_are_described() -> None:
     papers = {"anymal", "hyq", "solo12", "talos", "bolt"}
-    assert set(ROBOT_NAMES) == papers | {"talos_arms", "go2", "a1", "b1", "g1"}
+    assert set(ROBOT_NAMES) == papers | {"talos_arms", "go2", "a1", "b1", "b1_z1", "g1"}
 
 
 def test_every_default_foothold_planner_exists() -> None:

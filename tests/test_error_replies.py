@@ -22,6 +22,7 @@ SESSION_REFUSED: dict[str, list[dict]] = {
     "momentum": [{"mode": "nope"}],
     "internal_force": [{"source": "nope"}],
     "stance": [{"side": "left"}],  # ANYmal has no flat soles
+    "hand": [{"name": "left", "position": [0.0, 0.0, 1.0]}],  # ANYmal has no hands
     "push": [{"body": "nope", "force": [1.0, 0.0, 0.0], "duration": 0.1}],
     "record": [{"action": "start"}],  # a session without a recorder
 }

@@ -162,7 +162,7 @@ def random_references(model: RobotModel, rng: np.random.Generator, walk: bool) -
     layout the kernel reads (`_kernel.reference_fields()`: type and shape) and VALUE_RULES;
     `walk=False` leaves the fields References does not declare at their (empty) defaults."""
     layout = {name: (kind, shape) for name, _, kind, shape in _kernel.reference_fields()}
-    sizes = {"n": len(model.contacts), "na": model.na}
+    sizes = {"n": len(model.contacts), "na": model.na, "h": 0}  # hands: tests/test_hands.py
     plain = {f.name for f in dataclasses.fields(References)}
     values = {}
     for f in dataclasses.fields(AllReferences):

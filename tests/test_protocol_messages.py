@@ -19,6 +19,7 @@ from lab.protocol import (
     CommandStruct,
     GainsCommand,
     GaitCommand,
+    HandCommand,
     HierarchyCommand,
     InfoCommand,
     InternalForceCommand,
@@ -62,6 +63,7 @@ EXAMPLES: dict[str, CommandStruct] = {
     "record": RecordCommand("start"),
     "internal_force": InternalForceCommand(reference=-20.0, source="torques"),
     "stance": StanceCommand("left", 0.25),
+    "hand": HandCommand("left", (0.4, 0.2, 1.0), (0.0, 0.1, 0.0), 0.05, 3.0, (0.0, 1.0, 0.0)),
     "take": TakeCommand(),
     "release": ReleaseCommand(),
 }

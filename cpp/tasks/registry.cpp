@@ -13,6 +13,7 @@ TaskRegistry make_tasks() {
   add_momentum_tasks(tasks);
   add_sole_tasks(tasks);
   add_internal_force_tasks(tasks);
+  add_hands_tasks(tasks);
   return tasks;
 }
 

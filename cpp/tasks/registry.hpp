@@ -3,6 +3,7 @@
 
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "tasks/base.hpp"
 
@@ -18,6 +19,7 @@ void add_feet_tasks(TaskRegistry& tasks);            // tasks/feet.cpp
 void add_momentum_tasks(TaskRegistry& tasks);        // tasks/momentum.cpp
 void add_sole_tasks(TaskRegistry& tasks);            // tasks/sole.cpp
 void add_internal_force_tasks(TaskRegistry& tasks);  // tasks/internal_force.cpp
+void add_hands_tasks(TaskRegistry& tasks);           // tasks/hands.cpp
 
 /// Every task of the Python TASK_TYPES.
 TaskRegistry make_tasks();
@@ -25,6 +27,11 @@ TaskRegistry make_tasks();
 /// The momentum task's K_h (6 × 9, tasks/momentum.cpp); throws std::invalid_argument for another
 /// size or a non-finite entry and keeps the last one.
 void set_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& gain);
+
+/// The frames the hands task moves, one hand each, in the order of the references' hand rows
+/// (tasks/hands.cpp); throws std::invalid_argument naming a frame the model lacks and keeps the
+/// old ones then.
+void set_hand_frames(Task& hands, const RobotModel& robot, const std::vector<std::string>& frames);
 
 /// The internal-force task's reference F_int,ref (N) and where F_int,act comes from (`contacts`
 /// or `torques`, tasks/internal_force.cpp); throws std::invalid_argument for a non-finite

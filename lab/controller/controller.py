@@ -40,6 +40,7 @@ from lab.controller.references import References
 from lab.controller.rows import PerContactSet, no_rows, read_only
 from lab.controller.stack import Stack
 from lab.controller.tasks import TASK_TYPES, Task, TaskGains
+from lab.controller.tasks.hands import HandsTask
 from lab.controller.tasks.internal_force import InternalForceTask
 from lab.controller.walk_references import WalkReferences
 
@@ -194,6 +195,21 @@ class WholeBodyController:
             )
             for names in stack.levels
         ]
+
+    def set_hands(self, frames: tuple[str, ...]) -> None:
+        """The frames the `hands` task moves, one hand each, in the order of the references' hand
+        rows; raises ValueError naming a frame the model lacks, and changes nothing then."""
+        self._hands_task().set_frames(self.robot, tuple(frames))
+
+    @property
+    def hands(self) -> tuple[str, ...]:
+        """The frames the `hands` task moves (`set_hands`)."""
+        return self._hands_task().frames
+
+    def _hands_task(self) -> HandsTask:
+        hands = self.tasks["hands"]
+        assert isinstance(hands, HandsTask)
+        return hands
 
     def set_gains(
         self,

@@ -52,10 +52,10 @@ def native_available() -> bool:
 
 def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
     """A native kernel on the controller's very model (pinocchio's serialization), with its
-    contacts and limits; stack, gains and references are set separately."""
+    contacts, limits and hands; stack, gains and references are set separately."""
     robot, limits = controller.robot, controller.config.limits
     lower, upper = controller.joint_limits()
-    return _kernel.Kernel(
+    kernel = _kernel.Kernel(
         robot.model.saveToString(),
         [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
         controller.torque_limits(),
@@ -65,6 +65,8 @@ def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
         limits.normal_min,
         limits.normal_max,
     )
+    kernel.set_hands(list(controller.hands))
+    return kernel
 
 
 def send_references(kernel: "_kernel.Kernel", refs: References) -> None:
@@ -192,6 +194,12 @@ class NativeController(WholeBodyController):
         super().forget_last_solution()
         if self._native is not None:
             self._native.forget_last_solution()
+
+    def set_hands(self, frames: tuple[str, ...]) -> None:
+        """As WholeBodyController.set_hands, mirrored into the kernel."""
+        super().set_hands(frames)
+        if self._native is not None:
+            self._native.set_hands(list(frames))
 
     def set_stack(self, stack: Stack) -> None:
         """As WholeBodyController.set_stack, mirrored into the kernel."""

@@ -26,3 +26,10 @@ class References:
     normal_force_max: np.ndarray = field(default_factory=lambda: np.zeros(0))
     # Desired base linear velocity (world axes), for velocity tasks (Hutter Table 7).
     base_linear_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # Hand targets of the `hands` task (tasks/hands.py), one row per hand the controller was given
+    # (`set_hands`), in that order; empty: no targets, no rows. World position (m), its velocity
+    # and acceleration fed forward (m/s, m/s²), rotation.
+    hand_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    hand_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    hand_acceleration: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    hand_rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))

@@ -19,6 +19,8 @@ YAW_RATE_MAX = 2.0  # rad/s, |yaw_rate|
 PUSH_FORCE_MAX = 2000.0  # N, Euclidean norm of the push force
 PUSH_DURATION_MAX = 5.0  # s, 0 < duration <= max
 POINT_COORD_MAX = 1000.0  # m, |x|, |y|, |z| of a push application point (world)
+HAND_RADIUS_MAX = 1.0  # m, 0 <= radius of a hand target's circle <= max
+HAND_PERIOD_MAX = 60.0  # s, 0 < period of a hand target's circle <= max
 GAIN_MAX = 1e5  # 0 <= kp, kd <= max
 WEIGHT_MAX = 1e8  # 0 < weight <= max
 NAME_MAX_LEN = 128  # characters in a robot / scene / task / link / method / gait name
@@ -50,6 +52,7 @@ Name = Annotated[
 ]
 ForceCoord = Annotated[float, Meta(ge=-PUSH_FORCE_MAX, le=PUSH_FORCE_MAX)]
 PointCoord = Annotated[float, Meta(ge=-POINT_COORD_MAX, le=POINT_COORD_MAX)]
+Angle = Annotated[float, Meta(ge=-2 * math.pi, le=2 * math.pi)]
 Gain = Annotated[float, Meta(ge=0.0, le=GAIN_MAX)]
 Weight = Annotated[float, Meta(gt=0.0, le=WEIGHT_MAX)]
 Level = Annotated[tuple[Name, ...], Meta(min_length=1, max_length=STACK_MAX_TASKS)]
@@ -219,6 +222,31 @@ class StanceCommand(CommandStruct, frozen=True):
             raise ValueError("give a 'side', a 'swing' frequency or both")
 
 
+class HandCommand(CommandStruct, frozen=True):
+    """Set the target of one hand of the `hands` task: `name` (a hand of the robot's
+    description), `position` (m, world; finite, out of reach is the controller's to handle),
+    `rpy` (rad, world roll-pitch-yaw; None keeps the target's rotation); with `radius` > 0 (m)
+    the position circles about `position` once per `period` (s), counter-clockwise in the plane
+    normal to `axis` (world)."""
+
+    VERB: ClassVar[str] = "hand"
+    name: Annotated[Name, Meta(description="a hand of the robot's description (info.hands)")]
+    position: Annotated[tuple[PointCoord, PointCoord, PointCoord], Meta(description="m, world")]
+    rpy: (
+        Annotated[tuple[Angle, Angle, Angle], Meta(description="rad, world roll-pitch-yaw")] | None
+    ) = None
+    radius: Annotated[float, Meta(ge=0.0, le=HAND_RADIUS_MAX, description="m")] = 0.0
+    period: Annotated[float, Meta(gt=0.0, le=HAND_PERIOD_MAX, description="s")] = 4.0
+    axis: Annotated[
+        tuple[PointCoord, PointCoord, PointCoord],
+        Meta(description="the circle plane's normal (world)"),
+    ] = (1.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if math.hypot(*self.axis) < 1e-6:
+            raise ValueError("field 'axis' must not be zero")
+
+
 class ResetCommand(CommandStruct, frozen=True):
     """Put the robot back at its standing posture and clear pushes and velocity commands."""
 
@@ -286,6 +314,7 @@ Command = (
     | RecordCommand
     | InternalForceCommand
     | StanceCommand
+    | HandCommand
     | TakeCommand
     | ReleaseCommand
 )

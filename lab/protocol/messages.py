@@ -132,6 +132,16 @@ class Control(Message, frozen=True):
     holder: str | None
 
 
+class HandTarget(Message, frozen=True):
+    """One hand's target of the `hands` task (the `hand` reply, `info.hands`)."""
+
+    name: str
+    position: Annotated[Vec3, Meta(description="m, world; the circle's centre")]
+    rpy: Annotated[Vec3, Meta(description="rad, world roll-pitch-yaw")]
+    radius: Annotated[float, Meta(description="m, 0: still")]
+    period: Annotated[float, Meta(description="s, one turn of the circle")]
+
+
 class Playback(Message, frozen=True):
     """Where `lab replay --serve`'s playback is."""
 
@@ -167,6 +177,7 @@ class Reply(Message, frozen=True):
     recorded: Recorded | None = None
     control: Control | None = None
     replay: Playback | None = None
+    hand: HandTarget | None = None
 
 
 class TaskGainsEntry(Message, frozen=True):
@@ -205,6 +216,7 @@ class InfoReply(Message, frozen=True):
     base: Annotated[str, Meta(description="the link of the floating base")]
     mass: Annotated[float, Meta(description="kg")]
     contacts: list[str]
+    hands: Annotated[list[HandTarget], Meta(description="each hand's target")]
     paused: bool
     t: float
     limits: dict[str, float] | None = None

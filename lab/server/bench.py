@@ -122,6 +122,7 @@ def bench_one(
         solve_us[i] = (time.perf_counter() - start) * 1e6
     return {
         "robot": robot,
+        "nv": session.model.nv,
         "gait": gait,
         "method": controller.ran.method,
         "kernel": controller.ran.kernel,

@@ -60,6 +60,12 @@ METRIC_KEYS: dict[str, tuple[str, ...]] = {
         "cog_error_z_rms_m",
     ),
     "swing_tracking": ("swing_error_max_rad", "swing_error_rms_rad", "swing_ticks"),
+    "hand_tracking": (
+        "hand_error_max_m",
+        "hand_error_rms_m",
+        "hand_error_final_m",
+        "hand_rotation_error_max_rad",
+    ),
     "cop_binding": ("cop_at_bound_fraction", "max_sole_tilt_rad", "max_sole_rise_m"),
     "sole_cop": (
         "cop_sole_fraction_x_max",

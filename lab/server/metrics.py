@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from lab.server.cop_metrics import CopBindingMetrics
+from lab.server.hand_metrics import HandTrackingMetrics
 from lab.server.kim_metrics import KIM_METRICS
 from lab.server.load_metrics import LOAD_METRICS
 from lab.server.locomotion_metrics import LocomotionMetrics
@@ -54,6 +55,7 @@ METRICS: dict[str, type] = {
     "pushes": PushMetrics,
     "cog_tracking": CogTrackingMetrics,
     "swing_tracking": SwingTrackingMetrics,
+    "hand_tracking": HandTrackingMetrics,
     "cop_binding": CopBindingMetrics,
     "sole_cop": SoleCopMetrics,
     "scene_motion": SceneMotionMetrics,

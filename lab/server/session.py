@@ -23,6 +23,7 @@ from lab.controller.behaviours.stance import Stance
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig, ControlOutput, Ran
+from lab.controller.hand_targets import HandTargets
 from lab.controller.hierarchy import METHODS, HierarchySolution
 from lab.controller.hierarchy.formulations import FORMULATIONS
 from lab.controller.hierarchy.solution import SOLVED, SolveStatus
@@ -170,6 +171,7 @@ def build_parts(config: SessionConfig) -> SessionParts:
         ),
         robot.torque_limits,
     )
+    controller.set_hands(tuple(frame for _, frame in description.hands))
     return SessionParts(config, robot, plant, model, controller, FramePlacements(robot))
 
 
@@ -231,6 +233,10 @@ class Session:
         self.plant.set_joint_damping(0.0)
         self.controller.forget_last_solution()  # the last tick's was of the state left behind
         self._set_behaviour(Balance.name)
+        # the hands task's targets: each hand held where it stands (a `hand` command moves them)
+        self.hands = HandTargets.holding(
+            self.robot.model, self.robot.q_standing, self.robot.description.hands
+        )
         self.pushes: dict[str, Push] = {}
         self.velocity = np.zeros(3)
         self.paused = False
@@ -336,6 +342,8 @@ class Session:
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
         idle = getattr(behaviour, "idle", False) and not controller.reads_sensing
         touching = None if idle else self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
+        if self.hands.targets:
+            self.hands.write(controller.references, self.time)
         start = time.perf_counter()
         with self._capture as caught:
             try:
@@ -565,6 +573,8 @@ class Session:
                 return {"momentum": {**momentum_report(self.controller), "gain": gain}}
             case cmd.StanceCommand(side=side, swing=swing):
                 return self._stance(side, swing)
+            case cmd.HandCommand() as hand:
+                return {"hand": self.hands.command(hand, self.time)}  # KeyError names the hands
             case cmd.TakeCommand() | cmd.ReleaseCommand():  # one user: nothing to lock
                 return {}
             case _:  # a command struct without a case here: mypy names it
@@ -659,6 +669,7 @@ class Session:
             "base": self.robot.base_link,
             "mass": self.model.mass,
             "contacts": [c.name for c in self.robot.contacts],
+            "hands": self.hands.report(),
             "paused": self.paused,
             "t": self.time,
         }

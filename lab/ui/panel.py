@@ -27,6 +27,7 @@ from lab.ui.balance_controls import BalanceControls
 from lab.ui.camera import followed, recentred
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import stack_risks, standing_risks
+from lab.ui.hand_gizmos import HandGizmos
 from lab.ui.internal_force_controls import InternalForceControls
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.lab_picker import add_lab_picker
@@ -274,6 +275,7 @@ class ControlPanel:
             depth_test=False,
         )
         self.pad.on_update(app.guard(self._pad_moved))
+        self.hands = HandGizmos(app, client)  # the hands task's targets, dragged in the scene
 
     # ---- ownership -------------------------------------------------------------------------
     def show_ownership(self, owner: int | None) -> None:
@@ -298,6 +300,7 @@ class ControlPanel:
             else:
                 handle.disabled = not (mine if handle is self.labs.dropdown else acts)
         self.pad.visible = acts
+        self.hands.show_ownership(acts)
         self.replay_note.visible = self._replay
 
     # ---- info / telemetry -----------------------------------------------------------------------
@@ -334,6 +337,7 @@ class ControlPanel:
         self.robot_note.content, self.robot_note.visible = note, bool(note)
         self.balance.show_info(info)
         self.internal_force.show_info(info)
+        self.hands.show_info(info)
         self._show_task()
 
     def _show_task(self) -> None:

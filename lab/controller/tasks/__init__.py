@@ -8,6 +8,7 @@ from lab.controller.tasks.base import ALL_GAINS, Task, TaskGains, TaskRows
 from lab.controller.tasks.com import ComAcrossFeetTask, ComAlongFeetTask, ComTask, ComXYTask
 from lab.controller.tasks.contact import ContactTask
 from lab.controller.tasks.feet import SwingFeetTask
+from lab.controller.tasks.hands import HandsTask
 from lab.controller.tasks.internal_force import InternalForceTask
 from lab.controller.tasks.momentum import MomentumTask
 from lab.controller.tasks.objectives import (
@@ -52,6 +53,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         InternalWrenchTask,
         ComAlongFeetTask,
         ComAcrossFeetTask,
+        HandsTask,
     )
 }
 
