@@ -87,7 +87,9 @@ def measure(robot: str, trot: bool, ticks: int, kernel: str = "python") -> dict[
 
 def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, float]]:
     """Thread-CPU µs (median, p99) of `Session.tick()` on the native tick and on the Python tick,
-    the two sessions ticking in turns (the same load on both)."""
+    the two sessions ticking in turns (the same load on both); and of the native tick, the
+    part inside its one call (`in C++`) and of that the check-to-solve part (`control`),
+    both on the steady clock inside C++."""
     sessions = {
         "native": Session(SessionConfig(robot=robot)),
         "python": Session(SessionConfig(robot=robot)),
@@ -99,13 +101,15 @@ def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, 
             session.handle("velocity", {"vx": 0.5})
         for _ in range(WARM_UP_TICKS):
             session.tick()
-    spent = {path: np.zeros(ticks) for path in sessions}
-    clock = time.thread_time
+    spent = {path: np.zeros(ticks) for path in (*sessions, "in C++", "control")}
+    clock, native = time.thread_time, sessions["native"].native_tick
     for i in range(ticks):
         for path, session in sessions.items():
             start = clock()
             session.tick()
             spent[path][i] = clock() - start
+        spent["in C++"][i] = native.call_us * 1e-6  # steady clock, inside the one call
+        spent["control"][i] = native.control_us * 1e-6
     for path, session in sessions.items():
         if session.tick_report()["tick"] != path or session.fell:
             raise SystemExit(f"the {path} tick did not run to the end: {session.tick_report()}")
@@ -130,7 +134,7 @@ def main() -> None:
             f"{args.robot} {doing}, Session.tick() µs of thread CPU time over {args.ticks} ticks:"
         )
         for path, (median, p99) in whole.items():
-            print(f"  {path:6s} tick  median {median:6.1f}  p99 {p99:6.1f}")
+            print(f"  {path:7s} median {median:6.1f}  p99 {p99:6.1f}")
         print(f"  native / python median: {whole['native'][0] / whole['python'][0]:.2f}")
         return
     medians = measure(args.robot, args.trot, args.ticks, args.kernel)

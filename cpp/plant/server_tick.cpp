@@ -81,11 +81,12 @@ class ServerTick {
                  double touch_force, bool sensing) {
     if (command.shape(0) != 3 || applied_torques.shape(0) != static_cast<std::size_t>(tau_.size()))
       throw std::invalid_argument("ServerTick.tick: command needs 3 entries, applied_torques na");
+    const auto start = Clock::now();
     behaviour_ran_ = false;
     non_foot_contact_ = false;
+    call_seconds_ = control_seconds_ = 0.0;
     valid_time_ = plant_.check();  // a state set from outside (fault injection) before control
     if (valid_time_ < 0.0) return nb::make_tuple(static_cast<int>(kDivergedBefore), nb::none());
-    const auto start = Clock::now();
     plant_.state(q_.data(), v_.data());
     kernel_.update(q_, v_);  // fills the Python model's arrays too (Kernel::on_update)
     if (sensing) {           // measured only for a task that reads it (Kim eq. 12)
@@ -113,6 +114,7 @@ class ServerTick {
     if (after < 0.0) return nb::make_tuple(static_cast<int>(kDivergedAfter), std::move(outcome));
     valid_time_ = after;
     non_foot_contact_ = plant_.non_foot_ground_contact();
+    call_seconds_ = std::chrono::duration<double>(Clock::now() - start).count();
     return nb::make_tuple(static_cast<int>(kStepped), std::move(outcome));
   }
 
@@ -135,6 +137,7 @@ class ServerTick {
 
   double valid_time() const { return valid_time_; }
   double control_seconds() const { return control_seconds_; }
+  double call_seconds() const { return call_seconds_; }
   bool behaviour_ran() const { return behaviour_ran_; }
   bool non_foot_contact() const { return non_foot_contact_; }
 
@@ -149,7 +152,7 @@ class ServerTick {
   MujocoStep plant_;
   Eigen::VectorXd q_, v_, tau_, x_, foot_forces_, normal_forces_;
   std::vector<char> touching_;  // bools: std::vector<bool> has no data()
-  double valid_time_ = 0.0, control_seconds_ = 0.0;
+  double valid_time_ = 0.0, control_seconds_ = 0.0, call_seconds_ = 0.0;
   bool behaviour_ran_ = false, non_foot_contact_ = false;
 };
 
@@ -172,7 +175,9 @@ void bind_server_tick(nb::module_& m) {
       .def_prop_ro("valid_time", &ServerTick::valid_time,
                    "The sim time of the last state found valid (s).")
       .def_prop_ro("control_seconds", &ServerTick::control_seconds,
-                   "Seconds from the state read to the solve's end, last tick.")
+                   "Seconds from the state check to the solve's end, last tick.")
+      .def_prop_ro("call_seconds", &ServerTick::call_seconds,
+                   "Seconds of the whole last tick inside C++, when it stepped (else 0).")
       .def_prop_ro("behaviour_ran", &ServerTick::behaviour_ran,
                    "Whether the last tick ran the behaviour's native tick.")
       .def_prop_ro("non_foot_contact", &ServerTick::non_foot_contact,

@@ -116,5 +116,10 @@ class NativeTick:
 
     @property
     def control_us(self) -> float:
-        """Microseconds of the last tick from the state read to the solve's end (in C++)."""
+        """Microseconds of the last tick from the state check to the solve's end (in C++)."""
         return self._tick.control_seconds * 1e6
+
+    @property
+    def call_us(self) -> float:
+        """Microseconds of the whole last tick inside C++ (0 when it did not step)."""
+        return self._tick.call_seconds * 1e6
