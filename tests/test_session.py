@@ -476,7 +476,12 @@ def test_a_session_dropped_frees_its_native_parts_at_once() -> None:
             assert session.handle(command, payload)["ok"]
             run(session, 0.01)
             session.telemetry(), session.drawing_state(), session.solution
-            parts = (session.controller, session.plant, session.frame_placements)
+            parts = (
+                session.controller,
+                session.plant,
+                session.frame_placements,
+                session.native_tick,  # the server tick in one crossing (lab._kernel.ServerTick)
+            )
             alive += [weakref.ref(part) for part in parts]
             assert session.handle("robot", {"name": "anymal"})["ok"]  # a rebuild drops them
         alive.append(weakref.ref(session))
