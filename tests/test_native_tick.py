@@ -88,24 +88,33 @@ def test_the_native_tick_agrees_with_the_python_tick(robot, gait, command) -> No
         assert worst["lifted"] > 50, worst
 
 
-def test_a_divergence_on_a_native_tick_is_the_same_event() -> None:
-    """NaN in the state before a native tick: the sim_diverged event of the Python tick, with
-    the same cause and message, the robot standing again."""
-    events = []
+@pytest.mark.parametrize(
+    ("speed", "where"),
+    [(math.nan, "before the step"), (5e9, "after the step: MuJoCo flags the acceleration")],
+)
+def test_a_divergence_on_a_native_tick_gives_the_python_ticks_events(speed, where) -> None:
+    """A joint speed set from outside (NaN: caught before control; 5e9 rad/s: finite, caught
+    after the step): the native tick gives the Python tick's events (sim_diverged with its
+    cause, and what the controller reported on the way), at the same sim times, and the robot
+    stands again on native ticks."""
+    events, counted = [], []
     for native_ticks in (True, False):
         session = Session(SessionConfig(robot="anymal"))
         session.native_ticks = native_ticks
         for _ in range(20):
             session.tick()
-        session.plant.mj_data.qvel[7] = math.nan
+        session.pop_events()
+        session.plant.mj_data.qvel[8] = speed
         session.tick()
-        diverged = [e for e in session.pop_events() if e["type"] == "sim_diverged"]
-        assert len(diverged) == 1 and session.divergences == 1
-        events.append(diverged[0])
+        assert session.divergences == 1, where
+        events.append(session.pop_events())
+        counted.append(sum(session.ran_ticks.values()))
         for _ in range(20):
             session.tick()
         assert session.tick_report()["tick"] == ("native" if native_ticks else "python")
-    assert events[0] == events[1]
+        assert abs(session.model.q[2] - session.robot.q_standing[2]) < 0.02
+    assert events[0] == events[1] and any(e["type"] == "sim_diverged" for e in events[0])
+    assert counted[0] == counted[1]
 
 
 def test_a_solver_failure_on_native_ticks_falls_back_as_on_python_ticks() -> None:

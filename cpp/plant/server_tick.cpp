@@ -87,6 +87,7 @@ class ServerTick {
     call_seconds_ = control_seconds_ = 0.0;
     valid_time_ = plant_.check();  // a state set from outside (fault injection) before control
     if (valid_time_ < 0.0) return nb::make_tuple(static_cast<int>(kDivergedBefore), nb::none());
+    tick_time_ = valid_time_;
     plant_.state(q_.data(), v_.data());
     kernel_.update(q_, v_);  // fills the Python model's arrays too (Kernel::on_update)
     if (sensing) {           // measured only for a task that reads it (Kim eq. 12)
@@ -136,6 +137,7 @@ class ServerTick {
   }
 
   double valid_time() const { return valid_time_; }
+  double tick_time() const { return tick_time_; }
   double control_seconds() const { return control_seconds_; }
   double call_seconds() const { return call_seconds_; }
   bool behaviour_ran() const { return behaviour_ran_; }
@@ -152,7 +154,7 @@ class ServerTick {
   MujocoStep plant_;
   Eigen::VectorXd q_, v_, tau_, x_, foot_forces_, normal_forces_;
   std::vector<char> touching_;  // bools: std::vector<bool> has no data()
-  double valid_time_ = 0.0, control_seconds_ = 0.0, call_seconds_ = 0.0;
+  double valid_time_ = 0.0, tick_time_ = 0.0, control_seconds_ = 0.0, call_seconds_ = 0.0;
   bool behaviour_ran_ = false, non_foot_contact_ = false;
 };
 
@@ -174,6 +176,8 @@ void bind_server_tick(nb::module_& m) {
            "Views of the arrays each tick writes (q, v, tau, x, foot_forces, normal_forces).")
       .def_prop_ro("valid_time", &ServerTick::valid_time,
                    "The sim time of the last state found valid (s).")
+      .def_prop_ro("tick_time", &ServerTick::tick_time,
+                   "The sim time the last tick controlled at, before its step (s).")
       .def_prop_ro("control_seconds", &ServerTick::control_seconds,
                    "Seconds from the state check to the solve's end, last tick.")
       .def_prop_ro("call_seconds", &ServerTick::call_seconds,

@@ -76,10 +76,11 @@ class NativeTick:
         command: np.ndarray,
         applied: np.ndarray,
         touch_force: float,
-    ) -> tuple[TickStatus, ControlOutput | None]:
-        """One tick (`note` said it can run): the status and the controller's output (None when
-        the controller did not run). Raises `SimulationDiverged` when the state was not valid
-        before or after the step (the plant's check names why) and the controller's QPFailure
+    ) -> tuple[TickStatus, ControlOutput]:
+        """One tick (`note` said it can run): the status (STEPPED, or DIVERGED_AFTER: the
+        caller's `plant.check()` then raises, as the Python tick's step does, after the tick's
+        bookkeeping) and the controller's output. Raises `SimulationDiverged` when the state was
+        not valid before control (the plant's check names why) and the controller's QPFailure
         when it failed: nothing was applied then, the caller falls back."""
         controller, plant = self.controller, self.plant
         twin = None if idle else behaviour.native_twin()
@@ -109,8 +110,6 @@ class NativeTick:
             controller.internal_force.measured_forces = self.buffers["foot_forces"].copy()
             controller.internal_force.applied_torques = np.array(applied, dtype=float)
         plant.stepped_elsewhere(self._tick.valid_time, status is not TickStatus.CONTROL_FAILED)
-        if status is TickStatus.DIVERGED_AFTER:
-            plant.check()
         output = controller.finish_native_tick(outcome, self.buffers["tau"], self.buffers["x"])
         return status, output
 
@@ -118,6 +117,11 @@ class NativeTick:
     def control_us(self) -> float:
         """Microseconds of the last tick from the state check to the solve's end (in C++)."""
         return self._tick.control_seconds * 1e6
+
+    @property
+    def tick_time(self) -> float:
+        """The sim time (s) the last tick controlled at, before its step."""
+        return self._tick.tick_time
 
     @property
     def call_us(self) -> float:

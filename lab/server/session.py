@@ -34,7 +34,7 @@ from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server import commands as cmd
 from lab.server.memory import release_free_memory
-from lab.server.native_tick import NativeTick
+from lab.server.native_tick import NativeTick, TickStatus
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
@@ -323,7 +323,9 @@ class Session:
         )
         non_foot_contact = None  # the fall check's contact test, when the native tick made it
         try:
-            if not self.tick_note and self._control(idle, native=True):
+            if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
+                if stepped is TickStatus.DIVERGED_AFTER:
+                    self.plant.check()  # raises, naming the cause, as the Python step does
                 non_foot_contact = self.native_tick.non_foot_contact
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
@@ -351,20 +353,20 @@ class Session:
                 "until reset",
             )
 
-    def _control(self, idle: bool, native: bool) -> bool:
+    def _control(self, idle: bool, native: bool) -> TickStatus | None:
         """This tick's torques and planned contact forces: the controller's, or fallback ones.
         `native`: the whole tick in one crossing (native_tick.py), which also applies the
-        torques and steps; returns whether it did (not when the controller failed: the caller
-        applies the fallback torques). Raises SimulationDiverged as the plant does."""
+        torques and steps; returns how it ended when it did (None when the controller failed:
+        the caller applies the fallback torques, or when not `native`). Raises
+        SimulationDiverged when the state was not valid before control."""
         controller, behaviour = self.controller, self.behaviour
-        stepped = False
+        stepped = None
         with self._capture as caught:
             try:
                 if native:
-                    _, out = self.native_tick.run(
+                    stepped, out = self.native_tick.run(
                         behaviour, idle, self.velocity, self.tau, TOUCH_FORCE
                     )
-                    stepped = True
                 else:
                     q, v = self.plant.state()
                     # sensing, not control
@@ -388,6 +390,7 @@ class Session:
                     self._report(
                         STATUS_EVENTS[status.status],
                         status.reason,
+                        self._control_time(native),
                         status=status.status,
                         level=status.level,
                         **extra,
@@ -401,7 +404,13 @@ class Session:
                 self.qp_ok, self._output = False, None
                 self.qp_failures += 1
                 self._failure = f"{type(error).__name__}: {error}; fallback torques"
-                self._report("solver_failure", self._failure, status="failed", level=None)
+                self._report(
+                    "solver_failure",
+                    self._failure,
+                    self._control_time(native),
+                    status="failed",
+                    level=None,
+                )
         ran = controller.ran
         self.ran_ticks[ran] = self.ran_ticks.get(ran, 0) + 1
         self.control_us = (
@@ -410,8 +419,13 @@ class Session:
         for caught_warning in caught:
             kind = caught_warning.category.__name__
             count = self._warnings[kind].ticks + 1 if kind in self._warnings else 1
-            self._warnings[kind] = ControllerWarning(str(caught_warning.message), self.time, count)
+            message, t = str(caught_warning.message), self._control_time(native)
+            self._warnings[kind] = ControllerWarning(message, t, count)
         return stepped
+
+    def _control_time(self, native: bool) -> float:
+        """The sim time this tick controlled at: the native tick has stepped already."""
+        return self.native_tick.tick_time if native else self.time
 
     def tick_report(self) -> dict:
         """Which path ran the last tick: `native` (one crossing) or `python`, and why."""
@@ -450,14 +464,14 @@ class Session:
             restored="paused" if repeated else "standing",
         )
 
-    def _report(self, kind: str, message: str, **extra: object) -> None:
+    def _report(self, kind: str, message: str, at: float, **extra: object) -> None:
         """One event of `kind` (a value of STATUS_EVENTS) per FAILURE_EVENT_PERIOD at most, with
-        the count of ticks since the last one."""
+        the count of ticks since the last one; `at`: the sim time of the tick it concerns."""
         self._unreported[kind] += 1
-        if self.time - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
-            self._event(kind, message, count=self._unreported[kind], **extra)
+        if at - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
+            self._event(kind, message, at, count=self._unreported[kind], **extra)
             self._unreported[kind] = 0
-            self._last_report[kind] = self.time
+            self._last_report[kind] = at
 
     def _fallback_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint PD to the reference posture plus the bias forces: safe for one or a few ticks."""
@@ -503,8 +517,10 @@ class Session:
         for p in self.pushes.values():
             self.plant.push(p.body, p.force, p.point)
 
-    def _event(self, kind: str, message: str, **extra: object) -> None:
-        self._events.append({"type": kind, "t": self.time, "message": message, **extra})
+    def _event(self, kind: str, message: str, at: float | None = None, **extra: object) -> None:
+        """Record an event at sim time `at` (None: now)."""
+        t = self.time if at is None else at
+        self._events.append({"type": kind, "t": t, "message": message, **extra})
         del self._events[:-MAX_EVENTS]
 
     def pop_events(self) -> list[dict]:
