@@ -51,7 +51,6 @@ class NativeTick:
             else None
         )
         self.buffers = {} if self._tick is None else self._tick.buffers()
-        self.non_foot_contact = False  # after the last tick's step (the fall check reads it)
 
     def note(self, behaviour: Behaviour, idle: bool, fell: bool) -> str:
         """Why the next tick runs in Python ('' when it can run here): not built, a fallen robot
@@ -82,12 +81,13 @@ class NativeTick:
         bookkeeping) and the controller's output. Raises `SimulationDiverged` when the state was
         not valid before control (the plant's check names why) and the controller's QPFailure
         when it failed: nothing was applied then, the caller falls back."""
-        controller, plant = self.controller, self.plant
+        controller, plant, tick = self.controller, self.plant, self._tick
         twin = None if idle else behaviour.native_twin()
         stale = twin is not None and behaviour.native_stale
+        sensing = controller.reads_sensing
         controller.prepare_native_tick()
         try:
-            status, outcome = self._tick.tick(
+            status, outcome = tick.tick(
                 controller.references,
                 controller.robot,
                 behaviour,
@@ -96,22 +96,27 @@ class NativeTick:
                 command,
                 applied,
                 touch_force,
-                controller.reads_sensing,
+                sensing,
             )
         finally:
-            if self._tick.behaviour_ran:
+            if stale and tick.behaviour_ran:
                 behaviour.native_ran()
         status = TickStatus(status)
         if status is TickStatus.DIVERGED_BEFORE:
             plant.check()  # raises SimulationDiverged naming the cause
         controller.robot.filled_elsewhere()
-        self.non_foot_contact = self._tick.non_foot_contact
-        if controller.reads_sensing:  # the Python task keeps what was sensed, as set_sensing
+        if sensing:  # the Python task keeps what was sensed, as set_sensing
             controller.internal_force.measured_forces = self.buffers["foot_forces"].copy()
             controller.internal_force.applied_torques = np.array(applied, dtype=float)
-        plant.stepped_elsewhere(self._tick.valid_time, status is not TickStatus.CONTROL_FAILED)
+        plant.stepped_elsewhere(tick.valid_time, status is not TickStatus.CONTROL_FAILED)
         output = controller.finish_native_tick(outcome, self.buffers["tau"], self.buffers["x"])
         return status, output
+
+    @property
+    def non_foot_contact(self) -> bool:
+        """Whether a body other than a foot touched the terrain after the last tick's step (the
+        fall check's contact test)."""
+        return self._tick.non_foot_contact
 
     @property
     def control_us(self) -> float:

@@ -321,12 +321,12 @@ class Session:
             if self.native_ticks
             else "native ticks are off (Session.native_ticks)"
         )
-        non_foot_contact = None  # the fall check's contact test, when the native tick made it
+        native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
             if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
                 if stepped is TickStatus.DIVERGED_AFTER:
                     self.plant.check()  # raises, naming the cause, as the Python step does
-                non_foot_contact = self.native_tick.non_foot_contact
+                native = True
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
                     self.plant.check()  # a state set from outside (fault injection) first
@@ -340,7 +340,11 @@ class Session:
             self._recover(divergence)
             return
         self.ticks += 1
-        if self.ticks % FALL_CHECK_PERIOD == 0 and not self.fell and self._fallen(non_foot_contact):
+        if (
+            self.ticks % FALL_CHECK_PERIOD == 0
+            and not self.fell
+            and self._fallen(self.native_tick.non_foot_contact if native else None)
+        ):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
             self.plant.set_joint_damping(self.robot.torque_limits / LIMP_DAMPING_SPEED)
