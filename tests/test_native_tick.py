@@ -180,3 +180,28 @@ def test_the_native_tick_sees_a_body_other_than_a_foot_on_the_ground() -> None:
         assert session.plant.non_foot_ground_contact()
     session.tick()
     assert session.fell
+
+
+def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeypatch) -> None:
+    """The controller raises before the native tick's crossing (as a bug would) for 50 ticks:
+    each falls back to the joint PD on the state the plant is in (not the last one the native
+    tick read), the failures are counted, and the robot still stands after."""
+    session = Session(SessionConfig(robot="anymal"))
+    for _ in range(50):
+        session.tick()
+    monkeypatch.setattr(
+        session.controller,
+        "prepare_native_tick",
+        lambda: (_ for _ in ()).throw(RuntimeError("injected")),
+    )
+    for _ in range(50):
+        q, v = session.plant.state()
+        expected = session._fallback_torques(q, v)  # the joint PD at the state ticked from
+        session.tick()
+        assert np.allclose(session.tau, expected, rtol=0.0, atol=1e-9)
+    assert session.qp_failures == 50 and "injected" in session.status.reason
+    monkeypatch.undo()
+    for _ in range(300):
+        session.tick()
+    assert session.qp_ok and session.tick_report()["tick"] == "native"
+    assert abs(session.model.q[2] - session.robot.q_standing[2]) < 0.02

@@ -402,8 +402,8 @@ class Session:
             except SimulationDiverged:
                 raise
             except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
-                if native:  # the state the native tick read
-                    q, v = self.native_tick.buffers["q"], self.native_tick.buffers["v"]
+                if native:  # the native tick did not step: the plant is at this tick's state
+                    q, v = self.plant.state()
                 self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
                 self.qp_ok, self._output = False, None
                 self.qp_failures += 1
