@@ -28,6 +28,7 @@ from native_ticks import recording  # the agreement tests' recorder
 def recorded_walk(seconds: float) -> tuple:
     """A native Bolt session walking and turning: the robot and (t, q, v, command, touching)."""
     session = Session(SessionConfig(robot="bolt"))
+    session.native_ticks = False  # the recorder wraps `update`, which the Python tick calls
     session.handle("gait", {"name": "biped_step"})
     session.handle("hierarchy", {"method": "cascade"})
     session.velocity = np.array([0.2, 0.0, 0.3])

@@ -13,7 +13,8 @@
 
 #include "behaviours/python.hpp"  // leg_posture_velocity: the walking behaviour's hot part
 #include "controller.hpp"
-#include "frames.hpp"  // FramePlacements: the drawing state's frames
+#include "frames.hpp"        // FramePlacements: the drawing state's frames
+#include "tick_outcome.hpp"  // TickOutcome, read_references, bind_server_tick
 #if __has_include("hierarchy/python.hpp")
 #include "hierarchy/python.hpp"  // solve_hierarchy: the native methods on a given problem
 #define LAB_BIND_HIERARCHY
@@ -21,6 +22,8 @@
 
 namespace nb = nanobind;
 using namespace nb::literals;
+
+using lab::TickOutcome;
 
 namespace {
 
@@ -230,40 +233,6 @@ nb::tuple tick_tuple(lab::Kernel& kernel, const lab::TickResult& result) {
                         solution.residuals, solution.qp_solves, errors, solution.level_seconds);
 }
 
-/// What a native tick reports besides τ and x, copied out of the kernel so that it stays that
-/// tick's after the next one: NativeOutput (native.py) builds its HierarchySolution and task
-/// errors from it only when they are read (telemetry reads them at 100 Hz, the loop runs at 1 kHz).
-struct TickOutcome {
-  bool ok = false;
-  std::string message;
-  std::vector<lab::LevelStatus> levels;
-  std::vector<double> residuals, level_seconds;
-  int qp_solves = 0;
-  std::vector<std::pair<std::string, double>> task_errors;
-  std::vector<std::string> violations;
-  Eigen::VectorXd internal_force_sensed, internal_force_command;
-  bool capped = false;  // nullspace: its active set stopped at the cap (message says where)
-  int projections = 0;  // nullspace: hierarchy solves
-  std::vector<lab::ActiveSet> active_sets;
-
-  TickOutcome(const lab::Kernel& kernel, const lab::HierarchySolution& solution)
-      : ok(solution.ok),
-        message(solution.message),
-        levels(solution.levels),
-        residuals(solution.residuals),
-        level_seconds(solution.level_seconds),
-        qp_solves(solution.qp_solves),
-        violations(solution.violations),
-        internal_force_sensed(kernel.internal_force_feedback().first),
-        internal_force_command(kernel.internal_force_feedback().second),
-        capped(solution.capped),
-        projections(solution.projections),
-        active_sets(solution.active_sets) {
-    kernel.visit_task_errors(
-        [&](const std::string& name, double error) { task_errors.emplace_back(name, error); });
-  }
-};
-
 template <typename Values, typename Item>
 nb::tuple tuple_of(const Values& values, Item&& item) {
   nb::tuple out = nb::steal<nb::tuple>(PyTuple_New(static_cast<Py_ssize_t>(values.size())));
@@ -275,6 +244,10 @@ nb::tuple tuple_of(const Values& values, Item&& item) {
 using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 }  // namespace
+
+void lab::read_references(lab::Kernel& kernel, nb::handle refs) {
+  reference_reader(kernel).read(kernel, refs);
+}
 
 NB_MODULE(_kernel, m) {
   m.doc() = "The native controller kernel: lab/controller's tick in C++ (see cpp/README.md).";
@@ -504,11 +477,7 @@ NB_MODULE(_kernel, m) {
             // The GIL stays held: releasing it for a solve of tens of µs lets another thread
             // take it, and the loop's tick then waits for it to come back.
             const lab::TickResult& result = k.solve();
-            TickOutcome outcome(k, result.solution);
-            if (outcome.ok && !result.tau.allFinite()) {
-              outcome.ok = false;
-              outcome.message = "non-finite torques";
-            }
+            TickOutcome outcome(k, result);
             if (outcome.ok) {
               Eigen::Map<Eigen::VectorXd>(tau.data(), robot.na) = result.tau;
               Eigen::Map<Eigen::VectorXd>(x.data(), robot.nx) = result.solution.x;
@@ -545,4 +514,11 @@ NB_MODULE(_kernel, m) {
           "q"_a, "v"_a,
           "One tick: (tau, qdd, forces, ok, message, level statuses, level residuals, "
           "qp solves, task errors, level seconds).");
+
+#ifdef LAB_HAVE_MUJOCO
+  lab::bind_server_tick(m);  // after Kernel and TickOutcome, which it takes and returns
+  m.attr("has_server_tick") = true;
+#else
+  m.attr("has_server_tick") = false;
+#endif
 }

@@ -347,6 +347,7 @@ def test_a_shin_on_the_ground_is_a_fall_only_when_it_stays(
 ) -> None:
     """A stumble (a shin grazing a tile edge) is not a fall; resting on it is (FALL_CONTACT_S)."""
     session = Session(SessionConfig(robot="anymal"))
+    session.native_ticks = False  # the plant's call is faked: the Python tick makes it
     run(session, 0.1)
     monkeypatch.setattr(session.plant, "non_foot_ground_contact", lambda: True)
     run(session, touch_s)
@@ -475,7 +476,12 @@ def test_a_session_dropped_frees_its_native_parts_at_once() -> None:
             assert session.handle(command, payload)["ok"]
             run(session, 0.01)
             session.telemetry(), session.drawing_state(), session.solution
-            parts = (session.controller, session.plant, session.frame_placements)
+            parts = (
+                session.controller,
+                session.plant,
+                session.frame_placements,
+                session.native_tick,  # the server tick in one crossing (lab._kernel.ServerTick)
+            )
             alive += [weakref.ref(part) for part in parts]
             assert session.handle("robot", {"name": "anymal"})["ok"]  # a rebuild drops them
         alive.append(weakref.ref(session))

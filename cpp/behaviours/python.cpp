@@ -12,6 +12,7 @@
 
 #include "behaviours/biped_step.hpp"
 #include "behaviours/leg_posture.hpp"
+#include "behaviours/native_behaviour.hpp"
 #include "behaviours/walking.hpp"
 
 namespace nb = nanobind;
@@ -87,16 +88,20 @@ Eigen::Map<RowMatrixX3> rows3(Doubles& a, std::size_t offset = 0, Eigen::Index n
 /// when told it changed (or on a new robot model), runs lab::Walking::update on the model's and
 /// the references' arrays in place, and writes the scalar state back to the Python objects, so
 /// that the Python Walking stays current and can run the next tick itself.
-class WalkingBinding {
+class WalkingBinding : public NativeBehaviour {
  public:
   void update(nb::handle walking, nb::handle robot, double t,
               nb::ndarray<const double, nb::shape<3>, nb::c_contig, nb::device::cpu> command,
               nb::ndarray<const bool, nb::shape<-1>, nb::c_contig, nb::device::cpu> touching,
               bool reload) {
+    tick(walking, robot, t, command.data(), touching.data(), touching.shape(0), reload);
+  }
+
+  void tick(nb::handle walking, nb::handle robot, double t, const double* command,
+            const bool* touching, std::size_t feet, bool reload) override {
     if (reload || !robot.is(robot_)) load(walking, robot);
     const std::size_t n = core_.scheduler.legs.size();
-    if (touching.shape(0) != n)
-      throw nb::value_error("native walking: `touching` needs one flag per foot");
+    if (feet != n) throw nb::value_error("native walking: `touching` needs one flag per foot");
     before_ = core_.scheduler.legs;
     const Eigen::Index nv = static_cast<Eigen::Index>(v_.size());
     const Eigen::Index nq = static_cast<Eigen::Index>(q_.size());
@@ -126,7 +131,7 @@ class WalkingBinding {
         Eigen::Map<const Eigen::VectorXd>(radius_.data(), static_cast<Eigen::Index>(n)),
         &joints_,
         damping_};
-    core_.update(t, model, command.data(), touching.data(), refs, posture);
+    core_.update(t, model, command, touching, refs, posture);
     base_height_ = refs.base_height;
     write_back(walking);
   }
@@ -308,12 +313,18 @@ constexpr std::pair<const char*, double SteppingTimes::*> kTimes[] = {
 /// `update` loads the Python object's state when told it changed (or on a new robot model),
 /// runs lab::BipedStepping::update on the model's and the references' arrays in place, and
 /// writes the state back (the scalars that changed, the arrays in place).
-class BipedSteppingBinding {
+class BipedSteppingBinding : public NativeBehaviour {
  public:
   void update(nb::handle stepping, nb::handle robot, double t,
               nb::ndarray<const double, nb::shape<3>, nb::c_contig, nb::device::cpu> command,
               nb::ndarray<const bool, nb::shape<2>, nb::c_contig, nb::device::cpu> touching,
               bool reload) {
+    tick(stepping, robot, t, command.data(), touching.data(), 2, reload);
+  }
+
+  void tick(nb::handle stepping, nb::handle robot, double t, const double* command,
+            const bool* touching, std::size_t feet, bool reload) override {
+    if (feet != 2) throw nb::value_error("native biped_step: `touching` needs two flags");
     if (reload || !robot.is(robot_)) load(stepping, robot);
     before_ = core_;
     const BipedModel model{
@@ -333,7 +344,7 @@ class BipedSteppingBinding {
                          Eigen::Map<Eigen::Vector3d>(base_angular_velocity_.data()),
                          Eigen::Map<Eigen::Vector3d>(com_.data()),
                          base_height_};
-    core_.update(t, model, command.data(), touching.data(), refs);
+    core_.update(t, model, command, touching, refs);
     base_height_ = refs.base_height;
     write_back(stepping);
   }
@@ -458,8 +469,11 @@ void bind_behaviours(nb::module_& m) {
         "LegPostureReference.update's joint velocity references (leg_posture.py) into "
         "`velocity`; `previous_rotations` (the feet's orientations last tick) becomes this "
         "tick's.");
-  nb::class_<WalkingBinding>(m, "Walking",
-                             "The native tick of a Python Walking (walking.py), in one call.")
+  nb::class_<NativeBehaviour>(m, "NativeBehaviour",
+                              "A behaviour's native tick, which the server's native tick runs "
+                              "(ServerTick; cpp/behaviours/native_behaviour.hpp).");
+  nb::class_<WalkingBinding, NativeBehaviour>(
+      m, "Walking", "The native tick of a Python Walking (walking.py), in one call.")
       .def(nb::init<>())
       .def("update", &WalkingBinding::update, nb::arg("walking"), nb::arg("robot"), nb::arg("t"),
            nb::arg("command"), nb::arg("touching"), nb::arg("reload"),
@@ -467,7 +481,7 @@ void bind_behaviours(nb::module_& m) {
            "references' arrays in place; `reload`: the Python object's state changed since the "
            "last call (a Python tick, configure, continue_from) and is read first. The walking "
            "state is written back to the Python objects.");
-  nb::class_<BipedSteppingBinding>(
+  nb::class_<BipedSteppingBinding, NativeBehaviour>(
       m, "BipedStepping", "The native tick of a Python BipedStepping (biped_step.py), in one call.")
       .def(nb::init<>())
       .def("update", &BipedSteppingBinding::update, nb::arg("stepping"), nb::arg("robot"),

@@ -271,6 +271,37 @@ class NativeController(WholeBodyController):
         """One crossing: references in, the model update at (q, v) if given, the solve, τ and x
         into the preallocated arrays; the rest stays in the kernel's outcome until read."""
         native = self._native
+        if self._has_momentum and q is not None:  # its gain schedule reads this tick's state
+            native.update(q, v)
+            self.robot.filled_elsewhere()
+            q = v = None
+        self.prepare_native_tick()
+        outcome = native.tick_into(self.references, self._tau, self._x, q, v)
+        if q is not None:
+            self.robot.filled_elsewhere()
+        return self.finish_native_tick(outcome, self._tau, self._x)
+
+    @property
+    def server_tick_note(self) -> str:
+        """Why the server's native tick (lab/server/native_tick.py: plant, behaviour and
+        controller in one crossing) cannot run this controller ('' when it can): the native
+        kernel does not run the stack, or the momentum task's gain schedule, which runs in
+        Python, must read each tick's model update before the solve."""
+        if self._native is None or not self._runs_native():
+            return self.kernel_note or f"kernel {self.config.kernel!r} was asked for"
+        if self._has_momentum:
+            return "the momentum task's gain schedule runs in Python between update and solve"
+        return ""
+
+    @property
+    def native_kernel(self) -> "_kernel.Kernel | None":
+        """The native kernel this controller mirrors into (None when it is not built)."""
+        return self._native
+
+    def prepare_native_tick(self) -> None:
+        """Before a native tick's crossing: mirror what changed since the last (limits, method,
+        the momentum gain, the internal force's setting) and mark the tick native."""
+        native = self._native
         self._sync_limits()
         method = (self.config.method, self.config.formulation)
         if self._native_method != method:  # Python strs: no crossing to compare
@@ -278,17 +309,17 @@ class NativeController(WholeBodyController):
             native.set_formulation(method[1])
             self._native_method = method
         if self._has_momentum:
-            if q is not None:  # its gain schedule reads the model at this tick's state first
-                native.update(q, v)
-                self.robot.filled_elsewhere()
-                q = v = None
             self._sync_momentum_gain()
         if self._has_internal_force:
             self._sync_internal_force()
         self.ran = self.ran_on("native")
-        outcome = native.tick_into(self.references, self._tau, self._x, q, v)
-        if q is not None:
-            self.robot.filled_elsewhere()
+
+    def finish_native_tick(
+        self, outcome: "_kernel.TickOutcome", tau: np.ndarray, x: np.ndarray
+    ) -> "NativeOutput":
+        """After a native tick's crossing, its report: the output (copies of `tau` and `x`,
+        which the kernel wrote); raises QPFailure when it failed, warns when nullspace's search
+        stopped at its cap."""
         self.kernel_ran = "native"
         self._outcome = outcome
         if self._has_internal_force:  # what telemetry reads of Kim eq. 12's feedback
@@ -301,7 +332,7 @@ class NativeController(WholeBodyController):
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
         if outcome.capped:  # as nullspace.py's search warns, for the session to show
             warnings.warn(outcome.message, ActiveSetCapWarning, stacklevel=3)
-        return NativeOutput(self._tau.copy(), self._x.copy(), self.robot.nv, outcome)
+        return NativeOutput(tau.copy(), x.copy(), self.robot.nv, outcome)
 
     def _sync_momentum_gain(self) -> None:
         """Hand the kernel the momentum task's K_h when it changes: the design (PD, LQR) and

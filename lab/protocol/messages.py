@@ -14,6 +14,7 @@ import msgspec
 from msgspec import Meta, Struct
 
 Vec3 = Annotated[list[float], Meta(min_length=3, max_length=3)]
+TickPath = Literal["native", "python"]
 QuatXyzw = Annotated[list[float], Meta(min_length=4, max_length=4, description="x, y, z, w")]
 Stack = Annotated[list[list[str]], Meta(description="levels, highest priority first")]
 KernelName = Literal["native", "python"]
@@ -209,6 +210,8 @@ class InfoReply(Message, frozen=True):
     momentum: MomentumReport
     hierarchy: Hierarchy
     kernel: Annotated[str, Meta(description="the kernel asked for (telemetry: which ran)")]
+    tick: Annotated[TickPath, Meta(description="the last server tick's path")]
+    tick_note: Annotated[str, Meta(description="why the Python path ran ('' when native)")]
     stack: Stack
     known: Annotated[list[str], Meta(description="every task and constraint name")]
     tasks: list[TaskGainsEntry]
@@ -309,6 +312,8 @@ class Ran(Message, frozen=True):
         Meta(description="qdd_force (x = [q̈, F]) for every method but nullspace"),
     ]
     note: str
+    tick: Annotated[TickPath, Meta(description="the server tick's path: one crossing or Python")]
+    tick_note: Annotated[str, Meta(description="why the Python path ran ('' when native)")]
 
 
 class Status(Message, frozen=True):

@@ -400,18 +400,44 @@ class MujocoPlant:
         self._base_in_world = self._rotation.reshape(3, 3)  # a view: mju_quat2Mat fills it
         self._coordinate_names = self._name_coordinates()
         self._valid_time = 0.0  # sim time of the last state `check` passed
+        self._foot_of_geom = foot_of_geom
         self._native = None
         if native and _plant is not None:
-            self._native = _plant.PlantStep(
-                self.mj_model,
-                self.mj_data,
-                self._q_order.astype(np.int64),
-                self._v_order.astype(np.int64),
-                np.array(self._terrain_list, dtype=np.int64),
-                foot_of_geom.astype(np.int64),
-                len(robot.contacts),
-            )
+            self._native = _plant.PlantStep(*self.native_structs())
         self.reset(robot.q_standing)
+
+    def native_structs(self) -> tuple:
+        """What a native step is built on (lab._plant's PlantStep, lab._kernel's ServerTick):
+        the MjModel and MjData, the qpos and qvel indices of pinocchio's q and v, per geom whether
+        it is terrain and which foot it is (or -1), and the foot count."""
+        return (
+            self.mj_model,
+            self.mj_data,
+            self._q_order.astype(np.int64),
+            self._v_order.astype(np.int64),
+            np.array(self._terrain_list, dtype=np.int64),
+            self._foot_of_geom.astype(np.int64),
+            len(self.robot.contacts),
+        )
+
+    @property
+    def native_step_note(self) -> str:
+        """Why the next step cannot run inside the server's native tick ('' when it can): what
+        `step` does in Python around mj_step (a scene's moving terrain, a push at a point)."""
+        if not self.native:
+            return "the plant runs its Python path (lab._plant is not built)"
+        if self.moving_terrain.bodies:
+            return "the scene's terrain moves (scripted in Python each step)"
+        if self._point_pushes:
+            return "a push at a point (its lever arm is set in Python each step)"
+        return ""
+
+    def stepped_elsewhere(self, valid_time: float, stepped: bool) -> None:
+        """The server's native tick checked the state at `valid_time` (s) and, if `stepped`,
+        stepped: the per-step caches are stale, as after `step`."""
+        self._valid_time = valid_time
+        if stepped:
+            self._steps += 1
 
     @property
     def native(self) -> bool:

@@ -37,6 +37,7 @@ from lab.protocol import TaskGains
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server.memory import release_free_memory
+from lab.server.native_tick import NativeTick, TickStatus
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.telemetry import (
     hierarchy_report,
@@ -133,6 +134,7 @@ class SessionParts:
     model: RobotModel
     controller: NativeController
     frame_placements: FramePlacements
+    native_tick: NativeTick
     behaviour: Behaviour | None = None
 
 
@@ -172,7 +174,10 @@ def build_parts(config: SessionConfig) -> SessionParts:
         robot.torque_limits,
     )
     controller.set_hands(tuple(frame for _, frame in description.hands))
-    return SessionParts(config, robot, plant, model, controller, FramePlacements(robot))
+    native_tick = NativeTick(plant, controller)
+    return SessionParts(
+        config, robot, plant, model, controller, FramePlacements(robot), native_tick
+    )
 
 
 class Session:
@@ -195,6 +200,9 @@ class Session:
         # a reset or a robot switch does not clear it, so it never reads fewer than the
         # solver_failure events seen (the soak's report once said 0 beside 35 of them)
         self.qp_failures = 0
+        # False: every tick runs the Python path (the reference the native tick is held to)
+        self.native_ticks = True
+        self.tick_note = ""  # why the last tick ran the Python path ('' when it ran native)
         self.behaviour: Behaviour | None = None  # set by _build, replaced by the gait command
         self._install(build_parts(self.config))  # raises on bad names
 
@@ -305,23 +313,46 @@ class Session:
     # ----------------------------------------------------------------------------- the tick
     def tick(self) -> None:
         """Advance one control period: read state, control, write torques, one MuJoCo step.
-        A state that is not valid before or after the step is a divergence (`_recover`)."""
+        A state that is not valid before or after the step is a divergence (`_recover`). The
+        whole tick is one crossing into C++ (native_tick.py) when the plant, the controller and
+        the behaviour allow; else, and when `native_ticks` is False, the Python path below runs
+        and `tick_note` says why."""
         if self.paused:
             return
         self._expire_pushes()
+        controller, behaviour = self.controller, self.behaviour
+        # An idle behaviour's update changes nothing (Balance off a foot line): the model update
+        # and the solve are then one call (one crossing on the native kernel), no touch sensing.
+        idle = getattr(behaviour, "idle", False) and not controller.reads_sensing
+        self.tick_note = (
+            self.native_tick.note(behaviour, idle, self.fell)
+            if self.native_ticks
+            else "native ticks are off (Session.native_ticks)"
+        )
+        native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
-            self.plant.check()  # a state set from outside (fault injection) before control reads it
-            if self.fell:  # torques off until a reset, as a fall protection does; the model
-                self.model.update(*self.plant.state())  # still follows the robot (telemetry)
-            else:
-                self._control()
-            self.plant.set_torques(self.tau)
-            self.plant.step()
+            if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
+                if stepped is TickStatus.DIVERGED_AFTER:
+                    self.plant.check()  # raises, naming the cause, as the Python step does
+                native = True
+            else:  # the Python tick, or the fallback torques of a failed native control
+                if self.tick_note:
+                    self.plant.check()  # a state set from outside (fault injection) first
+                    if self.fell:  # torques off until a reset, as a fall protection does; the
+                        self.model.update(*self.plant.state())  # model follows (telemetry)
+                    else:
+                        self._control(idle, native=False)
+                self.plant.set_torques(self.tau)
+                self.plant.step()
         except SimulationDiverged as divergence:
             self._recover(divergence)
             return
         self.ticks += 1
-        if self.ticks % FALL_CHECK_PERIOD == 0 and not self.fell and self._fallen():
+        if (
+            self.ticks % FALL_CHECK_PERIOD == 0
+            and not self.fell
+            and self._fallen(self.native_tick.non_foot_contact if native else None)
+        ):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
             self.plant.set_joint_damping(self.robot.torque_limits / LIMP_DAMPING_SPEED)
@@ -334,27 +365,35 @@ class Session:
                 "until reset",
             )
 
-    def _control(self) -> None:
-        """This tick's torques and planned contact forces: the controller's, or fallback ones."""
-        q, v = self.plant.state()
+    def _control(self, idle: bool, native: bool) -> TickStatus | None:
+        """This tick's torques and planned contact forces: the controller's, or fallback ones.
+        `native`: the whole tick in one crossing (native_tick.py), which also applies the
+        torques and steps; returns how it ended when it did (None when the controller failed:
+        the caller applies the fallback torques, or when not `native`). Raises
+        SimulationDiverged when the state was not valid before control."""
         controller, behaviour = self.controller, self.behaviour
-        # An idle behaviour's update changes nothing (Balance off a foot line): the model update
-        # and the solve are then one call (one crossing on the native kernel), no touch sensing.
-        idle = getattr(behaviour, "idle", False) and not controller.reads_sensing
-        touching = None if idle else self.plant.feet_touching(TOUCH_FORCE)  # sensing, not control
         if self.hands.targets:
             self.hands.write(controller.references, self.time)
-        start = time.perf_counter()
+        stepped = None
         with self._capture as caught:
             try:
-                if idle:
-                    out = controller.compute(q, v)
+                if native:
+                    stepped, out = self.native_tick.run(
+                        behaviour, idle, self.velocity, self.tau, TOUCH_FORCE
+                    )
                 else:
-                    controller.update(q, v)
-                    if controller.reads_sensing:  # measured only for a task that reads it
-                        controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim eq. 12
-                    behaviour.update(self.time, self.model, self.velocity, touching)
-                    out = controller.solve()
+                    q, v = self.plant.state()
+                    # sensing, not control
+                    touching = None if idle else self.plant.feet_touching(TOUCH_FORCE)
+                    start = time.perf_counter()
+                    if idle:
+                        out = controller.compute(q, v)
+                    else:
+                        controller.update(q, v)
+                        if controller.reads_sensing:  # measured only for a task that reads it
+                            controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim 12
+                        behaviour.update(self.time, self.model, self.velocity, touching)
+                        out = controller.solve()
                 if not out.torques_finite():
                     raise FloatingPointError("non-finite torques")
                 self.tau, self.forces, self.qp_ok = out.tau, out.forces, True
@@ -365,23 +404,46 @@ class Session:
                     self._report(
                         STATUS_EVENTS[status.status],
                         status.reason,
+                        self._control_time(native),
                         status=status.status,
                         level=status.level,
                         **extra,
                     )
+            except SimulationDiverged:
+                raise
             except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
+                if native:  # the native tick did not step: the plant is at this tick's state
+                    q, v = self.plant.state()
                 self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
                 self.qp_ok, self._output = False, None
                 self.qp_failures += 1
                 self._failure = f"{type(error).__name__}: {error}; fallback torques"
-                self._report("solver_failure", self._failure, status="failed", level=None)
+                self._report(
+                    "solver_failure",
+                    self._failure,
+                    self._control_time(native),
+                    status="failed",
+                    level=None,
+                )
         ran = controller.ran
         self.ran_ticks[ran] = self.ran_ticks.get(ran, 0) + 1
-        self.control_us = (time.perf_counter() - start) * 1e6
+        self.control_us = (
+            self.native_tick.control_us if native else (time.perf_counter() - start) * 1e6
+        )
         for caught_warning in caught:
             kind = caught_warning.category.__name__
             count = self._warnings[kind].ticks + 1 if kind in self._warnings else 1
-            self._warnings[kind] = ControllerWarning(str(caught_warning.message), self.time, count)
+            message, t = str(caught_warning.message), self._control_time(native)
+            self._warnings[kind] = ControllerWarning(message, t, count)
+        return stepped
+
+    def _control_time(self, native: bool) -> float:
+        """The sim time this tick controlled at: the native tick has stepped already."""
+        return self.native_tick.tick_time if native else self.time
+
+    def tick_report(self) -> dict:
+        """Which path ran the last tick: `native` (one crossing) or `python`, and why."""
+        return {"tick": "python" if self.tick_note else "native", "tick_note": self.tick_note}
 
     @property
     def status(self) -> SolveStatus:
@@ -416,14 +478,14 @@ class Session:
             restored="paused" if repeated else "standing",
         )
 
-    def _report(self, kind: str, message: str, **extra: object) -> None:
+    def _report(self, kind: str, message: str, at: float, **extra: object) -> None:
         """One event of `kind` (a value of STATUS_EVENTS) per FAILURE_EVENT_PERIOD at most, with
-        the count of ticks since the last one."""
+        the count of ticks since the last one; `at`: the sim time of the tick it concerns."""
         self._unreported[kind] += 1
-        if self.time - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
-            self._event(kind, message, count=self._unreported[kind], **extra)
+        if at - self._last_report[kind] >= FAILURE_EVENT_PERIOD:
+            self._event(kind, message, at, count=self._unreported[kind], **extra)
             self._unreported[kind] = 0
-            self._last_report[kind] = self.time
+            self._last_report[kind] = at
 
     def _fallback_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint PD to the reference posture plus the bias forces: safe for one or a few ticks."""
@@ -434,12 +496,17 @@ class Session:
         tau = np.nan_to_num(tau)
         return np.clip(tau, -self.robot.torque_limits, self.robot.torque_limits)
 
-    def _fallen(self) -> bool:
+    def _fallen(self, non_foot_contact: bool | None = None) -> bool:
+        """Whether the robot fell: too low, too tilted, or a body other than a foot on the
+        terrain too long; `non_foot_contact`: that test's answer when the native tick made it
+        (None: ask the plant)."""
         q = self.model.q  # this tick's state, pinocchio conventions: quaternion (x, y, z, w)
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
         tilt = math.acos(min(1.0, max(-1.0, float(upright))))
-        if not self.plant.non_foot_ground_contact():
+        if non_foot_contact is None:
+            non_foot_contact = self.plant.non_foot_ground_contact()
+        if not non_foot_contact:
             self._non_foot_contact_since = None
         elif self._non_foot_contact_since is None:
             self._non_foot_contact_since = self.time
@@ -464,8 +531,10 @@ class Session:
         for p in self.pushes.values():
             self.plant.push(p.body, p.force, p.point)
 
-    def _event(self, kind: str, message: str, **extra: object) -> None:
-        self._events.append({"type": kind, "t": self.time, "message": message, **extra})
+    def _event(self, kind: str, message: str, at: float | None = None, **extra: object) -> None:
+        """Record an event at sim time `at` (None: now)."""
+        t = self.time if at is None else at
+        self._events.append({"type": kind, "t": t, "message": message, **extra})
         del self._events[:-MAX_EVENTS]
 
     def pop_events(self) -> list[dict]:
@@ -662,6 +731,7 @@ class Session:
             },
             "hierarchy": hierarchy_report(self.controller),
             "kernel": self.controller.config.kernel,
+            **self.tick_report(),
             "stack": self.controller.config.stack.as_lists(),
             "known": list(self.controller.known_names),
             "tasks": task_gains_report(self.controller),

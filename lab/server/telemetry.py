@@ -61,6 +61,8 @@ class SessionView(Protocol):
 
     def recent_warnings(self) -> list[dict]: ...
 
+    def tick_report(self) -> dict: ...
+
     forces: np.ndarray
     velocity: np.ndarray
     pushes: Mapping[str, PushView]
@@ -236,8 +238,8 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
     `finish`, which fills them in later: the stack's tasks with this tick's errors, this tick's
     solution summary, and the controller's configuration (stack, method, momentum mode, kernel
     note; as of `finish` when a command changed them in between). `ran` (kernel, method, solver,
-    formulation and the note saying why they differ from the request) and `status` are this
-    tick's."""
+    formulation and the note saying why they differ from the request; the tick's path, native
+    or python, and why python) and `status` are this tick's."""
     model, controller = session.model, session.controller
     q = model.q[:7].tolist()
     rotation = model.base_rotation
@@ -271,7 +273,7 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
         "hierarchy": None,
         "kernel": controller.kernel_ran,
         "kernel_note": None,
-        "ran": {**ran.report(), "note": controller.note},
+        "ran": {**ran.report(), "note": controller.note, **session.tick_report()},
         "status": status.report(),
         "controller_warnings": session.recent_warnings(),
         "qp": {

@@ -45,7 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import references_at_rest, standing_model
-from lab.controller.behaviours.base import NoOptions
+from lab.controller.behaviours.base import NativeTicking, NoOptions
 from lab.controller.behaviours.pipm import (
     LinearSurface,
     PipmState,
@@ -153,7 +153,7 @@ class StepPrediction:
     lateral: np.ndarray
 
 
-class BipedStepping(NoOptions):
+class BipedStepping(NoOptions, NativeTicking):
     """Step on two point feet, feet placed by the velocity-reversal planner."""
 
     name = "biped_step"
@@ -229,6 +229,10 @@ class BipedStepping(NoOptions):
         return self._prediction[2]
 
     # ------------------------------------------------------------------------ the tick
+    def native_twin(self) -> "NativeBipedStepping | None":
+        """The native tick, once the first (Python) tick has started the clock."""
+        return self._native if self.since is not None else None
+
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:

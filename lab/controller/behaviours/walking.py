@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import references_at_rest, standing_model
-from lab.controller.behaviours.base import Behaviour
+from lab.controller.behaviours.base import Behaviour, NativeTicking
 from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
 from lab.controller.behaviours.leg_posture import LegPostureReference
@@ -75,7 +75,7 @@ def _wrap(angle: float) -> float:
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
-class Walking:
+class Walking(NativeTicking):
     """Walk with `gait` on four point feet, steered by the velocity command."""
 
     lifts_feet = True
@@ -170,6 +170,10 @@ class Walking:
         self._native_stale = True
 
     # ------------------------------------------------------------------------ the tick
+    def native_twin(self) -> "NativeWalking | None":
+        """The native tick, once the first (Python) tick has started the gait's clock."""
+        return self._native if self.scheduler is not None else None
+
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:

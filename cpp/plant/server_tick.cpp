@@ -1,0 +1,191 @@
+// lab::ServerTick: the session's tick (lab/server/session.py Session.tick and _control, in their
+// order) in one call on the plant's MjModel / MjData (plant/mujoco_step.hpp), the native kernel
+// (controller.hpp) and the behaviour's native tick (behaviours/native_behaviour.hpp): the state
+// check, the state, the sensing (touch, and the feet's forces when a task reads them), the model
+// update, the behaviour, the references, the solve, the torques into ctrl, mj_step, the check
+// after it and the fall check's contact test. What telemetry and the drawing state read goes into
+// preallocated arrays (`buffers`); what went wrong comes back as a status code, which
+// lab/server/native_tick.py turns into the Python path's exceptions (the same events). Compiled
+// into lab._kernel when MuJoCo's headers and libmujoco are found (CMakeLists.txt): one module
+// holds the kernel, the behaviours and this, so no object crosses between extension modules.
+#include <mujoco/mujoco.h>
+#include <nanobind/eigen/dense.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+
+#include <chrono>
+#include <cstdint>
+#include <vector>
+
+#include "behaviours/native_behaviour.hpp"
+#include "plant/mujoco_step.hpp"
+#include "tick_outcome.hpp"
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace lab {
+namespace {
+
+using Indices = nb::ndarray<const long long, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Clock = std::chrono::steady_clock;
+
+/// How a tick ended (native_tick.py's TickStatus mirrors these values).
+enum TickStatus : int {
+  kStepped = 0,         // controlled, torques applied, stepped, the new state valid
+  kDivergedBefore = 1,  // the state was not valid before control (nothing ran)
+  kControlFailed = 2,   // the controller failed (the outcome says why): nothing applied, no step
+  kDivergedAfter = 3,   // stepped, and the new state is not valid
+};
+
+template <typename T>
+T* address_of(const nb::handle& object) {
+  return reinterpret_cast<T*>(nb::cast<std::uintptr_t>(object.attr("_address")));
+}
+
+std::vector<int> as_ints(const Indices& a) { return {a.data(), a.data() + a.size()}; }
+
+class ServerTick {
+ public:
+  ServerTick(nb::object kernel, nb::object mj_model, nb::object mj_data, const Indices& q_order,
+             const Indices& v_order, const Indices& terrain, const Indices& foot_of_geom,
+             int n_feet)
+      : kernel_object_(std::move(kernel)),
+        model_object_(std::move(mj_model)),
+        data_object_(std::move(mj_data)),
+        kernel_(nb::cast<Kernel&>(kernel_object_)),
+        plant_(address_of<const mjModel>(model_object_), address_of<mjData>(data_object_),
+               as_ints(q_order), as_ints(v_order), as_ints(terrain), as_ints(foot_of_geom),
+               n_feet) {
+    const RobotModel& robot = kernel_.robot();
+    if (plant_.nq() != robot.nq || plant_.nv() != robot.nv || plant_.nu() != robot.na ||
+        n_feet != static_cast<int>(robot.contacts.size()))
+      throw std::invalid_argument(
+          "ServerTick: the plant's q, v, actuators and feet differ from the kernel's model");
+    q_.resize(robot.nq);
+    v_.resize(robot.nv);
+    tau_.setZero(robot.na);
+    x_.setZero(robot.nx);
+    foot_forces_.setZero(3 * n_feet);
+    normal_forces_.setZero(n_feet);
+    touching_.assign(static_cast<std::size_t>(n_feet), false);
+  }
+
+  /// One server tick (module comment); `behaviour` is null for an idle behaviour (its update
+  /// changes nothing: no touch sensing either). Returns (status, the controller's TickOutcome or
+  /// None when it did not run).
+  nb::tuple tick(nb::handle refs, nb::handle robot, nb::handle owner, NativeBehaviour* behaviour,
+                 bool reload, const InVector& command, const InVector& applied_torques,
+                 double touch_force, bool sensing) {
+    if (command.shape(0) != 3 || applied_torques.shape(0) != static_cast<std::size_t>(tau_.size()))
+      throw std::invalid_argument("ServerTick.tick: command needs 3 entries, applied_torques na");
+    const auto start = Clock::now();
+    behaviour_ran_ = false;
+    non_foot_contact_ = false;
+    call_seconds_ = control_seconds_ = 0.0;
+    valid_time_ = plant_.check();  // a state set from outside (fault injection) before control
+    if (valid_time_ < 0.0) return nb::make_tuple(static_cast<int>(kDivergedBefore), nb::none());
+    tick_time_ = valid_time_;
+    plant_.state(q_.data(), v_.data());
+    kernel_.update(q_, v_);  // fills the Python model's arrays too (Kernel::on_update)
+    if (sensing) {           // measured only for a task that reads it (Kim eq. 12)
+      plant_.foot_forces(foot_forces_.data());
+      kernel_.set_sensing(foot_forces_,
+                          Eigen::Map<const Eigen::VectorXd>(applied_torques.data(), tau_.size()));
+    }
+    if (behaviour != nullptr) {
+      plant_.foot_normal_forces(normal_forces_.data());  // touch: sensing, not control
+      for (Eigen::Index i = 0; i < normal_forces_.size(); ++i)
+        touching_[static_cast<std::size_t>(i)] = normal_forces_(i) > touch_force;
+      behaviour->tick(owner, robot, plant_.time(), command.data(),
+                      reinterpret_cast<const bool*>(touching_.data()), touching_.size(), reload);
+      behaviour_ran_ = true;
+    }
+    read_references(kernel_, refs);
+    const TickResult& result = kernel_.solve();
+    TickOutcome outcome(kernel_, result);
+    control_seconds_ = std::chrono::duration<double>(Clock::now() - start).count();
+    if (!outcome.ok) return nb::make_tuple(static_cast<int>(kControlFailed), std::move(outcome));
+    tau_ = result.tau;
+    x_ = result.solution.x;
+    plant_.set_torques(tau_.data());
+    const double after = plant_.step();
+    if (after < 0.0) return nb::make_tuple(static_cast<int>(kDivergedAfter), std::move(outcome));
+    valid_time_ = after;
+    non_foot_contact_ = plant_.non_foot_ground_contact();
+    call_seconds_ = std::chrono::duration<double>(Clock::now() - start).count();
+    return nb::make_tuple(static_cast<int>(kStepped), std::move(outcome));
+  }
+
+  /// Views of the arrays the tick writes: q and v (the state it controlled), tau and x (the
+  /// applied torques and [q̈, F] when the controller succeeded), foot_forces (n x 3, when sensed),
+  /// normal_forces and touching (when the behaviour ran).
+  nb::dict buffers() {
+    nb::handle self = nb::find(this);
+    nb::dict out;
+    out["q"] = view(self, q_.data(), {static_cast<std::size_t>(q_.size())});
+    out["v"] = view(self, v_.data(), {static_cast<std::size_t>(v_.size())});
+    out["tau"] = view(self, tau_.data(), {static_cast<std::size_t>(tau_.size())});
+    out["x"] = view(self, x_.data(), {static_cast<std::size_t>(x_.size())});
+    out["foot_forces"] =
+        view(self, foot_forces_.data(), {static_cast<std::size_t>(foot_forces_.size() / 3), 3});
+    out["normal_forces"] =
+        view(self, normal_forces_.data(), {static_cast<std::size_t>(normal_forces_.size())});
+    return out;
+  }
+
+  double valid_time() const { return valid_time_; }
+  double tick_time() const { return tick_time_; }
+  double control_seconds() const { return control_seconds_; }
+  double call_seconds() const { return call_seconds_; }
+  bool behaviour_ran() const { return behaviour_ran_; }
+  bool non_foot_contact() const { return non_foot_contact_; }
+
+ private:
+  static nb::object view(nb::handle self, double* data, std::initializer_list<std::size_t> shape) {
+    return nb::cast(nb::ndarray<nb::numpy, double>(data, shape.size(), shape.begin(), self),
+                    nb::rv_policy::reference);
+  }
+
+  nb::object kernel_object_, model_object_, data_object_;  // keep them alive
+  Kernel& kernel_;
+  MujocoStep plant_;
+  Eigen::VectorXd q_, v_, tau_, x_, foot_forces_, normal_forces_;
+  std::vector<char> touching_;  // bools: std::vector<bool> has no data()
+  double valid_time_ = 0.0, tick_time_ = 0.0, control_seconds_ = 0.0, call_seconds_ = 0.0;
+  bool behaviour_ran_ = false, non_foot_contact_ = false;
+};
+
+}  // namespace
+
+void bind_server_tick(nb::module_& m) {
+  nb::class_<ServerTick>(m, "ServerTick",
+                         "The session's tick in one call (cpp/plant/server_tick.cpp).")
+      .def(nb::init<nb::object, nb::object, nb::object, const Indices&, const Indices&,
+                    const Indices&, const Indices&, int>(),
+           "kernel"_a, "mj_model"_a, "mj_data"_a, "q_order"_a, "v_order"_a, "terrain"_a,
+           "foot_of_geom"_a, "n_feet"_a,
+           "On a Kernel and the plant's MjModel and MjData, with PlantStep's indices.")
+      .def("tick", &ServerTick::tick, "refs"_a, "robot"_a, "owner"_a, "behaviour"_a.none(),
+           "reload"_a, "command"_a, "applied_torques"_a, "touch_force"_a, "sensing"_a,
+           "One server tick: (status, TickOutcome or None); status 0 stepped, 1 diverged "
+           "before control, 2 the controller failed (nothing applied), 3 diverged after the step.")
+      .def("buffers", &ServerTick::buffers,
+           "Views of the arrays each tick writes (q, v, tau, x, foot_forces, normal_forces).")
+      .def_prop_ro("valid_time", &ServerTick::valid_time,
+                   "The sim time of the last state found valid (s).")
+      .def_prop_ro("tick_time", &ServerTick::tick_time,
+                   "The sim time the last tick controlled at, before its step (s).")
+      .def_prop_ro("control_seconds", &ServerTick::control_seconds,
+                   "Seconds from the state check to the solve's end, last tick.")
+      .def_prop_ro("call_seconds", &ServerTick::call_seconds,
+                   "Seconds of the whole last tick inside C++, when it stepped (else 0).")
+      .def_prop_ro("behaviour_ran", &ServerTick::behaviour_ran,
+                   "Whether the last tick ran the behaviour's native tick.")
+      .def_prop_ro("non_foot_contact", &ServerTick::non_foot_contact,
+                   "Whether a robot geom other than the feet touched the terrain after the step.");
+}
+
+}  // namespace lab
