@@ -17,6 +17,7 @@ class Behaviour(Protocol):
     name: str
     references: References
     lifts_feet: bool  # swings feet: the stack needs the swing_feet task to carry them
+    kernel_ran: str  # which kernel ran the last update: native, python or none (native.py)
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray

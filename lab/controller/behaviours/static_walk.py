@@ -100,6 +100,7 @@ class StaticWalk(NoOptions):
 
     name = "static_walk"
     lifts_feet = True
+    kernel_ran = "python"  # no native twin yet: every update runs in Python
 
     def __init__(
         self,
