@@ -1,8 +1,9 @@
-"""The standing behaviours' native ticks (cpp/behaviours/balance.cpp, line_balance.cpp,
-squat.cpp, stance.cpp, com_ellipse.cpp, body_motion.cpp, behind behaviour.hpp's one interface)
-against their Python updates, from the same scripted inputs: Bolt's line balance on a moving
-state, Talos's squats and stance switches with a leg swing, Bolt's CoM ellipse, ANYmal's height
-step and forward shift. Skipped when the kernel is not built."""
+"""The native ticks of the behaviours other than walking and stepping (cpp/behaviours/
+balance.cpp, line_balance.cpp, squat.cpp, stance.cpp, com_ellipse.cpp, body_motion.cpp,
+static_walk.cpp, behind behaviour.hpp's one interface) against their Python updates, from the
+same scripted inputs: Bolt's line balance on a moving state, Talos's squats and stance switches
+with a leg swing, Bolt's CoM ellipse, ANYmal's height step, forward shift and static crawl.
+Skipped when the kernel is not built."""
 
 import functools
 from collections.abc import Callable
@@ -24,6 +25,10 @@ pytest.importorskip("lab._kernel", reason="the native kernel is not built (./dev
 
 TOL = 1e-9  # relative to 1 + |value|: the same steps, another float order
 DT = 0.002  # s between scripted ticks
+# The state between ticks of the behaviours here, as their Python classes name it.
+SCALAR_STATE = ("start", "step", "stance", "_from", "_started", "_pending", "_swing")
+SCALAR_STATE += ("_periods_done",)
+ARRAY_STATE = ("_com_on_line", "_lifted", "feet", "lift_off", "com_start", "com_target")
 
 
 @functools.cache
@@ -45,13 +50,13 @@ def state_of(behaviour: object) -> dict[str, object]:
     as −1 as the force weights' NaN)."""
     refs = behaviour.references
     values = {f.name: getattr(refs, f.name) for f in fields(refs)}
-    for name in ("start", "stance", "_from", "_started", "_pending", "_swing", "_periods_done"):
-        if hasattr(behaviour, name):
-            value = getattr(behaviour, name)
-            values[name] = np.nan if value is None else value
-    for name in ("_com_on_line", "_lifted"):
-        if hasattr(behaviour, name):
-            values[name] = getattr(behaviour, name)
+    state = vars(behaviour)  # the instance's attributes (not its methods: StaticWalk._swing)
+    for name in SCALAR_STATE:
+        if name in state:
+            values[name] = np.nan if state[name] is None else state[name]
+    for name in ARRAY_STATE:
+        if name in state:
+            values[name] = state[name]
     return values
 
 
@@ -174,6 +179,19 @@ def test_anymals_body_motions_agree(gait: str) -> None:
     motion, history = run_three("anymal", BEHAVIOURS[gait], 3.0)
     moved = history[-1]["com"] - motion.com
     assert np.linalg.norm(moved) == pytest.approx(0.08 if gait == "height_step" else 0.25)
+
+
+@pytest.mark.parametrize("gait", ["static_walk", "static_walk_half_cylinder"])
+def test_anymals_static_crawl_agrees(gait: str) -> None:
+    """Hutter 2014 §5.1's crawl, on flat ground and in place on the half cylinder: the CoM
+    shifts into each support triangle, the force weights ramp, the feet swing, in both kernels
+    alike over a cycle of four steps; every foot lifts off."""
+    walk, history = run_three("anymal", BEHAVIOURS[gait], 4 * 1.4 + 0.2)
+    lifted = np.array([~h["contact_active"] for h in history])
+    assert lifted.any(axis=0).all()
+    weights = np.array([h["force_weight"] for h in history])
+    assert np.nanmin(weights) >= 0.0 and np.nanmax(weights) <= 1.0
+    assert walk.step == 4
 
 
 def test_bad_behaviour_state_raises_a_clear_error_and_writes_nothing() -> None:

@@ -1,6 +1,7 @@
 // Python bindings of the standing behaviours' twins (Balance's line balance, Squat, Stance,
-// ComEllipse, HeightStep, ForwardShift): their state's load and write-back for binding.hpp's
-// Binding. Each Python behaviour holds one and calls it on a native tick (behaviours/native.py).
+// ComEllipse, StaticWalk, HeightStep, ForwardShift): their state's load and write-back for
+// binding.hpp's Binding. Each Python behaviour holds one and calls it on a native tick
+// (behaviours/native.py).
 #include <nanobind/stl/vector.h>
 
 #include <string>
@@ -13,6 +14,7 @@
 #include "behaviours/python.hpp"
 #include "behaviours/squat.hpp"
 #include "behaviours/stance.hpp"
+#include "behaviours/static_walk.hpp"
 
 namespace nb = nanobind;
 
@@ -88,6 +90,48 @@ void load_state(ForwardShift& f, nb::handle shift, const std::string& who) {
 }
 void write_state(const ForwardShift& f, const ForwardShift& before, nb::handle shift) {
   write_clock(f.clock, before.clock, shift);
+}
+
+void load_state(StaticWalk& w, nb::handle walk, const std::string& who) {
+  nb::object p = walk.attr("parameters");
+  w.parameters = {nb::cast<double>(p.attr("shift_time")),  nb::cast<double>(p.attr("swing_time")),
+                  nb::cast<double>(p.attr("step_length")), nb::cast<double>(p.attr("step_height")),
+                  nb::cast<double>(p.attr("margin")),      nb::cast<double>(p.attr("transition"))};
+  nb::object surface = walk.attr("surface");
+  w.surface.reset();
+  if (!surface.is_none())
+    w.surface = HalfCylinder{nb::cast<double>(surface.attr("radius")),
+                             nb::cast<double>(surface.attr("axis_height"))};
+  const auto order = nb::cast<std::vector<int>>(walk.attr("order"));
+  if (order.size() != 4) throw nb::value_error((who + ": the footfall needs four legs").c_str());
+  for (std::size_t k = 0; k < 4; ++k) {
+    if (order[k] < 0 || order[k] > 3)
+      throw nb::value_error((who + ": a footfall leg is out of range").c_str());
+    w.order[k] = order[k];
+  }
+  w.heading = vector3(walk, "heading", who);
+  Doubles feet = field<Doubles>(walk, "feet", 12, who);
+  w.feet = Eigen::Map<const RowMatrixX3>(feet.data(), 4, 3);
+  Doubles lift_off = field<Doubles>(walk, "lift_off", 12, who);
+  w.lift_off = Eigen::Map<const RowMatrixX3>(lift_off.data(), 4, 3);
+  w.com_start = vector3(walk, "com_start", who);
+  w.com_target = vector3(walk, "com_target", who);
+  load_clock(w.clock, walk);
+  w.step = nb::cast<long>(walk.attr("step"));
+}
+void write_state(const StaticWalk& w, const StaticWalk& before, nb::handle walk) {
+  write_clock(w.clock, before.clock, walk);
+  if (w.step == before.step) return;
+  walk.attr("step") = w.step;
+  const char* who = "native static_walk";
+  Doubles feet = field<Doubles>(walk, "feet", 12, who);
+  Eigen::Map<RowMatrixX3>(feet.data(), 4, 3) = w.feet;
+  Doubles lift_off = field<Doubles>(walk, "lift_off", 12, who);
+  Eigen::Map<RowMatrixX3>(lift_off.data(), 4, 3) = w.lift_off;
+  Doubles start = field<Doubles>(walk, "com_start", 3, who);
+  Eigen::Map<Eigen::Vector3d>(start.data()) = w.com_start;
+  Doubles target = field<Doubles>(walk, "com_target", 3, who);
+  Eigen::Map<Eigen::Vector3d>(target.data()) = w.com_target;
 }
 
 /// A stance's name (stance.py STANCES: "double" or a sole's contact name) as Stance holds it.
@@ -167,6 +211,9 @@ void bind_standing_behaviours(nb::module_& m) {
                         "The native tick of a Python Stance (stance.py).");
   binding::bind<ComEllipse>(m, "ComEllipse", "native com_ellipse",
                             "The native tick of a Python ComEllipse (com_ellipse.py).");
+  binding::bind<StaticWalk>(
+      m, "StaticWalk", "native static_walk",
+      "The native tick of a Python StaticWalk or StaticWalkHalfCylinder (static_walk.py).");
   binding::bind<HeightStep>(m, "HeightStep", "native height_step",
                             "The native tick of a Python HeightStep (body_motion.py).");
   binding::bind<ForwardShift>(m, "ForwardShift", "native forward_shift",
