@@ -25,6 +25,7 @@ SITUATIONS: dict[str, tuple[str, tuple[tuple[str, dict], ...]]] = {
     "talos single": ("talos", (("momentum", {"mode": "lqr"}), ("stance", {"side": "left"}))),
     "talos squat": ("talos", (("stack", {"preset": "herzog_table2"}), ("gait", {"name": "squat"}))),
     "anymal forward_shift": ("anymal", (("gait", {"name": "forward_shift"}),)),
+    "anymal static_walk": ("anymal", (("gait", {"name": "static_walk"}),)),
 }
 
 
