@@ -1,6 +1,7 @@
 """The agreement tests' way to run a behaviour's native tick beside its Python one."""
 
 import numpy as np
+import pinocchio as pin
 
 from lab.controller.model import RobotModel
 from lab.server.session import Session
@@ -42,3 +43,25 @@ def tick_native_and_mixed(
     if on_native:
         mixed.update(t, model, command, touching)
     assert not native._native_stale, "the native tick did not run"
+
+
+def scripted_state(q_standing: np.ndarray, t: float, speed: float = 0.0) -> tuple:
+    """A robot state (q, v) at time `t` (s) of a scripted, unsimulated motion about the standing
+    posture `q_standing`: the base moves forward at `speed` (m/s) and turns slowly, its height,
+    roll and pitch wobble by a few mm and mrad, every joint swings by 0.02 rad; v is its rate
+    (base twist in the base frame, as pinocchio's v). The inputs of an agreement test that
+    needs no simulation."""
+    wobble, turn = np.sin(2.0 * np.pi * 0.7 * t), 0.1
+    roll, pitch, yaw = 0.01 * wobble, -0.008 * wobble, turn * t
+    rates = 2.0 * np.pi * 0.7 * np.cos(2.0 * np.pi * 0.7 * t)
+    q = q_standing.copy()
+    q[0] += speed * t
+    q[2] += 0.004 * wobble
+    q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(roll, pitch, yaw)).coeffs()
+    q[7:] += 0.02 * np.sin(2.0 * np.pi * 0.5 * t + np.arange(len(q) - 7))
+    v = np.zeros(len(q) - 1)
+    rotation = pin.rpy.rpyToMatrix(roll, pitch, yaw)
+    v[:3] = rotation.T @ np.array([speed, 0.0, 0.004 * rates])
+    v[3:6] = rotation.T @ np.array([0.01 * rates, -0.008 * rates, turn])  # small angles: ≈ rates
+    v[6:] = 0.02 * 2.0 * np.pi * 0.5 * np.cos(2.0 * np.pi * 0.5 * t + np.arange(len(q) - 7))
+    return q, v

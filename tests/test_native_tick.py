@@ -145,8 +145,9 @@ def test_a_solver_failure_on_native_ticks_falls_back_as_on_python_ticks() -> Non
 
 
 def test_the_python_tick_runs_and_says_why_when_the_native_one_cannot() -> None:
-    """The Python kernel and a behaviour without a native tick (Hutter's height step) each run the
-    Python tick, and telemetry's `ran` and `info` name the reason."""
+    """The Python kernel and a push at a point (its lever arm is set in Python each step) each
+    run the Python tick, and telemetry's `ran` and `info` name the reason; every behaviour has a
+    native twin, so Hutter's height step runs native."""
     session = Session(SessionConfig(robot="anymal"))
     session.tick()
     assert session.telemetry()["ran"]["tick"] == "native"
@@ -157,8 +158,14 @@ def test_the_python_tick_runs_and_says_why_when_the_native_one_cannot() -> None:
     assert session.handle("hierarchy", {"kernel": "native"})["ok"]
     assert session.handle("gait", {"name": "height_step"})["ok"]
     session.tick()
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    base = session.robot.base_link
+    push = {"body": base, "force": [5.0, 0.0, 0.0], "duration": 0.5, "point": [0.0, 0.0, 0.6]}
+    assert session.handle("push", push)["ok"]
+    session.tick()
     ran = session.telemetry()["ran"]
-    assert ran["tick"] == "python" and "height_step" in ran["tick_note"]
+    assert ran["tick"] == "python" and "push at a point" in ran["tick_note"]
     assert session.info()["tick"] == "python"
 
 

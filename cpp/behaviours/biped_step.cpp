@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <pinocchio/math/rpy.hpp>
+#include <stdexcept>
 
 #include "behaviours/pipm.hpp"
 #include "behaviours/swing.hpp"
@@ -176,6 +177,37 @@ Eigen::Vector2d BipedStepping::plan_footstep(const BipedModel& robot, double t_n
   plan = {t_now,   com(0),  com(1),         velocity(0), velocity(1), capped,
           step(0), step(1), surface.height, origin(0),   origin(1)};
   return stance.head<2>() + heading * step;
+}
+
+void BipedSteppingBehaviour::update(double t, const BehaviourModel& robot,
+                                    const Eigen::Vector3d& command,
+                                    const Eigen::Array<bool, Eigen::Dynamic, 1>& touching,
+                                    References& refs) {
+  if (robot.contact_positions.rows() != 2 || touching.size() != 2 ||
+      refs.contact_active.size() != 2 || refs.swing_tracked.size() != 2 ||
+      refs.force_weight.size() != 2 || refs.foot_position.size() != 6 ||
+      refs.foot_velocity.size() != 6 || refs.foot_acceleration.size() != 6 ||
+      refs.posture.size() != robot.v.size() - 6)
+    throw std::invalid_argument(
+        "native biped_step: two point feet need two contact flags, swing flags and force "
+        "weights, 2 x 3 foot references and na posture references");
+  const BipedModel model{robot.q, robot.base_rotation, robot.contact_positions, robot.com,
+                         robot.com_velocity};
+  RowMatrix3 rotation = refs.base_rotation;
+  BipedReferences out{refs.contact_active.data(),
+                      refs.swing_tracked.data(),
+                      Eigen::Map<Eigen::Vector2d>(refs.force_weight.data()),
+                      Eigen::Map<RowMatrixX3>(refs.foot_position.data(), 2, 3),
+                      Eigen::Map<RowMatrixX3>(refs.foot_velocity.data(), 2, 3),
+                      Eigen::Map<RowMatrixX3>(refs.foot_acceleration.data(), 2, 3),
+                      Eigen::Map<Eigen::VectorXd>(refs.posture.data(), refs.posture.size()),
+                      Eigen::Map<RowMatrix3>(rotation.data()),
+                      Eigen::Map<Eigen::Vector3d>(refs.base_angular_velocity.data()),
+                      Eigen::Map<Eigen::Vector3d>(refs.com.data()),
+                      refs.base_height};
+  stepping.update(t, model, command.data(), touching.data(), out);
+  refs.base_rotation = rotation;
+  refs.base_height = out.base_height;
 }
 
 }  // namespace lab

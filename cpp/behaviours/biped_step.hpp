@@ -8,11 +8,10 @@
 #include <Eigen/Core>
 #include <array>
 
+#include "behaviours/behaviour.hpp"
 #include "behaviours/leg_posture.hpp"
 
 namespace lab {
-
-using RowMatrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;  // as walking.hpp
 
 /// The phases of Fig. 8a (biped_step.py Phase).
 enum class StepPhase { kDual, kLiftTransition, kLift, kLand, kLandTransition };
@@ -76,6 +75,17 @@ struct BipedStepping {
   double swing_done(double t_now) const;
   void retime(double t_now, double switch_in);
   Eigen::Vector2d plan_footstep(const BipedModel& robot, double t_now);
+};
+
+/// BipedStepping behind the one interface (behaviour.hpp).
+class BipedSteppingBehaviour : public NativeBehaviour {
+ public:
+  BipedStepping stepping;
+
+  /// One stepping tick (BipedStepping::update) on the references' arrays; throws
+  /// std::invalid_argument when they or the model are not sized for two point feet.
+  void update(double t, const BehaviourModel& robot, const Eigen::Vector3d& command,
+              const Eigen::Array<bool, Eigen::Dynamic, 1>& touching, References& refs) override;
 };
 
 }  // namespace lab

@@ -1,8 +1,9 @@
-// lab::NativeBehaviour: the one interface through which the server's native tick
-// (cpp/server_tick.cpp) runs a behaviour's tick. Each native behaviour binding
-// (behaviours/python.cpp: Walking, BipedStepping; the twins of the other behaviours likewise)
-// derives from it; its Python behaviour declares it with `NativeTicking`
-// (lab/controller/behaviours/base.py).
+// lab::TickedBehaviour: the one interface through which the server's native tick
+// (cpp/plant/server_tick.cpp) runs a Python behaviour's native twin. Every twin's binding
+// (behaviours/binding.hpp's Binding<Core>, bound as _kernel.Walking, BipedStepping, Balance, ...)
+// derives from it; its Python behaviour declares the twin with `NativeTwin`
+// (lab/controller/behaviours/native.py). The twin itself is a lab::NativeBehaviour
+// (behaviours/behaviour.hpp).
 #pragma once
 
 #include <nanobind/nanobind.h>
@@ -11,9 +12,9 @@
 
 namespace lab {
 
-class NativeBehaviour {
+class TickedBehaviour {
  public:
-  virtual ~NativeBehaviour() = default;
+  virtual ~TickedBehaviour() = default;
   /// One tick of the Python behaviour `owner` at sim time `t` (s) on the Python RobotModel
   /// `robot` (its arrays filled by this tick's model update): `command` [vx, vy, yaw_rate] (3),
   /// `touching` one flag per foot (`feet` of them); `reload`: the owner's state changed since the

@@ -7,4 +7,7 @@ namespace lab {
 
 void bind_behaviours(nanobind::module_& m);
 
+/// The behaviours behind NativeBehaviour (behaviour.hpp): python_standing.cpp.
+void bind_standing_behaviours(nanobind::module_& m);
+
 }  // namespace lab

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "behaviours/swing.hpp"
 
@@ -149,6 +150,50 @@ void Walking::filter_twist(const WalkingModel& robot, double c, double s, double
   const double fx = measured_twist(0), fy = measured_twist(1), fs = measured_twist(2);
   measured_twist << fx + alpha * (c * vx + s * vy - fx), fy + alpha * (c * vy - s * vx - fy),
       fs + alpha * (spin - fs);
+}
+
+void WalkingBehaviour::update(double t, const BehaviourModel& robot, const Eigen::Vector3d& command,
+                              const Eigen::Array<bool, Eigen::Dynamic, 1>& touching,
+                              References& refs) {
+  const Eigen::Index n = robot.contact_positions.rows(), nv = robot.v.size();
+  if (robot.contact_jacobian.rows() != 3 * n || touching.size() != n ||
+      refs.contact_active.size() != n || refs.posture_weight.size() != n ||
+      refs.normal_force_max.size() != n || refs.foot_position.size() != 3 * n ||
+      refs.foot_velocity.size() != 3 * n || refs.foot_acceleration.size() != 3 * n ||
+      refs.posture.size() != nv - 6 || refs.posture_velocity.size() != nv - 6 ||
+      previous_rotations.rows() != 3 * n || radius.size() != n ||
+      walking.scheduler.legs.size() != static_cast<std::size_t>(n))
+    throw std::invalid_argument(
+        "native walking: n point feet need n contact flags, weights, force bounds, radii and "
+        "legs, n x 3 foot references and na posture references");
+  const WalkingModel model{robot.q,
+                           robot.v,
+                           robot.base_rotation,
+                           robot.contact_positions,
+                           robot.contact_rotations,
+                           robot.contact_jacobian};
+  RowMatrix3 rotation = refs.base_rotation;
+  WalkingReferences out{refs.contact_active.data(),
+                        Eigen::Map<Eigen::VectorXd>(refs.posture_weight.data(), n),
+                        Eigen::Map<Eigen::VectorXd>(refs.normal_force_max.data(), n),
+                        Eigen::Map<RowMatrixX3>(refs.foot_position.data(), n, 3),
+                        Eigen::Map<RowMatrixX3>(refs.foot_velocity.data(), n, 3),
+                        Eigen::Map<RowMatrixX3>(refs.foot_acceleration.data(), n, 3),
+                        Eigen::Map<RowMatrix3>(rotation.data()),
+                        Eigen::Map<Eigen::Vector3d>(refs.base_angular_velocity.data()),
+                        Eigen::Map<Eigen::Vector3d>(refs.base_linear_velocity.data()),
+                        Eigen::Map<Eigen::Vector3d>(refs.com.data()),
+                        Eigen::Map<Eigen::Vector3d>(refs.com_velocity.data()),
+                        refs.base_height};
+  LegPostureState posture{Eigen::Map<Eigen::VectorXd>(refs.posture.data(), nv - 6),
+                          Eigen::Map<Eigen::VectorXd>(refs.posture_velocity.data(), nv - 6),
+                          Eigen::Map<RowMatrixX3>(previous_rotations.data(), 3 * n, 3),
+                          Eigen::Map<const Eigen::VectorXd>(radius.data(), n),
+                          &joints,
+                          damping};
+  walking.update(t, model, command.data(), touching.data(), out, posture);
+  refs.base_rotation = rotation;
+  refs.base_height = out.base_height;
 }
 
 }  // namespace lab

@@ -8,13 +8,12 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "behaviours/behaviour.hpp"
 #include "behaviours/footholds.hpp"
 #include "behaviours/gait.hpp"
 #include "behaviours/leg_posture.hpp"
 
 namespace lab {
-
-using RowMatrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
 /// What the walking tick reads of the robot model: the arrays the native kernel's update fills
 /// (RobotModel.arrays(); world axes, base velocities in the base frame as in v).
@@ -71,6 +70,23 @@ struct Walking {
   void swing_feet(double t, const WalkingModel& robot, double yaw, const bool* stance,
                   WalkingReferences& refs);
   void filter_twist(const WalkingModel& robot, double c, double s, double dt);
+};
+
+/// Walking behind the one interface (behaviour.hpp): the walking state and the leg posture's
+/// (leg_posture.py LegPostureReference's `_rotations`, `_radius`, `joints`, DAMPING); the
+/// posture references are the References' posture and posture_velocity.
+class WalkingBehaviour : public NativeBehaviour {
+ public:
+  Walking walking;
+  RowMatrixX3 previous_rotations;        // 3n x 3, the feet's orientations last tick
+  Eigen::VectorXd radius;                // n, the foot spheres' radii
+  std::vector<std::vector<int>> joints;  // each leg's joints (indices into na)
+  double damping = 0.0;
+
+  /// One walking tick (Walking::update) on the references' arrays; throws
+  /// std::invalid_argument when they or the model are not sized for n point feet.
+  void update(double t, const BehaviourModel& robot, const Eigen::Vector3d& command,
+              const Eigen::Array<bool, Eigen::Dynamic, 1>& touching, References& refs) override;
 };
 
 }  // namespace lab

@@ -76,7 +76,7 @@ class ServerTick {
   /// One server tick (module comment); `behaviour` is null for an idle behaviour (its update
   /// changes nothing: no touch sensing either). Returns (status, the controller's TickOutcome or
   /// None when it did not run).
-  nb::tuple tick(nb::handle refs, nb::handle robot, nb::handle owner, NativeBehaviour* behaviour,
+  nb::tuple tick(nb::handle refs, nb::handle robot, nb::handle owner, TickedBehaviour* behaviour,
                  bool reload, const InVector& command, const InVector& applied_torques,
                  double touch_force, bool sensing) {
     if (command.shape(0) != 3 || applied_torques.shape(0) != static_cast<std::size_t>(tau_.size()))

@@ -311,6 +311,10 @@ class Ran(Message, frozen=True):
         Literal["qdd_force", "full", "qdd_tau", "sequential"],
         Meta(description="qdd_force (x = [q̈, F]) for every method but nullspace"),
     ]
+    behaviour: Annotated[
+        Literal["native", "python", "none"],
+        Meta(description="the kernel that ran the behaviour's update (none: it has none)"),
+    ]
     note: str
     tick: Annotated[TickPath, Meta(description="the server tick's path: one crossing or Python")]
     tick_note: Annotated[str, Meta(description="why the Python path ran ('' when native)")]

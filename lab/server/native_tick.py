@@ -4,7 +4,7 @@ The Python tick (`Session.tick`, `_control`) crosses into C++ eight to ten times
 plant's check, state, touch sensing, the kernel's update, the behaviour's native tick, the solve,
 the torques and the step. `ServerTick.tick` (cpp/plant/server_tick.cpp) does them all in that
 order in one call, on the plant's MjModel and MjData, the controller's native kernel and the
-behaviour's native twin (`NativeTicking`), and reports a status code; this module decides when it
+behaviour's native twin (`NativeTwin`), and reports a status code; this module decides when it
 can run (`note`) and turns its outcome into what the Python tick leaves behind: the session's τ,
 F and output, the plant's bookkeeping, and on a fault the same exceptions (`SimulationDiverged`
 from the plant's own check, `QPFailure` from the controller), so the session raises the same
@@ -16,7 +16,8 @@ from enum import IntEnum
 
 import numpy as np
 
-from lab.controller.behaviours.base import Behaviour, NativeTicking
+from lab.controller.behaviours.base import Behaviour
+from lab.controller.behaviours.native import NativeTwin
 from lab.controller.controller import ControlOutput
 from lab.controller.native import NativeController
 from lab.server.plant import MujocoPlant
@@ -64,7 +65,7 @@ class NativeTick:
             return note
         if idle:
             return ""
-        if not isinstance(behaviour, NativeTicking) or behaviour.native_twin() is None:
+        if not isinstance(behaviour, NativeTwin) or behaviour.native_twin() is None:
             return f"behaviour {behaviour.name!r} has no native tick here"
         return ""
 
@@ -82,7 +83,7 @@ class NativeTick:
         not valid before control (the plant's check names why) and the controller's QPFailure
         when it failed: nothing was applied then, the caller falls back."""
         controller, plant, tick = self.controller, self.plant, self._tick
-        twin = None if idle else behaviour.native_twin()
+        twin = None if idle or not isinstance(behaviour, NativeTwin) else behaviour.native_twin()
         stale = twin is not None and behaviour.native_stale
         sensing = controller.reads_sensing
         controller.prepare_native_tick()
@@ -99,7 +100,7 @@ class NativeTick:
                 sensing,
             )
         finally:
-            if stale and tick.behaviour_ran:
+            if twin is not None and tick.behaviour_ran:
                 behaviour.native_ran()
         status = TickStatus(status)
         if status is TickStatus.DIVERGED_BEFORE:

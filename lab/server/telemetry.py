@@ -38,6 +38,7 @@ class ConfigView(Protocol):
 
 class BehaviourView(Protocol):
     name: str
+    kernel_ran: str  # which kernel ran the last update: native, python or none
 
 
 class SessionView(Protocol):
@@ -238,8 +239,9 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
     `finish`, which fills them in later: the stack's tasks with this tick's errors, this tick's
     solution summary, and the controller's configuration (stack, method, momentum mode, kernel
     note; as of `finish` when a command changed them in between). `ran` (kernel, method, solver,
-    formulation and the note saying why they differ from the request; the tick's path, native
-    or python, and why python) and `status` are this tick's."""
+    formulation, the kernel that ran the behaviour's update — native, python or none — and the
+    note saying why they differ from the request; the tick's path, native or python, and why
+    python) and `status` are this tick's."""
     model, controller = session.model, session.controller
     q = model.q[:7].tolist()
     rotation = model.base_rotation
@@ -273,7 +275,12 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
         "hierarchy": None,
         "kernel": controller.kernel_ran,
         "kernel_note": None,
-        "ran": {**ran.report(), "note": controller.note, **session.tick_report()},
+        "ran": {
+            **ran.report(),
+            "behaviour": session.behaviour.kernel_ran,
+            "note": controller.note,
+            **session.tick_report(),
+        },
         "status": status.report(),
         "controller_warnings": session.recent_warnings(),
         "qp": {

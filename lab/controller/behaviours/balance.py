@@ -4,6 +4,9 @@ The CoM stays where the standing posture puts it over the feet, the base level a
 height, the joints at the reference posture, all feet in contact — wherever the robot stands and
 whichever way it faces when the behaviour starts (after walking, say). The velocity command is
 ignored: a standing robot does not walk.
+
+On a native tick the line balance runs in C++ (cpp/behaviours/balance.cpp, line_balance.cpp;
+`native.py`).
 """
 
 import numpy as np
@@ -15,8 +18,14 @@ from lab.controller.behaviours.line_balance import (
     composite_inertia,
     line_balance_offset,
 )
+from lab.controller.behaviours.native import NativeTwin
 from lab.controller.model import RobotModel
 from lab.controller.references import References
+
+try:
+    from lab._kernel import Balance as NativeBalance
+except ImportError:  # the native kernel is not built: every tick runs in Python
+    NativeBalance = None
 
 
 def standing_model(robot: RobotModel, q_standing: np.ndarray) -> RobotModel:
@@ -60,7 +69,7 @@ def standing_references(robot: RobotModel, q_standing: np.ndarray) -> References
     return references_at_rest(standing_model(robot, q_standing))
 
 
-class Balance(NoOptions):
+class Balance(NativeTwin, NoOptions):
     """Stand still on every foot."""
 
     name = "stand"
@@ -79,6 +88,8 @@ class Balance(NoOptions):
         self._com_on_line = self.references.com.copy()
         self._inertia = composite_inertia(standing) if self._on_line else np.zeros((3, 3))
         self.line_gains = LineBalanceGains()
+        if NativeBalance is not None and self._on_line:
+            self._native = NativeBalance()
 
     @property
     def idle(self) -> bool:
@@ -91,6 +102,11 @@ class Balance(NoOptions):
     ) -> None:
         """Standing on a foot line (two point feet), the CoM reference leans to balance about
         it (`line_balance.py`); otherwise nothing changes while standing."""
+        if not self._native_tick(t, robot, command, touching):
+            self._lean(robot)
+
+    def _lean(self, robot: RobotModel) -> None:
+        """On a foot line, the CoM reference: the one on the line leaned to balance about it."""
         if self._on_line:
             offset = line_balance_offset(
                 robot, (0, 1), self.references.base_rotation, self._inertia, self.line_gains

@@ -1,14 +1,11 @@
 """The Behaviour protocol, and the defaults of a behaviour that takes no options."""
 
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from lab.controller.model import RobotModel
 from lab.controller.references import References
-
-if TYPE_CHECKING:
-    from lab._kernel import NativeBehaviour
 
 
 class Behaviour(Protocol):
@@ -20,6 +17,7 @@ class Behaviour(Protocol):
     name: str
     references: References
     lifts_feet: bool  # swings feet: the stack needs the swing_feet task to carry them
+    kernel_ran: str  # which kernel ran the last update: native, python or none (native.py)
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
@@ -51,26 +49,3 @@ class NoOptions:
 
     def continue_from(self, previous: Behaviour) -> None:
         """Start afresh: nothing of the previous behaviour carries over."""
-
-
-class NativeTicking:
-    """Declares a behaviour whose tick has a native twin (a `_kernel.NativeBehaviour`,
-    cpp/behaviours/native_behaviour.hpp) that the server's native tick (lab/server/native_tick.py)
-    runs inside its one crossing. The Python object keeps the state: the twin reads it when
-    `native_stale` says it changed since the twin's last tick, and writes it back after each."""
-
-    _native: "NativeBehaviour | None" = None  # the twin (None: not built, or not for this robot)
-    _native_stale = True  # this object's state changed since the twin last read it
-
-    def native_twin(self) -> "NativeBehaviour | None":
-        """The twin that can run this tick in C++, or None when the Python tick must run."""
-        return self._native
-
-    @property
-    def native_stale(self) -> bool:
-        """Whether the twin must read this object's state before its next tick."""
-        return self._native_stale
-
-    def native_ran(self) -> None:
-        """The twin ran a tick: it holds this object's state now."""
-        self._native_stale = False

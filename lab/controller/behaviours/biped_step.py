@@ -45,7 +45,8 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import references_at_rest, standing_model
-from lab.controller.behaviours.base import NativeTicking, NoOptions
+from lab.controller.behaviours.base import NoOptions
+from lab.controller.behaviours.native import NativeTwin
 from lab.controller.behaviours.pipm import (
     LinearSurface,
     PipmState,
@@ -153,7 +154,7 @@ class StepPrediction:
     lateral: np.ndarray
 
 
-class BipedStepping(NoOptions, NativeTicking):
+class BipedStepping(NativeTwin, NoOptions):
     """Step on two point feet, feet placed by the velocity-reversal planner."""
 
     name = "biped_step"
@@ -239,11 +240,8 @@ class BipedStepping(NoOptions, NativeTicking):
         """Advance the state machine to time `t` (s) and set the references (module docstring)."""
         if self.since is None:
             self.since = self.t = t
-        if self._native is not None and robot.updated_by == "native":  # the steps below, in C++
-            self._native.update(self, robot, t, command, touching, self._native_stale)
-            self._native_stale = False
+        if self._native_tick(t, robot, command, touching):  # the steps below, in C++
             return
-        self._native_stale = True
         steps = [(t - self.t) * limit for limit in RATE_LIMITS]
         self.command = rate_limited(self.command, command.tolist(), steps)
         command = np.array(self.command)

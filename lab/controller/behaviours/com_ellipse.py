@@ -8,12 +8,19 @@ split fore and aft in the planarizer, is Bolt's along the line between its feet,
 horizontal direction the CoM can move and stay balanced. The balance about the foot line
 (`line_balance.py`) still leans the reference across it. Sizes are Hume's scaled by CoM height
 (Bolt 0.3 m, Hume taken as 1 m): 1.5 cm along, 1 cm up, one turn in 4 s after HOLD s.
+
+On a native tick the update runs in C++ (cpp/behaviours/com_ellipse.cpp; `native.py`).
 """
 
 import numpy as np
 
 from lab.controller.behaviours.balance import Balance
 from lab.controller.model import RobotModel
+
+try:
+    from lab._kernel import ComEllipse as NativeComEllipse
+except ImportError:  # the native kernel is not built: every tick runs in Python
+    NativeComEllipse = None
 
 HOLD = 0.5  # s
 AMPLITUDE_ALONG = 0.015  # m, along the foot line
@@ -36,18 +43,21 @@ class ComEllipse(Balance):
         self.along = along / np.linalg.norm(along)
         self.centre = self._com_on_line.copy()
         self.start: float | None = None
+        self._native = NativeComEllipse() if NativeComEllipse is not None else None
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
         """Balance about the foot line, the CoM reference moved along the ellipse."""
+        if self._native_tick(t, robot, command, touching):
+            return
         self.start = t if self.start is None else self.start
         phase = 2.0 * np.pi / PERIOD * max(t - self.start - HOLD, 0.0)
         rate = 2.0 * np.pi / PERIOD * (t - self.start >= HOLD)
         s, c = np.sin(phase), np.cos(phase)
-        self._com_on_line = self.centre + AMPLITUDE_ALONG * s * self.along
+        self._com_on_line[:] = self.centre + AMPLITUDE_ALONG * s * self.along
         self._com_on_line += AMPLITUDE_UP * (c - 1.0) * Z
-        super().update(t, robot, command, touching)
-        self.references.com_velocity = rate * (
+        self._lean(robot)
+        self.references.com_velocity[:] = rate * (
             AMPLITUDE_ALONG * c * self.along - AMPLITUDE_UP * s * Z
         )

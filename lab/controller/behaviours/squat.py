@@ -11,12 +11,19 @@ At 0.5 Hz the CoG's forward acceleration peaks at 0.44 m/s², which asks the CoP
 (the CoG stands 1.2 cm before them), past the 9.35 cm `cop_inner` allows; the vertical sine
 adds to it. The constraint, a level above the momentum, bounds the planned CoP and the CoG
 tracking gives way. (At 6 cm the capture point, x + ẋ/ω₀, passes the bound: Talos fell.)
+
+On a native tick the update runs in C++ (cpp/behaviours/squat.cpp; `native.py`).
 """
 
 import numpy as np
 
 from lab.controller.behaviours.balance import Balance
 from lab.controller.model import RobotModel
+
+try:
+    from lab._kernel import Squat as NativeSquat
+except ImportError:  # the native kernel is not built: every tick runs in Python
+    NativeSquat = None
 
 HOLD = 0.5  # s
 AMPLITUDE = np.array([0.02, 0.0, 0.03])  # m: forward, sideways, vertical
@@ -35,6 +42,7 @@ class Squat(Balance):
         self.centre = self.references.com.copy()
         self.period = PERIOD
         self.start: float | None = None
+        self._native = NativeSquat() if NativeSquat is not None else None
 
     def configure(self, **options: object) -> None:
         """`cycle_time`: the sine's period (s) in PERIOD_RANGE; raises ValueError otherwise."""
@@ -45,20 +53,22 @@ class Squat(Balance):
         if not isinstance(period, int | float) or not PERIOD_RANGE[0] <= period <= PERIOD_RANGE[1]:
             raise ValueError(f"{self.name}: cycle_time must be in {PERIOD_RANGE} s, got {period!r}")
         self.period = float(period)
+        self._native_stale = True
 
     def update(
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
         """Hold for HOLD s from the first tick, then move the CoG reference on the sine."""
+        if self._native_tick(t, robot, command, touching):
+            return
         self.start = t if self.start is None else self.start
         phase = max(t - self.start - HOLD, 0.0)
         omega = 2.0 * np.pi / self.period
         active = t - self.start >= HOLD
-        self.references.com = self.centre + self.amplitude * np.sin(omega * phase)
-        self.references.com_velocity = self.amplitude * omega * np.cos(omega * phase) * active
-        self.references.com_acceleration = (
-            -self.amplitude * omega**2 * np.sin(omega * phase) * active
-        )
+        refs = self.references
+        refs.com[:] = self.centre + self.amplitude * np.sin(omega * phase)
+        refs.com_velocity[:] = self.amplitude * omega * np.cos(omega * phase) * active
+        refs.com_acceleration[:] = -self.amplitude * omega**2 * np.sin(omega * phase) * active
 
 
 class CopSquat(Squat):

@@ -14,6 +14,8 @@ knee flexion joints follow q_lift + a (1 − cos 2π f t) / 2 (SWING_AMPLITUDE, 
 than the lifted posture, so the sole only rises), the leg in joint space (`swing_leg` task) in
 place of its sole pose. A swing stops at the end of a period, back in the lifted posture, and
 before any stance change.
+
+On a native tick the update runs in C++ (cpp/behaviours/stance.cpp; `native.py`).
 """
 
 from dataclasses import fields
@@ -25,6 +27,11 @@ from lab.controller.model import BASE_DOF, RobotModel
 from lab.controller.tasks.posture import leg_joints
 from lab.controller.tasks.sole import SoleReferences
 from lab.protocol import SWING_HZ_MAX
+
+try:
+    from lab._kernel import Stance as NativeStance
+except ImportError:  # the native kernel is not built: every tick runs in Python
+    NativeStance = None
 
 STANCES = ("double", "left", "right")
 SHIFT_S = 1.0  # s, CoG over the stance sole (or back to the middle)
@@ -76,6 +83,7 @@ class Stance(Balance):
         self._started: float | None = None  # time the running transition started
         self._pending: str | None = None
         self._ground = self.references.sole_position.copy()  # each sole where it stood
+        self._native = NativeStance() if NativeStance is not None else None
 
     def request(self, stance: str) -> None:
         """Go to `stance` (double | left | right); raises ValueError naming the stances. A
@@ -85,6 +93,7 @@ class Stance(Balance):
         if stance != "double" and stance not in self.names:
             raise ValueError(f"stance {stance!r}: this robot's soles are {self.names}")
         self._pending = stance
+        self._native_stale = True
 
     def swing(self, hz: float) -> None:
         """Swing the lifted leg's hip and knee at `hz` (0 stops at the end of the period, in
@@ -92,6 +101,7 @@ class Stance(Balance):
         if not 0.0 <= hz <= SWING_HZ_MAX:
             raise ValueError(f"swing: frequency must be in [0, {SWING_HZ_MAX}] Hz, got {hz}")
         self.swing_hz = hz
+        self._native_stale = True
 
     @property
     def busy(self) -> bool:
@@ -102,6 +112,8 @@ class Stance(Balance):
         self, t: float, robot: RobotModel, command: np.ndarray, touching: np.ndarray
     ) -> None:
         """Advance the running transition or swing, or start the pending one."""
+        if self._native_tick(t, robot, command, touching):
+            return
         if self._swing is not None or (
             self.swing_hz > 0.0 and self._started is None and self._pending is None
         ):

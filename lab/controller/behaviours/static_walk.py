@@ -10,6 +10,8 @@ The references carry, for the tasks of tasks/objectives.py and tasks/feet.py: th
 trajectories, the surface normal under each foot (world z, or the known half-cylinder), and the
 force interpolation weight w of §5.1.6: a leg is unloaded (w 1 → 0) over the last `transition` s
 before lift-off and loaded (w 0 → 1) over the first `transition` s after touchdown.
+
+On a native tick the update runs in C++ (cpp/behaviours/static_walk.cpp; `native.py`).
 """
 
 from dataclasses import dataclass
@@ -18,9 +20,15 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.base import NoOptions
+from lab.controller.behaviours.native import NativeTwin
 from lab.controller.model import RobotModel
 from lab.controller.surfaces import HALF_CYLINDER, HalfCylinder
 from lab.controller.walk_references import WORLD_UP, WalkReferences
+
+try:
+    from lab._kernel import StaticWalk as NativeStaticWalk
+except ImportError:  # the native kernel is not built: every tick runs in Python
+    NativeStaticWalk = None
 
 FOOTFALL = ("lh", "lf", "rh", "rf")
 
@@ -95,7 +103,7 @@ def inside_triangle(point: np.ndarray, triangle: np.ndarray, margin: float) -> n
     return best
 
 
-class StaticWalk(NoOptions):
+class StaticWalk(NativeTwin, NoOptions):
     """The crawl on flat ground, or in place on a known surface (its normals in the references)."""
 
     name = "static_walk"
@@ -133,6 +141,7 @@ class StaticWalk(NoOptions):
         )
         self.start: float | None = None
         self.step = -1
+        self._native = NativeStaticWalk() if NativeStaticWalk is not None else None
 
     def _normal(self, point: np.ndarray) -> np.ndarray:
         return WORLD_UP if self.surface is None else self.surface.normal(point)
@@ -142,6 +151,8 @@ class StaticWalk(NoOptions):
     ) -> None:
         """Advance the crawl to sim time `t` (s): CoM shift, then the step's swing and its
         force interpolation ramps. The command and the measured contacts are not used."""
+        if self._native_tick(t, robot, command, touching):
+            return
         p, refs = self.parameters, self.references
         if self.start is None:
             self.start = t

@@ -30,10 +30,11 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import references_at_rest, standing_model
-from lab.controller.behaviours.base import Behaviour, NativeTicking
+from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
 from lab.controller.behaviours.leg_posture import LegPostureReference
+from lab.controller.behaviours.native import NativeTwin
 from lab.controller.behaviours.swing import swing_reference
 from lab.controller.model import RobotModel
 from lab.controller.references import References
@@ -75,7 +76,7 @@ def _wrap(angle: float) -> float:
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
-class Walking(NativeTicking):
+class Walking(NativeTwin):
     """Walk with `gait` on four point feet, steered by the velocity command."""
 
     lifts_feet = True
@@ -185,11 +186,8 @@ class Walking(NativeTicking):
         if self.scheduler is None:
             self.scheduler = GaitScheduler(self.roles, self.gait, self.cycle_time, t)
             self.t, self.yaw_ref = t, yaw
-        if self._native is not None and robot.updated_by == "native":  # the steps below, in C++
-            self._native.update(self, robot, t, command, touching, self._native_stale)
-            self._native_stale = False
+        if self._native_tick(t, robot, command, touching):  # the steps below, in C++
             return
-        self._native_stale = True
         dt = t - self.t
         self.t = t
         steps = [dt * limit for limit in RATE_LIMITS]
