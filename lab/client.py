@@ -22,8 +22,9 @@ from lab.server.access import ENV_CONFIG, ENV_PASSWORD, ENV_USER, credentials_fr
 from lab.server.transport import client_config
 
 COMMAND_TIMEOUT_S = 2.0
-SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session
-SLOW_VERBS = ("robot", "scene")
+# robot / scene switches rebuild the session; `floor` replies after measuring (up to 10 s)
+SLOW_COMMAND_TIMEOUT_S = 20.0
+SLOW_VERBS = ("robot", "scene", "floor")
 # A query that ends with no reply before this fraction of its timeout was closed, not timed out.
 TIMED_OUT_FRACTION = 0.9
 PROBE_TIMEOUT_S = 2.0  # a TCP connection that tells "nothing there" from "credentials refused"

@@ -309,6 +309,17 @@ class RecordCommand:
     action: str
 
 
+FLOOR_SECONDS_MIN, FLOOR_SECONDS_MAX = 0.5, 10.0  # s, the `floor` command's range
+
+
+@dataclass(frozen=True)
+class FloorCommand:
+    """Measure the machine's floor: the loop's on-time fraction with nothing to do, for
+    `seconds` (the session stands still meanwhile; lab/server/floor.py). The reply carries it."""
+
+    seconds: float = 2.0
+
+
 @dataclass(frozen=True)
 class TakeCommand:
     """Take the control lock (docs/protocol.md, "The control lock"): refused while another
@@ -343,4 +354,5 @@ Command = (
     | StanceCommand
     | TakeCommand
     | ReleaseCommand
+    | FloorCommand
 )

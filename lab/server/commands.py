@@ -15,6 +15,8 @@ from collections.abc import Callable, Mapping
 
 from lab.protocol import (
     CYCLE_TIME_MAX,
+    FLOOR_SECONDS_MAX,
+    FLOOR_SECONDS_MIN,
     GAIN_MAX,
     NAME_MAX_LEN,
     POINT_COORD_MAX,
@@ -30,6 +32,7 @@ from lab.protocol import (
     WEIGHT_MAX,
     YAW_RATE_MAX,
     Command,
+    FloorCommand,
     GainsCommand,
     GaitCommand,
     HierarchyCommand,
@@ -265,6 +268,13 @@ def _internal_force(f: _Fields) -> InternalForceCommand:
     return InternalForceCommand(reference=reference, source=source)
 
 
+def _floor(f: _Fields) -> FloorCommand:
+    f.only("seconds")
+    if not f.has("seconds"):
+        return FloorCommand()
+    return FloorCommand(seconds=f.number("seconds", FLOOR_SECONDS_MIN, FLOOR_SECONDS_MAX))
+
+
 def _stance(f: _Fields) -> StanceCommand:
     f.only("side", "swing")
     if not f.has("side") and not f.has("swing"):
@@ -292,6 +302,7 @@ _PARSERS: dict[str, Callable[[_Fields], Command]] = {
     "stance": _stance,
     "take": _no_fields(TakeCommand),
     "release": _no_fields(ReleaseCommand),
+    "floor": _floor,
 }
 
 VERBS: tuple[str, ...] = tuple(_PARSERS)
