@@ -12,7 +12,13 @@ from lab.server.commands import parse_command
 from lab.server.deadline_stats import ON_TIME_TOLERANCE
 from lab.server.intake import Request
 from lab.server.loop import LoopConfig, SimLoop
-from lab.server.wake_margin import INITIAL_MARGIN_S, MIN_SAMPLES, WINDOW, WakeMargin
+from lab.server.wake_margin import (
+    INITIAL_MARGIN_S,
+    MAX_MARGIN_SHARE,
+    MIN_SAMPLES,
+    WINDOW,
+    WakeMargin,
+)
 
 PERIOD = 1e-3
 CLOCK_STEP = 5e-6  # the fake clock advances this much per reading (a spin's granularity)
@@ -154,9 +160,9 @@ def test_the_margin_rises_within_a_window_when_the_host_gets_slower() -> None:
     for _ in range(WINDOW):  # quick again: the slow ones leave the window
         margin.record(4e-5)
     assert margin.update() == pytest.approx(4e-5, rel=0.06)
-    for _ in range(WINDOW):  # slower than a period: never sleep
+    for _ in range(WINDOW):  # slower than a period: a spin that long costs more than it saves
         margin.record(5e-3)
-    assert margin.update() == PERIOD
+    assert margin.update() == MAX_MARGIN_SHARE * PERIOD
     for _ in range(WINDOW - MIN_SAMPLES + 1):  # never sleeping, it learns nothing: it
         margin.no_sleep()  # tries the initial margin again once the window has too few sleeps
     assert margin.update() == INITIAL_MARGIN_S
