@@ -13,6 +13,7 @@ times, alternated:
 - `default`: the server's defaults (sleep, then a short busy spin; the EEVDF slice and the nice
   value it asks for);
 - `nice 0`: the same without the raised priority;
+- `adaptive`: the wake-up margin learned (`lab serve --spin-ms auto`, lab/server/wake_margin.py);
 - `whole period`: never sleep (spin the whole period: one CPU kept busy);
 - `whole period, nice 0`.
 
@@ -33,12 +34,14 @@ import threading
 import time
 from collections.abc import Callable
 
-from lab.server.loop import ON_TIME_TOLERANCE, LoopConfig, SimLoop
+from lab.server.deadline_stats import ON_TIME_TOLERANCE
+from lab.server.loop import LoopConfig, SimLoop
 
 PERIOD_S = 1e-3
 SETTINGS = {
     "default": {},
     "nice 0": {"nice": 0},
+    "adaptive": {"adaptive_spin": True},
     "whole period": {"spin_s": PERIOD_S},
     "whole period, nice 0": {"spin_s": PERIOD_S, "nice": 0},
 }

@@ -6,18 +6,26 @@
   subscribers attached and, with `--ui`, the browser UI process.
 
     .venv/bin/python benchmarks/bench_server.py --duration 60 [--ui] [--gait trot] [--json]
-    .venv/bin/python benchmarks/bench_server.py --robot talos --preset herzog_table4 \
-        --momentum lqr --stance left          # Talos in single support
+    .venv/bin/python benchmarks/bench_server.py --robot talos --gait stance  # single support
     .venv/bin/python benchmarks/bench_server.py --robot bolt --gait biped_step
-    .venv/bin/python benchmarks/bench_server.py --method nullspace
+    .venv/bin/python benchmarks/bench_server.py --method nullspace --spin-ms auto
+    .venv/bin/python benchmarks/bench_server.py --targets --ui   # issue 31's four, in turn
 
 The machine's own floor is measured in the same run: bench_floor.py's empty loop, with the
 server's spin setting, for the same duration just before the server (and after it with
 `--floor-after`); the report gives both fractions and how many points the server is below the
 floor (issue 31: the target is within 0.3 points).
 
-With `--gait`, the robot walks in that gait while the commands alternate vx between 0.3 and
-0.5 m/s; without it, it stands and they alternate between 0 and 0.1 m/s.
+`--gait` picks the situation (GAITS): `stand` (the default; the commands alternate vx between
+0 and 0.1 m/s), `trot` and `crawl` (a quadruped walking; vx 0.3 / 0.5 and 0.1 / 0.2 m/s),
+`biped_step` (Bolt stepping, Kim's stack; vx 0.15 / 0.25 m/s), `stance` (a flat-footed biped,
+Talos, on its left sole: Herzog 2016 §5.4 with the LQR momentum law). `--robot` takes any of
+the lab's robots; a gait the robot cannot do is refused by the server, by name. `--targets`
+runs issue 31's four situations in turn (ANYmal standing and trotting, Talos in single support,
+Bolt with biped_step), each against its own floor, and prints one line each.
+
+Each run also reports the loop thread's CPU share (its CPU time over the wall time between
+two telemetry messages: `loop.cpu_s`), so settings that spin longer show what they cost.
 """
 
 import argparse
@@ -30,6 +38,7 @@ import sys
 import tempfile
 import threading
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,8 +51,8 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(args: argparse.Namespace, port: int, log) -> subprocess.Popen:
-    cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(port), "--robot", args.robot]
+def start_server(args: argparse.Namespace, robot: str, port: int, log) -> subprocess.Popen:
+    cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(port), "--robot", robot]
     cmd += ["--rate", str(args.rate), "--sched", args.sched]
     if args.spin_ms is not None:
         cmd += ["--spin-ms", str(args.spin_ms)]
@@ -70,11 +79,31 @@ def connect(endpoint: str, timeout: float = 60.0) -> LabClient:
         client.close()
 
 
+@dataclass(frozen=True)
+class Gait:
+    """A situation to hold the server in: the commands that set it up and the two speeds (vx,
+    m/s) the timed velocity commands alternate between."""
+
+    setup: tuple[tuple[str, dict], ...]
+    speeds: tuple[float, float]
+
+
+GAITS = {
+    "stand": Gait((), (0.0, 0.1)),
+    "trot": Gait((("gait", {"name": "trot"}),), (0.3, 0.5)),
+    "crawl": Gait((("gait", {"name": "crawl"}),), (0.1, 0.2)),
+    "biped_step": Gait((("gait", {"name": "biped_step"}),), (0.15, 0.25)),
+    "stance": Gait((("momentum", {"mode": "lqr"}), ("stance", {"side": "left"})), (0.0, 0.1)),
+}
+# Issue 31's targets: (robot, gait).
+TARGETS = (("anymal", "stand"), ("anymal", "trot"), ("talos", "stance"), ("bolt", "biped_step"))
+
+
 def measure(
     endpoint: str,
     duration: float,
     command_hz: float,
-    gait: str | None = None,
+    gait: Gait,
     setup: list[tuple[str, dict]] | None = None,
 ) -> dict[str, object]:
     counts = [0, 0]
@@ -96,17 +125,12 @@ def measure(
         for i, sub in enumerate(subscribers):
             sub.subscribe_telemetry(counter(i))
         client.wait_telemetry(timeout=5.0)
-        speeds = (0.0, 0.1)
-        for verb, payload in setup or ():
+        speeds = gait.speeds
+        for verb, payload in [*gait.setup, *(setup or ())]:
             reply = client.command(verb, timeout=5.0, **payload)
             if not reply.get("ok"):
                 raise SystemExit(f"{verb} {payload} refused: {reply.get('error')}")
-        if gait is not None:
-            reply = client.command("gait", name=gait, timeout=5.0)
-            if not reply.get("ok"):
-                raise SystemExit(f"gait {gait!r} refused: {reply.get('error')}")
-            client.command("velocity", vx=0.4, timeout=1.0)
-            speeds = (0.3, 0.5)
+        client.command("velocity", vx=sum(speeds) / 2, timeout=1.0)
         time.sleep(1.0)  # settle after start-up (and into the gait)
         first = client.wait_telemetry()["loop"]
         with lock:
@@ -149,6 +173,12 @@ def measure(
         "on_time_fraction": round(on_time / ticks, 6),
         "overruns": last["overruns"] - first["overruns"],
         "late_wakeups": last["late_wakeups"] - first["late_wakeups"],
+        "late_pushed": last["late_pushed"] - first["late_pushed"],
+        "loop_cpu_share": round(
+            (last["cpu_s"] - first["cpu_s"]) / (last["clock_s"] - first["clock_s"]), 4
+        ),
+        "spin_margin_us": last["spin_margin_us"],
+        "server_floor": last["floor"],
         "fifo": last["fifo"],
         "sched": last["sched"],
         "slice_us": last.get("slice_us"),
@@ -174,15 +204,16 @@ def measure(
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--duration", type=float, default=60.0, help="s (default: 60)")
-    p.add_argument("--robot", default="anymal")
+    p.add_argument("--robot", default="anymal", help="any of the lab's robots (default: anymal)")
     p.add_argument("--rate", type=float, default=1000.0, help="loop rate, Hz (default: 1000)")
     p.add_argument("--command-hz", type=float, default=50.0, help="commands per second")
     p.add_argument("--ui", action="store_true", help="also run the browser UI process")
-    p.add_argument("--gait", help="walk in this gait (e.g. trot) instead of standing")
+    p.add_argument("--gait", choices=list(GAITS), default="stand", help="(default: stand)")
+    p.add_argument("--targets", action="store_true", help="issue 31's four situations in turn")
     p.add_argument(
         "--sched", default="auto", help="the server's --sched: auto, fifo or other (default: auto)"
     )
-    p.add_argument("--spin-ms", type=float, help="the server's --spin-ms (default: its own)")
+    p.add_argument("--spin-ms", help="the server's --spin-ms, ms or auto (default: its own)")
     p.add_argument(
         "--serve-arg",
         action="append",
@@ -200,8 +231,35 @@ def main() -> int:
         help="skip the empty loop (bench_floor.py) run for the same duration just before",
     )
     p.add_argument("--floor-after", action="store_true", help="also run the empty loop after")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true", help="print one JSON object (a list: --targets)")
     args = p.parse_args()
+    if args.spin_ms not in (None, "auto"):
+        try:
+            float(args.spin_ms)
+        except ValueError:
+            p.error(f"--spin-ms: not a number of ms nor auto: {args.spin_ms!r}")
+    cases = TARGETS if args.targets else ((args.robot, args.gait),)
+    results = [one_run(args, robot, gait) for robot, gait in cases]
+    if args.json:
+        print(json.dumps(results if args.targets else results[0]))
+        return 0
+    if args.targets:
+        for r in results:
+            print(
+                f"{r['robot']:7} {r['gait']:11} on time {r['on_time_fraction']:.3%}, floor "
+                f"{r.get('floor_on_time_fraction', float('nan')):.3%} "
+                f"({r.get('below_floor_points', float('nan')):+.2f} points below), latency p99 "
+                f"{r['latency_ms']['p99']:.2f} ms, loop CPU {r['loop_cpu_share']:.1%}, "
+                f"load {r['load']}"
+            )
+        return 0
+    report(results[0], args)
+    return 0
+
+
+def one_run(args: argparse.Namespace, robot: str, gait: str) -> dict:
+    """The floor before (unless --no-floor), the server on `robot` in `gait`, the floor after
+    (--floor-after): the server's figures with both floors."""
     setup = [
         (verb, payload)
         for verb, payload in (
@@ -216,10 +274,10 @@ def main() -> int:
     load = os.getloadavg()[0]  # the machine's 1-minute load at the start
     floor = {} if args.no_floor else {"before": _floor(args)}
     with tempfile.TemporaryFile() as log:
-        server = start_server(args, port, log)
+        server = start_server(args, robot, port, log)
         try:
             endpoint = f"tcp/127.0.0.1:{port}"
-            result = measure(endpoint, args.duration, args.command_hz, args.gait, setup)
+            result = measure(endpoint, args.duration, args.command_hz, GAITS[gait], setup)
         finally:
             server.send_signal(signal.SIGINT)
             server.wait(10)
@@ -230,23 +288,24 @@ def main() -> int:
         fractions = [run["on_time_fraction"] for run in floor.values()]
         result["floor_on_time_fraction"] = min(fractions)
         result["below_floor_points"] = round(100 * (min(fractions) - result["on_time_fraction"]), 3)
-    result["setup"] = [f"{verb} {payload}" for verb, payload in setup]
-    result["robot"] = args.robot
+    result["setup"] = [f"{verb} {payload}" for verb, payload in (*GAITS[gait].setup, *setup)]
+    result["robot"] = robot
     result["rate_hz"] = args.rate
     result["ui"] = args.ui
-    result["gait"] = args.gait
+    result["gait"] = gait
     result["spin_ms"] = args.spin_ms
     result["serve_args"] = args.serve_arg
     result["load"] = round(load, 2)
-    if args.json:
-        print(json.dumps(result))
-        return 0
+    return result
+
+
+def report(result: dict, args: argparse.Namespace) -> None:
+    """The human-readable report of one run."""
     lat = result["latency_ms"]
     ui = "on" if args.ui else "off"
-    doing = f"walking ({args.gait})" if args.gait else "standing"
     print(
-        f"robot {args.robot} {doing} at {args.rate:g} Hz, {args.duration:g} s, UI {ui}, "
-        "2 subscribers"
+        f"robot {result['robot']} {result['gait']} at {args.rate:g} Hz, {args.duration:g} s, "
+        f"UI {ui}, 2 subscribers"
     )
     print(
         f"command-to-applied latency: p50 {lat['p50']:.2f} ms, p99 {lat['p99']:.2f} ms, "
@@ -256,7 +315,9 @@ def main() -> int:
     since = result["since_start"]
     print(
         f"loop: {result['tick_rate_hz']} ticks/s, on-time {result['on_time_fraction']:.4%}, "
-        f"overruns {result['overruns']}, late wake-ups {result['late_wakeups']}, "
+        f"overruns {result['overruns']}, late ticks: woken late {result['late_wakeups']}, "
+        f"after an overrun {result['late_pushed']}; spin margin {result['spin_margin_us']} us, "
+        f"loop CPU {result['loop_cpu_share']:.1%}; "
         f"SCHED_{result['sched'].upper()} (slice {result['slice_us']} us, nice {result['nice']}); "
         "since start: lateness "
         f"p50 {since['lateness_us']['p50']} us p99 {since['lateness_us']['p99']} us "
@@ -272,7 +333,9 @@ def main() -> int:
         + f"; GC collections by generation {result['gc_collections']}, load {result['load']}"
     )
     print(f"telemetry per subscriber: {result['telemetry_hz_per_subscriber']} Hz")
-    if floor:
+    if server_floor := result["server_floor"]:
+        print(f"the server's own floor at start-up: {server_floor['on_time_fraction']:.4%}")
+    if floor := result["floor"]:
         below = result["below_floor_points"]
         runs = ", ".join(f"{when} {run['on_time_fraction']:.4%}" for when, run in floor.items())
         print(
@@ -280,14 +343,18 @@ def main() -> int:
             f"the server is {abs(below):.2f} points {'below' if below > 0 else 'above'} the "
             "lower one"
         )
-    return 0
 
 
 def _floor(args: argparse.Namespace) -> dict:
     """The empty loop of bench_floor.py for `args.duration`, with the server's spin setting."""
     from bench_floor import empty_loop
 
-    settings = {} if args.spin_ms is None else {"spin_s": args.spin_ms / 1000.0}
+    if args.spin_ms is None:
+        settings = {}
+    elif args.spin_ms == "auto":
+        settings = {"adaptive_spin": True}
+    else:
+        settings = {"spin_s": float(args.spin_ms) / 1000.0, "adaptive_spin": False}
     return empty_loop(args.duration, **settings)
 
 

@@ -6,6 +6,10 @@ to CPU 0, and Debian's headless Chromium on the page; then times, alternating, `
 - a page action: a click on Pause / Resume in the page until `info` reports it applied.
 
     .venv/bin/python benchmarks/bench_starvation.py --sched fifo --spin-ms 0 [--hog] [--json]
+    .venv/bin/python benchmarks/bench_starvation.py --spin-ms auto   # the adaptive margin
+
+It also reports the loop's on-time fraction and its thread's CPU share (`loop.cpu_s` over the
+loop's clock) over the clicks.
 """
 
 import argparse
@@ -86,6 +90,7 @@ def measure(args: argparse.Namespace, log: Path) -> dict[str, object]:
         server.stop()
     ticks = last["ticks"] - first["ticks"]
     on_time = last["on_time_fraction"] * last["ticks"] - first["on_time_fraction"] * first["ticks"]
+    cpu_share = (last["cpu_s"] - first["cpu_s"]) / (last["clock_s"] - first["clock_s"])
     return {
         "sched": last["sched"],
         "spin_ms": args.spin_ms,
@@ -96,13 +101,15 @@ def measure(args: argparse.Namespace, log: Path) -> dict[str, object]:
         "late_wakeups": last["late_wakeups"] - first["late_wakeups"],
         "overruns": last["overruns"] - first["overruns"],
         "ticks": ticks,
+        "loop_cpu_share": round(cpu_share, 4),
+        "spin_margin_us": last["spin_margin_us"],
     }
 
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--sched", default="auto", help="the server's --sched (default: auto)")
-    p.add_argument("--spin-ms", type=float, help="the server's --spin-ms (default: its own)")
+    p.add_argument("--spin-ms", help="the server's --spin-ms, ms or auto (default: its own)")
     p.add_argument("--hog", action="store_true", help="a busy Python loop pinned to CPU 0")
     p.add_argument("--actions", type=int, default=20, help="clicks and commands (default: 20)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -116,7 +123,8 @@ def main() -> int:
         print(
             f"SCHED_{result['sched'].upper()} spin {args.spin_ms} ms, hog {args.hog}: command "
             f"p50 {c['p50']} p90 {c['p90']} max {c['max']} ms; click p50 {k['p50']} "
-            f"p90 {k['p90']} max {k['max']} ms; on time {result['on_time_fraction']:.3%}"
+            f"p90 {k['p90']} max {k['max']} ms; on time {result['on_time_fraction']:.3%}, loop "
+            f"CPU {result['loop_cpu_share']:.1%} (margin {result['spin_margin_us']} us)"
         )
     return 0
 

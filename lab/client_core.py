@@ -21,8 +21,9 @@ from lab.protocol import ALL_LABS_ALIVE, CommandStruct, LabKeys, lab_id_of
 from lab.zenoh_config import ENV_CONFIG, ENV_PASSWORD, ENV_USER, client_config, credentials_from_env
 
 COMMAND_TIMEOUT_S = 2.0
-SLOW_COMMAND_TIMEOUT_S = 20.0  # robot / scene switches rebuild the session
-SLOW_VERBS = ("robot", "scene")
+# robot / scene switches rebuild the session; `floor` replies after measuring (up to 10 s)
+SLOW_COMMAND_TIMEOUT_S = 20.0
+SLOW_VERBS = ("robot", "scene", "floor")
 # A query that ends with no reply before this fraction of its timeout was closed, not timed out.
 TIMED_OUT_FRACTION = 0.9
 PROBE_TIMEOUT_S = 2.0  # a TCP connection that tells "nothing there" from "credentials refused"

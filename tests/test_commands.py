@@ -14,6 +14,7 @@ from lab.protocol import (
     WEIGHT_MAX,
     YAW_RATE_MAX,
     CommandError,
+    FloorCommand,
     GainsCommand,
     HierarchyCommand,
     InfoCommand,
@@ -22,6 +23,14 @@ from lab.protocol import (
     VelocityCommand,
     parse_command,
 )
+
+
+def test_floor_takes_seconds_in_its_range_or_its_default() -> None:
+    assert parse_command("floor", {}) == FloorCommand(seconds=2.0)
+    assert parse_command("floor", {"seconds": 5}) == FloorCommand(seconds=5.0)
+    for bad in (0.1, 11.0, "2", math.nan):
+        with pytest.raises(CommandError, match="floor: field 'seconds'"):
+            parse_command("floor", {"seconds": bad})
 
 
 def test_verbs_are_the_protocol_verbs() -> None:
@@ -45,6 +54,7 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "hand",
         "take",
         "release",
+        "floor",
     }
 
 

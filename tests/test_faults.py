@@ -26,7 +26,8 @@ import pytest
 from ports import free_port
 
 from lab.client import LabClient
-from lab.server.loop import DEADMAN_RAMP_S, DEADMAN_TIMEOUT_S, LoopConfig, SimLoop
+from lab.server.deadman import DEADMAN_RAMP_S, DEADMAN_TIMEOUT_S
+from lab.server.loop import LoopConfig, SimLoop
 from lab.server.session import Session, SessionConfig
 from lab.server.transport import ServerTransport, server_config
 

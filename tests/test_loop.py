@@ -12,23 +12,20 @@ import numpy as np
 import pytest
 
 from lab.protocol import VelocityCommand
-from lab.server.loop import (
-    AUTO_FIFO_MIN_CPUS,
-    DEADMAN_RAMP_S,
-    DEADMAN_TIMEOUT_S,
-    EVENT_INTERVAL_S,
+from lab.server.deadline_stats import (
     ON_TIME_TOLERANCE,
-    SLICE_MAX_S,
-    SLICE_MIN_S,
-    STATS_INTERVAL_TICKS,
     TICK_KINDS,
     DeadlineStats,
-    Deadman,
-    EventThrottle,
     GcPauses,
     LogHistogram,
-    LoopConfig,
-    SimLoop,
+)
+from lab.server.deadman import DEADMAN_RAMP_S, DEADMAN_TIMEOUT_S, Deadman
+from lab.server.loop import STATS_INTERVAL_TICKS, LoopConfig, SimLoop
+from lab.server.loop_events import EVENT_INTERVAL_S, EventThrottle
+from lab.server.scheduling import (
+    AUTO_FIFO_MIN_CPUS,
+    SLICE_MAX_S,
+    SLICE_MIN_S,
     request_fifo,
     request_nice,
     request_slice,
@@ -244,11 +241,11 @@ def test_a_slice_is_granted_clamped_and_not_inherited_or_refused_cleanly() -> No
 def test_a_refused_or_fifo_slice_request_reports_none(monkeypatch: pytest.MonkeyPatch) -> None:
     """A refused sched_setattr (or sched_getattr, or an unknown machine) gives None; so does a
     thread at SCHED_FIFO, whose slice the request must not touch."""
-    import lab.server.loop as loop
+    import lab.server.scheduling as scheduling
 
-    monkeypatch.setattr(loop, "_SYS_SCHED_SETATTR", {})
+    monkeypatch.setattr(scheduling, "_SYS_SCHED_SETATTR", {})
     assert _in_a_thread(lambda: request_slice(1e-4)) is None
-    monkeypatch.setattr(loop, "_SYS_SCHED_GETATTR", {})
+    monkeypatch.setattr(scheduling, "_SYS_SCHED_GETATTR", {})
     assert _in_a_thread(lambda: request_slice(1e-4)) is None
     monkeypatch.undo()
 
@@ -341,9 +338,9 @@ def test_a_granted_nice_holds_with_the_slice_and_is_not_inherited() -> None:
 def test_a_refused_or_fifo_nice_request_reports_none(monkeypatch: pytest.MonkeyPatch) -> None:
     """A refused sched_setattr gives None and changes nothing; so does a SCHED_FIFO thread,
     whose nice the request must not touch."""
-    import lab.server.loop as loop
+    import lab.server.scheduling as scheduling
 
-    monkeypatch.setattr(loop, "_SYS_SCHED_SETATTR", {})
+    monkeypatch.setattr(scheduling, "_SYS_SCHED_SETATTR", {})
     before = _in_a_thread(_nice)
     assert _in_a_thread(lambda: (request_nice(4), _nice())) == (None, before)
     monkeypatch.undo()
@@ -364,7 +361,11 @@ def test_the_loop_reports_the_nice_it_was_granted(nice: int | None) -> None:
 
 @pytest.mark.parametrize(
     ("argv", "named"),
-    [(["--nice", "-30"], "--nice"), (["--spin-ms", "1.5"], "--spin-ms")],
+    [
+        (["--nice", "-30"], "--nice"),
+        (["--spin-ms", "1.5"], "--spin-ms"),
+        (["--floor-s", "11"], "--floor-s"),
+    ],
 )
 def test_serve_refuses_an_out_of_range_loop_setting_by_name(
     argv: list[str], named: str, capsys: pytest.CaptureFixture[str]

@@ -356,6 +356,26 @@ def test_teleop_keys_reach_the_server(lab: LabClient, server: Server) -> None:
     lab.wait_telemetry(lambda m: m["command"]["vx"] == 0.0, timeout=1.0)
 
 
+def test_the_floor_is_measured_at_start_up_and_again_on_command(lab: LabClient, info: dict) -> None:
+    """`lab serve` measures the machine's floor (the loop, empty) before the sim starts (issue
+    31); the `floor` command measures it again while the session stands still, and `info`
+    carries the new one from then on."""
+    first = info["loop"]["floor"]
+    assert first is not None and first["seconds"] == 2.0 and first["ticks"] >= 500, first
+    assert 0.0 < first["on_time_fraction"] <= 1.0
+    before = lab.command("info")["loop"]
+    reply = lab.command("floor", seconds=1.0)
+    after = lab.command("info")["loop"]
+    assert reply["ok"], reply
+    floor = reply["floor"]
+    assert floor["seconds"] == 1.0 and floor["clock_s"] > first["clock_s"]
+    assert after["floor"] == floor
+    wall = after["clock_s"] - before["clock_s"]
+    served = after["ticks"] + after["skipped"] - before["ticks"] - before["skipped"]
+    slack = RATE_HZ * 2 * (MAX_BEHIND_S + 1.0 / RATE_HZ)
+    assert served <= RATE_HZ * (wall - 1.0) + slack, (wall, served)  # none during the floor
+
+
 def test_robot_switch_brings_up_the_new_robot(lab: LabClient, server: Server) -> None:
     reply = lab.command("robot", name="solo12")
     assert reply["ok"], reply

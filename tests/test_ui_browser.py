@@ -179,6 +179,16 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
     page.get_by_text("1 of 1 labs online").wait_for()
 
 
+def test_the_status_line_shows_the_floor_measured_at_start_up(page, lab: LabClient) -> None:
+    """`lab serve` measured the machine's floor before the sim started (issue 31): `info`
+    carries it and the page's status line gives the on-time fraction against it."""
+    floor = lab.command("info", timeout=10.0)["loop"]["floor"]
+    assert floor is not None and floor["seconds"] == 2.0 and floor["ticks"] >= 500, floor
+    assert 0.5 < floor["on_time_fraction"] <= 1.0
+    shown = f"(this machine's floor {100 * floor['on_time_fraction']:.1f} %)"
+    page.get_by_text(shown).wait_for(timeout=PAGE_TIMEOUT_MS)
+
+
 def test_push_button_moves_the_base_in_the_pushed_direction(
     page, lab: LabClient, serve: LabServe
 ) -> None:

@@ -31,6 +31,7 @@ from lab.ui.status import (
     LoopFigures,
     LoopWindow,
     RealtimeFactor,
+    on_time_text,
     started_warnings,
     status_markdown,
     warnings_of,
@@ -432,6 +433,19 @@ def test_the_live_on_time_figure_is_over_the_last_seconds_and_marked_below_its_t
     assert "on-time 99.5 % last 5 s" in calm and "**" not in calm.split("\n")[1]
     figures.add(11.0, {"ticks": 10, "on_time_fraction": 1.0, "overruns": 0})  # a new sim process
     assert figures.window() is None
+
+
+def test_the_on_time_figure_is_shown_against_the_machines_floor_when_measured() -> None:
+    """With `loop.floor` in telemetry the status line gives the floor, and marks a figure only
+    when it is more than 0.3 points below it (the host's late wake-ups are not the lab's)."""
+    floor = {"on_time_fraction": 0.982, "ticks": 2000, "seconds": 2.0}
+    loop = {"rate_hz": 1000.0, "realtime": True, "ticks": 10_000, "on_time_fraction": 0.979}
+    near = LoopWindow(5.0, 5000, 0.979, 0)
+    text = on_time_text({**loop, "floor": floor}, near)
+    assert text == "on-time 97.9 % last 5 s, 97.9 % session (this machine's floor 98.2 %)"
+    far = on_time_text({**loop, "floor": floor}, LoopWindow(5.0, 5000, 0.970, 0))
+    assert far.startswith("on-time **97.0 %** last 5 s, 97.9 % session")
+    assert "(target 98 %)" in on_time_text(loop, LoopWindow(5.0, 5000, 0.970, 0))  # no floor
 
 
 def test_a_control_time_beyond_its_share_of_the_period_is_marked_never_ok() -> None:

@@ -29,6 +29,7 @@ STACK_MAX_TASKS = 64  # task names over all levels
 STEP_HEIGHT_MAX = 0.5  # m, 0 < step_height <= max (the behaviour checks it against the legs)
 CYCLE_TIME_MAX = 5.0  # s, 0 < cycle_time <= max
 SWING_HZ_MAX = 1.0  # Hz, 0 <= stance swing <= max (Herzog's leg swing: 0.25 Hz)
+FLOOR_SECONDS_MIN, FLOOR_SECONDS_MAX = 0.5, 10.0  # s, the `floor` command's range
 
 LIMITS: dict[str, float] = {
     "vx": VX_MAX,
@@ -297,6 +298,16 @@ class ReleaseCommand(CommandStruct, frozen=True):
     VERB: ClassVar[str] = "release"
 
 
+class FloorCommand(CommandStruct, frozen=True):
+    """Measure the machine's floor: the loop's on-time fraction with nothing to do, for
+    `seconds` (the session stands still meanwhile; lab/server/floor.py). The reply carries it."""
+
+    VERB: ClassVar[str] = "floor"
+    seconds: Annotated[float, Meta(ge=FLOOR_SECONDS_MIN, le=FLOOR_SECONDS_MAX, description="s")] = (
+        2.0
+    )
+
+
 Command = (
     InfoCommand
     | VelocityCommand
@@ -317,6 +328,7 @@ Command = (
     | HandCommand
     | TakeCommand
     | ReleaseCommand
+    | FloorCommand
 )
 COMMANDS: dict[str, type[CommandStruct]] = {cls.VERB: cls for cls in get_args(Command)}
 VERBS: tuple[str, ...] = tuple(COMMANDS)

@@ -74,6 +74,20 @@ class StatsUs(Message, frozen=True):
     max: float | None = None
 
 
+class Floor(Message, frozen=True):
+    """The machine's floor: the loop's own on-time fraction with nothing to do, measured at
+    start-up and by the `floor` command (lab/server/floor.py)."""
+
+    on_time_fraction: float
+    ticks: int
+    seconds: Annotated[float, Meta(description="s measured")]
+    late_wakeups: int
+    late_pushed: int
+    lateness_us: StatsUs
+    tolerance_us: Annotated[float, Meta(description="a tick this late still counts on time")]
+    clock_s: Annotated[float, Meta(description="the loop's clock when it ended")]
+
+
 class Loop(Message, frozen=True):
     """The realtime loop's statistics (added by the sim process; docs/protocol.md)."""
 
@@ -93,6 +107,9 @@ class Loop(Message, frozen=True):
     late_wakeups: Annotated[
         int, Meta(description="late ticks whose tick before ended in time (woken late)")
     ]
+    late_pushed: Annotated[
+        int, Meta(description="late ticks pushed late by the tick before's overrun")
+    ]
     skipped: Annotated[int, Meta(description="periods dropped after stalls > 50 ms")]
     slice_us: Annotated[
         float | None, Meta(description="EEVDF slice granted at SCHED_OTHER (--slice-ms), or null")
@@ -109,6 +126,10 @@ class Loop(Message, frozen=True):
         dict[str, StatsUs], Meta(description="lateness of late ticks: woken, pushed (overrun)")
     ]
     gc_pause_us: Annotated[dict[str, StatsUs], Meta(description="garbage collection pauses")]
+    floor: Annotated[Floor | None, Meta(description="the floor last measured, or null")]
+    spin_margin_us: Annotated[float, Meta(description="the wake-up margin spun before a tick")]
+    adaptive_spin: Annotated[bool, Meta(description="the margin is learned (--spin-ms auto)")]
+    cpu_s: Annotated[float, Meta(description="the loop thread's CPU time")]
     clock_s: Annotated[
         float | None, Meta(description="the loop's monotonic clock when the message was built")
     ] = None
@@ -179,6 +200,7 @@ class Reply(Message, frozen=True):
     control: Control | None = None
     replay: Playback | None = None
     hand: HandTarget | None = None
+    floor: Floor | None = None
 
 
 class TaskGainsEntry(Message, frozen=True):

@@ -6,7 +6,7 @@ client may send every command, as before the lock existed. A client `take`s it w
 (or holds it already) and `release`s it; while it is held, commands that change the world from
 any other client are refused with an error naming the holder; `READ_ONLY_VERBS` are always
 allowed. The holder's link dropping (its liveliness token gone) releases the lock after
-`GRACE_S`, the velocity deadman's timeout and ramp (lab/server/loop.py): by then the robot has
+`GRACE_S`, the velocity deadman's timeout and ramp (lab/server/deadman.py): by then the robot has
 stopped.
 """
 

@@ -12,21 +12,30 @@ from pathlib import Path
 
 import zenoh
 
-from lab.protocol import DEFAULT_PORT, LabIdError, LabKeys, default_lab_id
+from lab.protocol import DEFAULT_PORT, FLOOR_SECONDS_MAX, LabIdError, LabKeys, default_lab_id
 from lab.server.access import local_endpoint
-from lab.server.loop import (
-    AUTO_FIFO_MIN_CPUS,
-    SCHED_CHOICES,
-    SLICE_MAX_S,
-    SLICE_MIN_S,
-    SPIN_CHOICES,
-    LoopConfig,
-    SimLoop,
-)
+from lab.server.loop import SimLoop
+from lab.server.loop_config import SPIN_CHOICES, LoopConfig
+from lab.server.scheduling import AUTO_FIFO_MIN_CPUS, SCHED_CHOICES, SLICE_MAX_S, SLICE_MIN_S
 from lab.server.transport import AccessError, ServerTransport, checked_server_config
 
 UI_STOP_TIMEOUT_S = 2.0
 UI_RESTART_DELAY_S = 2.0  # a UI process that died is started again after this long
+# The machine's floor at start-up (issue 31): long enough for a figure to 0.05 points (2000
+# ticks), short enough not to keep the page waiting; its ticks come before the sim's.
+FLOOR_S = 2.0
+FLOOR_WAIT_MARGIN_S = 3.0  # the UI starts anyway this long after the floor should have ended
+AUTO_SPIN = "auto"
+
+
+def _spin_ms(text: str) -> float | str:
+    """`--spin-ms`: a number of ms or `auto`."""
+    if text == AUTO_SPIN:
+        return AUTO_SPIN
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of ms nor auto: {text!r}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -93,11 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--spin-ms",
-        type=float,
-        default=LoopConfig.spin_s * 1e3,
+        type=_spin_ms,
+        default=AUTO_SPIN if LoopConfig.adaptive_spin else LoopConfig.spin_s * 1e3,
         help="ms before each deadline the loop spins instead of sleeping; the whole period "
-        "(1 at 1 kHz) never sleeps and keeps a CPU busy "
-        f"(default: {LoopConfig.spin_s * 1e3:g})",
+        "(1 at 1 kHz) never sleeps and keeps a CPU busy; auto: a margin learned from how late "
+        "the loop's sleeps end (p99.5 over the last 2 s) "
+        f"(default: {'auto' if LoopConfig.adaptive_spin else f'{LoopConfig.spin_s * 1e3:g}'})",
     )
     p.add_argument(
         "--spin",
@@ -129,6 +139,14 @@ def build_parser() -> argparse.ArgumentParser:
         "waits at most for the GIL another thread holds; 0: Python's default (5) "
         f"(default: {LoopConfig.switch_interval_s * 1e3:g})",
     )
+    p.add_argument(
+        "--floor-s",
+        type=float,
+        default=FLOOR_S,
+        help="measure the machine's floor (the loop's on-time fraction with nothing to do) for "
+        "this long before the sim starts and the UI is started; 0: not at start (the `floor` "
+        f"command measures it any time); --fast never does (default: {FLOOR_S:g})",
+    )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
     p.add_argument("--headless", action="store_true", help="do not start the browser UI")
@@ -141,8 +159,11 @@ def serve_main(argv: list[str]) -> int:
     if args.rate <= 0 or args.telemetry_hz <= 0 or args.state_hz <= 0:
         print("lab serve: --rate, --telemetry-hz and --state-hz must be positive", file=sys.stderr)
         return 2
-    if not 0 <= args.spin_ms <= 1e3 / args.rate:
-        print("lab serve: --spin-ms must be between 0 and the period", file=sys.stderr)
+    if args.spin_ms != AUTO_SPIN and not 0 <= args.spin_ms <= 1e3 / args.rate:
+        print("lab serve: --spin-ms must be auto or between 0 and the period", file=sys.stderr)
+        return 2
+    if not 0 <= args.floor_s <= FLOOR_SECONDS_MAX:
+        print(f"lab serve: --floor-s must be 0-{FLOOR_SECONDS_MAX:g}", file=sys.stderr)
         return 2
     if args.switch_interval_ms < 0:
         print("lab serve: --switch-interval-ms must be 0 or positive", file=sys.stderr)
@@ -214,7 +235,9 @@ def serve_main(argv: list[str]) -> int:
             rate_hz=args.rate,
             fast=args.fast,
             sched=args.sched,
-            spin_s=args.spin_ms * 1e-3,
+            spin_s=LoopConfig.spin_s if args.spin_ms == AUTO_SPIN else args.spin_ms * 1e-3,
+            adaptive_spin=args.spin_ms == AUTO_SPIN,
+            floor_s=args.floor_s,
             spin=args.spin,
             slice_s=args.slice_ms * 1e-3 if args.slice_ms else None,
             nice=args.nice,
@@ -229,6 +252,8 @@ def serve_main(argv: list[str]) -> int:
         signal.signal(sig, lambda *_: stop.set())
     thread = threading.Thread(target=loop.run, args=(stop,), name="sim-loop")
     thread.start()
+    if loop.floor.running:  # the UI process would load the machine while it is measured
+        loop.floor.finished.wait(args.floor_s + FLOOR_WAIT_MARGIN_S)
     ui = None
     try:
         endpoint = local_endpoint(access.endpoints[0])  # the UI runs on this host
@@ -240,6 +265,8 @@ def serve_main(argv: list[str]) -> int:
         mode = "fast" if args.fast else f"{args.rate:g} Hz, SCHED_{loop.wanted_sched.upper()}"
         if not args.fast and args.sched == "auto":
             mode += " (auto)"
+        if loop.floor.result is not None:
+            mode += f", floor {loop.floor.result['on_time_fraction']:.2%} on time"
         print(
             f"lab serve: lab {lab_id}: {args.robot} on {args.scene}, {mode}, "
             f"Zenoh {access.describe()}",

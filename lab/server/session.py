@@ -605,6 +605,8 @@ class Session:
             case cmd.GainsCommand(task=task, kp=kp, kd=kd, weight=weight):
                 gains = self.controller.set_gains(task, kp, kd, weight)
                 return {"task": task, "kp": gains.kp, "kd": gains.kd, "weight": gains.weight}
+            case cmd.FloorCommand():
+                raise cmd.CommandError("floor: this session has no realtime loop (`lab serve`)")
             case cmd.RecordCommand():
                 raise cmd.CommandError(
                     "record: this session has no recorder (`lab serve` records; `lab run` takes "
