@@ -20,19 +20,22 @@ class HandGizmos:
     def __init__(self, app: CommandHost, client: viser.ClientHandle) -> None:
         self.app, self.client = app, client
         self.handles: dict[str, viser.TransformControlsHandle] = {}
-        self._robot: str | None = None
+        self._shown: tuple[str, tuple[str, ...]] | None = None  # the robot and its hands
         self._in_stack = False
         self._acts = False
 
     def show_info(self, info: dict) -> None:
-        """New gizmos for another robot, each at its hand's target (moved there when another
-        client set it); shown while `hands` is in the stack."""
-        if info["robot"] != self._robot:
-            self._robot = info["robot"]
+        """New gizmos for another robot or another set of hands (an `info` from the middle of
+        a switch may name the new robot before its hands), each at its hand's target (moved
+        there when another client set it); shown while `hands` is in the stack."""
+        hands = info.get("hands", [])
+        shown = (info["robot"], tuple(hand["name"] for hand in hands))
+        if shown != self._shown:
+            self._shown = shown
             for handle in self.handles.values():
                 handle.remove()
-            self.handles = {hand["name"]: self._gizmo(hand) for hand in info.get("hands", [])}
-        for hand in info.get("hands", []):
+            self.handles = {hand["name"]: self._gizmo(hand) for hand in hands}
+        for hand in hands:
             handle = self.handles[hand["name"]]
             handle.position = tuple(hand["position"])  # no update callback: nothing is sent
             handle.wxyz = tf.SO3.from_rpy_radians(*hand["rpy"]).wxyz
