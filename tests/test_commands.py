@@ -45,6 +45,8 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "hand",
         "take",
         "release",
+        "realism",
+        "payload",
     }
 
 
