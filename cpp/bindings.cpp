@@ -19,6 +19,7 @@
 #include "hierarchy/python.hpp"  // solve_hierarchy: the native methods on a given problem
 #define LAB_BIND_HIERARCHY
 #endif
+#include "realism/python.hpp"  // RealismLayer: sensors, delays, actuators (lab/realism)
 
 namespace nb = nanobind;
 using namespace nb::literals;
@@ -271,6 +272,7 @@ NB_MODULE(_kernel, m) {
 #ifdef LAB_BIND_HIERARCHY
   lab::bind_hierarchy(m);
 #endif
+  lab::bind_realism(m);
   lab::bind_behaviours(m);
 
   m.def(

@@ -55,6 +55,8 @@ def test_verbs_are_the_protocol_verbs() -> None:
         "take",
         "release",
         "floor",
+        "realism",
+        "payload",
     }
 
 

@@ -26,6 +26,7 @@ SESSION_REFUSED: dict[str, list[dict]] = {
     "push": [{"body": "nope", "force": [1.0, 0.0, 0.0], "duration": 0.1}],
     "record": [{"action": "start"}],  # a session without a recorder
     "floor": [{}],  # a session without a realtime loop
+    "payload": [{"body": "nope", "mass": 1.0}],
 }
 # Payloads every verb's parser refuses: not an object, a field no verb has, keys not strings.
 PARSER_REFUSED = [[], "text", 3, {"zzz": 1}, {1: 2}]

@@ -10,7 +10,15 @@ Adding a verb: a struct here, listed in `Command`, and its handler in the sessio
 import math
 from typing import Annotated, ClassVar, Literal, get_args
 
-from msgspec import Meta, Struct
+from msgspec import Meta, Struct, structs
+
+from lab.protocol.realism import (
+    KNOBS,
+    PAYLOAD_MASS_MAX,
+    PAYLOAD_OFFSET_MAX,
+    Actuator,
+    RealismPreset,
+)
 
 # ---------------------------------------------------------------------------------- command ranges
 VX_MAX = 2.0  # m/s, |vx|
@@ -308,6 +316,67 @@ class FloorCommand(CommandStruct, frozen=True):
     )
 
 
+def _knob(name: str) -> Meta:
+    """The msgspec constraint of realism knob `name` (lab/protocol/realism.py)."""
+    knob = KNOBS[name]
+    return Meta(ge=knob.lo, le=knob.hi, description=f"{knob.unit}: {knob.meaning}")
+
+
+class RealismCommand(CommandStruct, frozen=True):
+    """Set the realism knobs (docs/realism.md): `preset` (None: the knobs running now) with any
+    knob over it. A change of mass_error, com_error or seed rebuilds the controller's model
+    (the robot stands again)."""
+
+    VERB: ClassVar[str] = "realism"
+    preset: RealismPreset | None = None
+    actuator: Actuator | None = None
+    gyro_noise: Annotated[float, _knob("gyro_noise")] | None = None
+    gyro_bias_walk: Annotated[float, _knob("gyro_bias_walk")] | None = None
+    attitude_noise: Annotated[float, _knob("attitude_noise")] | None = None
+    base_velocity_noise: Annotated[float, _knob("base_velocity_noise")] | None = None
+    base_position_noise: Annotated[float, _knob("base_position_noise")] | None = None
+    encoder_bits: Annotated[int, _knob("encoder_bits")] | None = None
+    encoder_noise: Annotated[float, _knob("encoder_noise")] | None = None
+    velocity_differencing: Annotated[int, _knob("velocity_differencing")] | None = None
+    velocity_filter_hz: Annotated[float, _knob("velocity_filter_hz")] | None = None
+    measurement_delay: Annotated[int, _knob("measurement_delay")] | None = None
+    command_delay: Annotated[int, _knob("command_delay")] | None = None
+    torque_bandwidth_hz: Annotated[float, _knob("torque_bandwidth_hz")] | None = None
+    sea_stiffness: Annotated[float, _knob("sea_stiffness")] | None = None
+    sea_motor_inertia: Annotated[float, _knob("sea_motor_inertia")] | None = None
+    sea_kp: Annotated[float, _knob("sea_kp")] | None = None
+    sea_kd: Annotated[float, _knob("sea_kd")] | None = None
+    contact_estimate: Annotated[int, _knob("contact_estimate")] | None = None
+    torque_saturation: Annotated[float, _knob("torque_saturation")] | None = None
+    coulomb_friction: Annotated[float, _knob("coulomb_friction")] | None = None
+    viscous_friction: Annotated[float, _knob("viscous_friction")] | None = None
+    mass_error: Annotated[float, _knob("mass_error")] | None = None
+    com_error: Annotated[float, _knob("com_error")] | None = None
+    seed: Annotated[int, _knob("seed")] | None = None
+
+    def __post_init__(self) -> None:
+        if self.preset is None and not self.knobs():
+            raise ValueError("give a 'preset', knobs or both")
+
+    def knobs(self) -> dict[str, float | int | str]:
+        """The knobs given (the actuator included), by name."""
+        given = structs.asdict(self)
+        return {k: v for k, v in given.items() if k != "preset" and v is not None}
+
+
+PayloadOffset = Annotated[float, Meta(ge=-PAYLOAD_OFFSET_MAX, le=PAYLOAD_OFFSET_MAX)]
+
+
+class PayloadCommand(CommandStruct, frozen=True):
+    """Fix a payload of `mass` kg at `offset` (m, in link `body`'s frame) in the simulator only
+    (a box on the back, a weight in a hand); 0 kg removes it. The controller is not told."""
+
+    VERB: ClassVar[str] = "payload"
+    body: Annotated[Name, Meta(description="a link, one of info.bodies")]
+    mass: Annotated[float, Meta(ge=0.0, le=PAYLOAD_MASS_MAX, description="kg")]
+    offset: tuple[PayloadOffset, PayloadOffset, PayloadOffset] = (0.0, 0.0, 0.0)
+
+
 Command = (
     InfoCommand
     | VelocityCommand
@@ -329,6 +398,8 @@ Command = (
     | TakeCommand
     | ReleaseCommand
     | FloorCommand
+    | RealismCommand
+    | PayloadCommand
 )
 COMMANDS: dict[str, type[CommandStruct]] = {cls.VERB: cls for cls in get_args(Command)}
 VERBS: tuple[str, ...] = tuple(COMMANDS)

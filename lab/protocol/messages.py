@@ -243,6 +243,13 @@ class InfoReply(Message, frozen=True):
     contacts: list[str]
     hands: Annotated[list[HandTarget], Meta(description="each hand's target")]
     paused: bool
+    realism: Annotated[
+        dict[str, float | int | str],
+        Meta(
+            description="every realism knob running, the actuator and the preset (docs/realism.md)"
+        ),
+    ]
+    payloads: Annotated[dict[str, float], Meta(description="kg fixed to each link by `payload`")]
     t: float
     limits: dict[str, float] | None = None
     loop: Loop | None = None
@@ -402,6 +409,17 @@ class PushInProgress(Message, frozen=True):
     remaining: float
 
 
+class Realism(Message, frozen=True):
+    """Which realism ran (docs/realism.md; every knob is in info.realism)."""
+
+    preset: Annotated[
+        str, Meta(description="ideal, typical, harsh, or custom (knobs set over one)")
+    ]
+    ideal: Annotated[bool, Meta(description="the layer changed nothing (exact state, torques)")]
+    kernel: Annotated[KernelName, Meta(description="where the layer ran: lab._kernel or Python")]
+    payloads: Annotated[dict[str, float], Meta(description="kg fixed to each link by `payload`")]
+
+
 class Telemetry(Message, frozen=True):
     """`lab/<id>/telemetry`: everything the UI plots and the tests check."""
 
@@ -434,6 +452,7 @@ class Telemetry(Message, frozen=True):
         Meta(description="why the native kernel asked for did not run ('' when it did)"),
     ]
     ran: Ran
+    realism: Realism
     status: Status
     controller_warnings: list[ControllerWarning]
     qp: Qp

@@ -61,6 +61,7 @@ except ImportError:
 if _plant is not None and _plant.mujoco_version != mujoco.mj_versionString():
     _plant = None  # built against another MuJoCo than the one imported: its structs may differ
 
+PAYLOAD_CUBE_SIDE = 0.1  # m: a payload is a solid cube of this side (its own inertia)
 SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
 # 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
@@ -401,6 +402,10 @@ class MujocoPlant:
         self._coordinate_names = self._name_coordinates()
         self._valid_time = 0.0  # sim time of the last state `check` passed
         self._foot_of_geom = foot_of_geom
+        self._viscous = np.zeros(len(joints))  # joint viscous friction (N m s/rad)
+        self._damping = np.zeros(len(joints))  # damping on top of it (a fallen robot's)
+        self._bare_inertia: dict[int, pin.Inertia] = {}  # bodies' inertias before a payload
+        self.payloads: dict[str, float] = {}  # kg by link, what `set_payload` fixed
         self._native = None
         if native and _plant is not None:
             self._native = _plant.PlantStep(*self.native_structs())
@@ -536,12 +541,70 @@ class MujocoPlant:
         ctrl[:] = tau  # actuators were added in pinocchio joint order
 
     def set_joint_damping(self, damping: float | np.ndarray) -> None:
-        """Viscous damping (N m s/rad) of the actuated joints, one value or one per joint in
-        pinocchio order; 0 (the default, and what the controller's model assumes) removes it."""
+        """Viscous damping (N m s/rad) of the actuated joints on top of their viscous friction
+        (`set_drive_limits`), one value or one per joint in pinocchio order; 0 (the default,
+        and what the controller's model assumes) removes it."""
         damping = np.broadcast_to(np.asarray(damping, dtype=float), self._dof_index.shape)
         if not (np.all(np.isfinite(damping)) and np.all(damping >= 0.0)):
             raise ValueError("set_joint_damping: damping must be finite and >= 0 (N m s/rad)")
-        self.mj_model.dof_damping[self._dof_index] = damping
+        self._damping = damping.copy()
+        self.mj_model.dof_damping[self._dof_index] = self._viscous + damping
+
+    def set_drive_limits(self, saturation: float, coulomb: float, viscous: float) -> None:
+        """The drives' torque limit, `saturation` × the robot's (MuJoCo's ctrlrange clips the
+        command), and joint friction in MuJoCo: Coulomb `coulomb` × τ_max (N m,
+        dof_frictionloss, a constraint MuJoCo solves) and viscous `viscous` × τ_max (N m s/rad,
+        dof_damping, integrated implicitly). Fractions of each joint's torque limit
+        (lab/realism/knobs.py checks their ranges); 1, 0, 0 is the ideal drive."""
+        values = np.array([saturation, coulomb, viscous], dtype=float)
+        if not (np.all(np.isfinite(values)) and 0.0 < saturation <= 1.0 and coulomb >= 0.0):
+            raise ValueError("set_drive_limits: saturation in (0, 1], frictions finite and >= 0")
+        if viscous < 0.0:
+            raise ValueError("set_drive_limits: viscous friction must be >= 0")
+        limits = self.robot.torque_limits
+        m = self.mj_model
+        m.actuator_ctrlrange[:] = np.column_stack((-saturation * limits, saturation * limits))
+        m.dof_frictionloss[self._dof_index] = coulomb * limits
+        self._viscous = viscous * limits
+        m.dof_damping[self._dof_index] = self._viscous + self._damping
+
+    def set_payload(self, body: str, mass: float, offset: np.ndarray) -> None:
+        """Fix a payload of `mass` kg (a 10 cm solid cube) at `offset` (m, in the frame of URDF
+        link `body`) to the MuJoCo body that carries the link, replacing any payload it had
+        (0 kg removes it). Only the simulator's inertia changes: the controller is not told.
+        Raises KeyError naming the known bodies, ValueError for a bad mass or offset."""
+        if body not in self._body_of_link:
+            raise KeyError(f"unknown body {body!r}; known bodies: {', '.join(self.body_names)}")
+        offset = np.asarray(offset, dtype=float)
+        if offset.shape != (3,) or not np.all(np.isfinite(offset)):
+            raise ValueError("payload: offset must be 3 finite numbers (m)")
+        if not (math.isfinite(mass) and mass >= 0.0):
+            raise ValueError(f"payload: mass must be finite and >= 0 kg, not {mass}")
+        m, b = self.mj_model, self._body_of_link[body]
+        if b not in self._bare_inertia:
+            w, x, y, z = m.body_iquat[b]
+            rotation = pin.Quaternion(w, x, y, z).normalized().matrix()
+            self._bare_inertia[b] = pin.Inertia(
+                float(m.body_mass[b]),
+                m.body_ipos[b].copy(),
+                rotation @ np.diag(m.body_inertia[b]) @ rotation.T,
+            )
+        # The link's frame in its joint's, which is the MuJoCo body's frame (fixed links fused)
+        in_body = self.robot.model.frames[
+            self.robot.model.getFrameId(body, pin.FrameType.BODY)
+        ].placement
+        cube = mass * PAYLOAD_CUBE_SIDE**2 / 6.0 * np.eye(3)
+        total = self._bare_inertia[b] + pin.Inertia(mass, in_body.act(offset), cube)
+        moments, axes = np.linalg.eigh(total.inertia)
+        if np.linalg.det(axes) < 0.0:
+            axes[:, 0] *= -1.0
+        quat = pin.Quaternion(axes)
+        m.body_mass[b] = total.mass
+        m.body_ipos[b] = total.lever
+        m.body_inertia[b] = moments
+        m.body_iquat[b] = [quat.w, quat.x, quat.y, quat.z]
+        mujoco.mj_setConst(m, mujoco.MjData(m))  # subtree masses; a scratch MjData
+        self.payloads[body] = mass
 
     def step(self) -> None:
         """One timestep. A push at a point gets its lever arm from this step's kinematics.

@@ -26,6 +26,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import MCAP0_MAGIC, Writer
 
 from lab.protocol import CommandError, parse_command
+from lab.realism.knobs import RealismKnobs
 from lab.server.limits import apply_limits
 from lab.server.session import Session, SessionConfig
 from lab.server.transport import Request, ServerTransport, encode
@@ -384,7 +385,10 @@ def replay(path: str | Path) -> ReplayCheck:
     torques with the recorded telemetry's (of the readable prefix of a file cut short)."""
     recording = read_recording(path)
     try:
-        config = SessionConfig(**json.loads(recording.metadata["config"]))
+        fields = json.loads(recording.metadata["config"])
+        # the realism knobs as recorded (a recording from before them: ideal)
+        fields["realism"] = RealismKnobs(**fields.get("realism", {}))
+        config = SessionConfig(**fields)
     except (KeyError, TypeError, ValueError) as error:
         raise RecordingError(
             f"{path}: its session metadata is not a session's ({error!r})"

@@ -4,7 +4,8 @@ A scenario names `robot`, `scene` (with `terrain_seed`, an integer, for a scene 
 terrain: `rough`), `duration` (s), a `[controller]` table (`method`, `solver`,
 optional `kernel` — `native` or `python` —, optional `stack` — a list of levels or the name of a
 preset in `stacks/` — and `[controller.gains.<task>]` tables), `metrics` to report besides the
-standing ones, an `[expect]` table (the outcome the run must show: lab/server/expect.py) and
+standing ones, `realism` (a preset's name, or a `[realism]` table of a `preset` and knobs:
+lab/realism/knobs.py), an `[expect]` table (the outcome the run must show: lab/server/expect.py) and
 `[[events]]`, each with a time `t` and exactly one command written with the
 protocol's verb and fields, for example
 
@@ -27,6 +28,7 @@ import numpy as np
 
 from lab.controller.native import KERNELS
 from lab.protocol import CommandError, parse_command
+from lab.realism.knobs import RealismKnobs, knobs_from, preset
 from lab.scenes import SEEDED_SCENES
 from lab.server.expect import Expectation, ExpectError, check_expect, parse_expect, skipped_expect
 from lab.server.limits import LimitsError, apply_limits, check_limits
@@ -47,6 +49,7 @@ SCENARIO_KEYS = {
     "limits",
     "terrain_seed",
     "expect",
+    "realism",
 }
 CONTROLLER_KEYS = {"method", "solver", "stack", "gains", "kernel"}
 # s: the longest run a scenario may ask for (the longest shipped one is 65 s; an hour at 1 kHz
@@ -121,6 +124,7 @@ def parse_scenario(data: dict, path: Path) -> Scenario:
         stack=stack,
         gains=gains,
         terrain_seed=terrain_seed,
+        realism=_realism(path, data),
     )
     metrics = data.get("metrics", [])
     unknown = [name for name in metrics if name not in METRICS]
@@ -203,6 +207,22 @@ def check_duration(duration: object, where: str) -> float:
             f"got {duration!r}"
         )
     return float(duration)
+
+
+def _realism(path: Path, data: dict) -> RealismKnobs:
+    """`realism = "typical"` (a preset's name) or a `[realism]` table (`preset` and knobs over
+    it: lab/realism/knobs.py); ideal when absent."""
+    raw = data.get("realism", {})
+    table = {"preset": raw} if isinstance(raw, str) else raw
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{path}: realism must be a preset's name or a [realism] table")
+    knobs = {key: value for key, value in table.items() if key != "preset"}
+    try:
+        name = table.get("preset")
+        base = RealismKnobs() if name is None else preset(name, data.get("robot", "anymal"))
+        return knobs_from(base, knobs)
+    except ValueError as error:
+        raise ScenarioError(f"{path}: [realism] {error}") from error
 
 
 def _event(path: Path, index: int, raw: object, duration: float) -> Event:
@@ -289,6 +309,7 @@ def run_scenario(
             "max": float(np.max(tick_us[: i + 1])),
         },
         "qp_failures": session.qp_failures,
+        "realism": {**session.realism.knobs.values(), "kernel": session.realism.kernel},
         "rejected_events": rejected,
         "metrics": {key: value for m in metrics for key, value in m.result().items()},
     }

@@ -34,6 +34,11 @@ from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
 from lab.description import ROBOT_NAMES, load_description, robot_names
 from lab.protocol import TaskGains
+from lab.realism.contact_estimate import estimated_contact_forces
+from lab.realism.knobs import PRESET_NAMES as REALISM_PRESETS
+from lab.realism.knobs import RealismKnobs, knobs_from, preset
+from lab.realism.layer import NativeRealismLayer, RealismLayer, realism_layer
+from lab.realism.model_error import perturbed_model
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.server.memory import release_free_memory
@@ -59,6 +64,11 @@ FALL_CHECK_PERIOD = 10  # ticks between fall checks
 # blind trot over tiles grazes a shin on a tile edge for a stance phase (≤ 0.35 s) and walks on.
 FALL_CONTACT_S = 0.5
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
+# With the contact force estimated from torques (realism's contact_estimate, Raiola eq. 18): a
+# foot touches when its estimated normal force exceeds this fraction of its share of the weight.
+# The estimate neglects the leg's acceleration: ANYmal's swinging legs read up to 0.65 of it
+# (trotting at 0.3 m/s), stance legs 1.5-2.4; at 0.15 false touchdowns felled the trot.
+ESTIMATED_TOUCH_FRACTION = 0.8
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
 # s of sim time a warning of the controller (e.g. nullspace's ActiveSetCapWarning) stays in
@@ -103,6 +113,8 @@ class SessionConfig:
     timestep: float = 1e-3
     kernel: str | None = None  # native | python; None: the robot's, else native when built
     terrain_seed: int | None = None  # of a scene with random terrain (rough); None: its own
+    # sensors, delays, actuators, drive limits and model error (lab/realism); default ideal
+    realism: RealismKnobs = field(default_factory=RealismKnobs)
 
 
 @dataclass
@@ -135,6 +147,7 @@ class SessionParts:
     controller: NativeController
     frame_placements: FramePlacements
     native_tick: NativeTick
+    realism: RealismLayer | NativeRealismLayer
     behaviour: Behaviour | None = None
 
 
@@ -155,7 +168,10 @@ def build_parts(config: SessionConfig) -> SessionParts:
     if config.scene in START_RISE:  # one foot starts on a block
         robot = with_raised_contact(robot, *START_RISE[config.scene])
     plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
-    model = RobotModel(robot.model, robot.contacts)
+    knobs = config.realism
+    plant.set_drive_limits(knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction)
+    # the controller's model: the simulator's, or a copy with model error (lab/realism)
+    model = RobotModel(perturbed_model(robot.model, *knobs.model_error), robot.contacts)
     gains = dict(description.gains)
     for name, overrides in config.gains.items():
         gains[name] = replace(gains.get(name, TaskGains()), **overrides)
@@ -175,8 +191,9 @@ def build_parts(config: SessionConfig) -> SessionParts:
     )
     controller.set_hands(tuple(frame for _, frame in description.hands))
     native_tick = NativeTick(plant, controller)
+    layer = realism_layer(knobs, model.na, config.timestep)
     return SessionParts(
-        config, robot, plant, model, controller, FramePlacements(robot), native_tick
+        config, robot, plant, model, controller, FramePlacements(robot), native_tick, layer
     )
 
 
@@ -226,7 +243,12 @@ class Session:
         """The configuration a `robot` or `scene` command asks for: the live one (the
         controller's choices kept; a new robot starts with its own stack and gains)."""
         if isinstance(command, cmd.RobotCommand):
-            return replace(self._live_config(), robot=command.name, stack=None, gains={})
+            knobs = self.realism.knobs  # a preset is the new robot's own
+            if knobs.preset in REALISM_PRESETS:
+                knobs = preset(knobs.preset, command.name)
+            return replace(
+                self._live_config(), robot=command.name, stack=None, gains={}, realism=knobs
+            )
         return replace(self._live_config(), scene=command.name)
 
     def install(self, parts: SessionParts) -> SessionParts:
@@ -239,6 +261,8 @@ class Session:
         """The robot standing under control at sim time `time` (s), nothing commanded."""
         self.plant.reset(self.robot.q_standing, time=time)
         self.plant.set_joint_damping(0.0)
+        self.realism.reset(self.robot.q_standing)
+        self._true_state = self.plant.state()  # this tick's, read by _measure
         self.controller.forget_last_solution()  # the last tick's was of the state left behind
         self._set_behaviour(Balance.name)
         # the hands task's targets: each hand held where it stands (a `hand` command moves them)
@@ -258,6 +282,7 @@ class Session:
         self._last_report = dict.fromkeys(self._unreported, -FAILURE_EVENT_PERIOD)
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
+        self.applied_tau = np.zeros(self.model.na)  # what the drives applied last tick (N m)
         self.forces = np.zeros(self.model.nf)
         self._last_divergence = -DIVERGENCE_REPEAT_S
         self._warnings: dict[str, ControllerWarning] = {}  # by category name
@@ -324,17 +349,20 @@ class Session:
         # An idle behaviour's update changes nothing (Balance off a foot line): the model update
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
         idle = getattr(behaviour, "idle", False) and not controller.reads_sensing
-        self.tick_note = (
-            self.native_tick.note(behaviour, idle, self.fell)
-            if self.native_ticks
-            else "native ticks are off (Session.native_ticks)"
-        )
+        if not self.native_ticks:
+            self.tick_note = "native ticks are off (Session.native_ticks)"
+        elif not self.fell and (not self.realism.ideal or self.realism.knobs.contact_estimate):
+            # the realism seams and the touch estimate are on the Python path (realism.md)
+            self.tick_note = "the realism layer runs between plant and controller (realism.md)"
+        else:
+            self.tick_note = self.native_tick.note(behaviour, idle, self.fell)
         native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
             if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
                 if stepped is TickStatus.DIVERGED_AFTER:
                     self.plant.check()  # raises, naming the cause, as the Python step does
                 native = True
+                self.applied_tau = self.tau  # the native tick applied them (realism ideal)
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
                     self.plant.check()  # a state set from outside (fault injection) first
@@ -342,7 +370,8 @@ class Session:
                         self.model.update(*self.plant.state())  # model follows (telemetry)
                     else:
                         self._control(idle, native=False)
-                self.plant.set_torques(self.tau)
+                self.applied_tau = self.tau if self.fell else self._actuated()
+                self.plant.set_torques(self.applied_tau)
                 self.plant.step()
         except SimulationDiverged as divergence:
             self._recover(divergence)
@@ -355,6 +384,7 @@ class Session:
         ):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
+            self.applied_tau = self.tau
             self.plant.set_joint_damping(self.robot.torque_limits / LIMP_DAMPING_SPEED)
             self.pushes.clear()
             self.plant.clear_push()
@@ -364,6 +394,26 @@ class Session:
                 "the robot fell: torques off, joints damped, pushes ended and velocity zeroed "
                 "until reset",
             )
+
+    # The realism seams (lab/realism, docs/realism.md): the controller reads `_measure`'s
+    # state, the plant applies `_actuated`'s torques. Issue 30's estimator replaces `measure`.
+    def _measure(self) -> tuple[np.ndarray, np.ndarray]:
+        """The state the controller reads this tick: the true one through the realism layer's
+        measurement delay, IMU and encoders (the true one when the layer is ideal)."""
+        self._true_state = self.plant.state()
+        return self._true_state if self.realism.ideal else self.realism.measure(*self._true_state)
+
+    def _actuated(self) -> np.ndarray:
+        """The joint torques the drives apply for the controller's `tau` (N m): the command
+        delay and actuator model of the realism layer (`tau` itself when it is ideal)."""
+        return self.tau if self.realism.ideal else self.realism.actuate(self.tau, *self._true_state)
+
+    def _touch_from_torques(self, flags: np.ndarray) -> np.ndarray:
+        """Which feet touch, from the contact forces estimated from last tick's applied torques
+        at this tick's model (Raiola eq. 18); a foot it cannot estimate keeps its `flags`."""
+        normal = estimated_contact_forces(self.model, self.applied_tau)[:, 2]
+        share = self.model.mass * 9.81 / len(self.model.contacts)
+        return np.where(np.isnan(normal), flags, normal > ESTIMATED_TOUCH_FRACTION * share)
 
     def _control(self, idle: bool, native: bool) -> TickStatus | None:
         """This tick's torques and planned contact forces: the controller's, or fallback ones.
@@ -382,7 +432,7 @@ class Session:
                         behaviour, idle, self.velocity, self.tau, TOUCH_FORCE
                     )
                 else:
-                    q, v = self.plant.state()
+                    q, v = self._measure()
                     # sensing, not control
                     touching = None if idle else self.plant.feet_touching(TOUCH_FORCE)
                     start = time.perf_counter()
@@ -390,6 +440,8 @@ class Session:
                         out = controller.compute(q, v)
                     else:
                         controller.update(q, v)
+                        if self.realism.knobs.contact_estimate:
+                            touching = self._touch_from_torques(touching)
                         if controller.reads_sensing:  # measured only for a task that reads it
                             controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim 12
                         behaviour.update(self.time, self.model, self.velocity, touching)
@@ -500,7 +552,9 @@ class Session:
         """Whether the robot fell: too low, too tilted, or a body other than a foot on the
         terrain too long; `non_foot_contact`: that test's answer when the native tick made it
         (None: ask the plant)."""
-        q = self.model.q  # this tick's state, pinocchio conventions: quaternion (x, y, z, w)
+        # the lab judges the true state (pinocchio conventions: quaternion x, y, z, w); with the
+        # realism layer ideal, the model's state is it
+        q = self.model.q if self.realism.ideal else self._true_state[0]
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
         tilt = math.acos(min(1.0, max(-1.0, float(upright))))
@@ -646,10 +700,32 @@ class Session:
                 return self._stance(side, swing)
             case cmd.HandCommand() as hand:
                 return {"hand": self.hands.command(hand, self.time)}  # KeyError names the hands
+            case cmd.RealismCommand(preset=name) as realism:
+                return self._set_realism(name, realism.knobs())
+            case cmd.PayloadCommand(body=body, mass=mass, offset=offset):
+                self.plant.set_payload(body, mass, np.array(offset))  # KeyError names bodies
+                return {"payloads": dict(self.plant.payloads)}
             case cmd.TakeCommand() | cmd.ReleaseCommand():  # one user: nothing to lock
                 return {}
             case _:  # a command struct without a case here: mypy names it
                 assert_never(command)
+
+    def _set_realism(self, name: str | None, values: dict) -> dict:
+        """Run realism preset `name` (None: the knobs running now) with `values` over it. A
+        new model error rebuilds the session's parts (the robot stands again); other knobs
+        replace the realism layer and the drive limits at once. Raises ValueError naming a bad
+        knob, changing nothing."""
+        knobs = knobs_from(preset(name, self.config.robot) if name else self.realism.knobs, values)
+        if knobs.model_error != self.realism.knobs.model_error:
+            old = self.install(build_parts(replace(self._live_config(), realism=knobs)))
+            del old
+        else:
+            self.realism = realism_layer(knobs, self.model.na, self.config.timestep)
+            self.plant.set_drive_limits(
+                knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction
+            )
+            self.realism.reset(self._true_state[0], self.tau)
+        return {"realism": self.realism.knobs.values()}
 
     def _stance(self, side: str | None, swing: float | None = None) -> dict:
         """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py; None: where it
@@ -710,6 +786,7 @@ class Session:
             formulation=live.formulation,
             stack=live.stack.as_lists(),
             kernel=live.kernel,
+            realism=self.realism.knobs,
         )
 
     # ----------------------------------------------------------------------------- reports
@@ -743,6 +820,8 @@ class Session:
             "contacts": [c.name for c in self.robot.contacts],
             "hands": self.hands.report(),
             "paused": self.paused,
+            "realism": self.realism.knobs.values(),
+            "payloads": dict(self.plant.payloads),
             "t": self.time,
         }
 

@@ -281,6 +281,13 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
             "note": controller.note,
             **session.tick_report(),
         },
+        # which realism ran (lab/realism; every knob is in `info`), the payloads fixed (kg)
+        "realism": {
+            "preset": session.realism.knobs.preset,
+            "ideal": session.realism.ideal,
+            "kernel": session.realism.kernel,
+            "payloads": dict(session.plant.payloads),
+        },
         "status": status.report(),
         "controller_warnings": session.recent_warnings(),
         "qp": {

@@ -32,6 +32,7 @@ from lab.ui.internal_force_controls import InternalForceControls
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.lab_picker import add_lab_picker
 from lab.ui.numbers import NumberError, NumberRange, format_number
+from lab.ui.realism_controls import RealismControls
 from lab.ui.scene_setup import offer_scene_setup
 
 
@@ -237,6 +238,8 @@ class ControlPanel:
         self._controls += self.balance.controls
         self.internal_force = InternalForceControls(app, gui, order=5.6)
         self._controls += self.internal_force.controls
+        self.realism = RealismControls(app, gui, order=5.7)
+        self._controls += self.realism.controls
         with gui.add_folder("Task stack", order=6):
             self.stack_view = gui.add_markdown("")
             self.stack_risk = gui.add_markdown("", visible=False)
@@ -338,6 +341,7 @@ class ControlPanel:
         self.balance.show_info(info)
         self.internal_force.show_info(info)
         self.hands.show_info(info)
+        self.realism.show_info(info)
         self._show_task()
 
     def _show_task(self) -> None:
