@@ -110,7 +110,7 @@ def bench_one(
         if session.solution is not None:
             capped += session.solution.capped
         control_us[i] = session.control_us
-        inside = getattr(session.controller, "kernel_seconds", None)
+        inside = session.controller.kernel_seconds
         if inside is not None:
             kernel_us[i] = sum(inside) * 1e6
     wall = time.perf_counter() - wall_start

@@ -67,16 +67,14 @@ class SteppingMetrics:
         self.last: tuple[np.ndarray, float] | None = None  # the CoM and yaw at the last tick
 
     def update(self, session: "Session") -> None:
-        behaviour = session.behaviour
-        steps = getattr(behaviour, "steps", None)
-        if steps is None or session.fell:
+        stepping = session.behaviour.stepping
+        if stepping is None or session.fell:
             return
         model, refs = session.model, session.controller.references
         if self.start is None:
             self.start, self.origin = session.time, model.com[:2].copy()
-        self.steps, self.duration = steps, session.time - self.start
-        self.cut = getattr(behaviour, "shortened", 0)
-        self.lengthened = getattr(behaviour, "lengthened", 0)
+        self.steps, self.duration = stepping.steps, session.time - self.start
+        self.cut, self.lengthened = stepping.shortened, stepping.lengthened
         self.com_height = max(self.com_height, abs(refs.com[2] - model.com[2]))
         self.base_height = max(self.base_height, abs(refs.base_height - model.base_position[2]))
         tilt = pin.log3(refs.base_rotation.T @ model.base_rotation)

@@ -41,6 +41,7 @@ Physics choices (documented in the report of issue 2):
   integrates it implicitly, so any damping is stable.
 """
 
+import functools
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -52,7 +53,13 @@ import trimesh
 
 from lab.robot import Robot
 from lab.scenes import scene_bodies
-from lab.scenes.terrain import ROBOT_CONAFFINITY, ROBOT_CONTYPE, ScriptedJoints, add_scene
+from lab.scenes.terrain import (
+    ROBOT_CONAFFINITY,
+    ROBOT_CONTYPE,
+    ScriptedJoints,
+    add_scene,
+    scripted_joint_name,
+)
 
 try:  # the per-tick exchange with MuJoCo in C (cpp/plant); without it the Python path runs
     from lab import _plant
@@ -758,3 +765,38 @@ class MujocoPlant:
                 # tangential components in the contact frame, whose rows are the frame's axes.
                 self._forces[foot] += sign * efc_force[row : row + 3].dot(frames[i].reshape(3, 3))
         return self._forces.copy()
+
+    # ------------------------------------------------------------------ named reads for metrics
+    @property
+    def timestep(self) -> float:
+        """The MuJoCo step, s."""
+        return float(self.mj_model.opt.timestep)
+
+    def scene_body_poses(self) -> dict[str, list[float]]:
+        """Each moving terrain body's world pose, [x, y, z, qw, qx, qy, qz] (none in a static
+        scene)."""
+        return self.moving_terrain.poses(self.mj_data)
+
+    @functools.cached_property
+    def _scripted_joints(self) -> list[tuple[str, int]]:
+        """(name, qpos address) of each scripted joint of the moving terrain, body by body."""
+        names = [
+            scripted_joint_name(b.name, k)
+            for b in self.moving_terrain.bodies
+            for k in range(len(b.joints))
+        ]
+        return [(name, int(self.mj_model.joint(name).qposadr[0])) for name in names]
+
+    def scripted_joint_positions(self) -> dict[str, float]:
+        """Each scripted joint of the moving terrain by name (`scripted_joint_name`), body by
+        body: m for a slide, rad for a hinge."""
+        qpos = self.mj_data.qpos
+        return {name: float(qpos[address]) for name, address in self._scripted_joints}
+
+    def terrain_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """Position and rotation (world) of the scene's first moving body; the world's own
+        frame in a static scene."""
+        if not self.moving_terrain.body_ids:
+            return np.zeros(3), np.eye(3)
+        body, d = self.moving_terrain.body_ids[0], self.mj_data
+        return d.xpos[body].copy(), d.xmat[body].reshape(3, 3).copy()

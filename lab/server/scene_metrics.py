@@ -12,41 +12,34 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from lab.scenes.terrain import scripted_joint_name
-
 if TYPE_CHECKING:
     from lab.server.session import Session
 
 
 class SceneMotionMetrics:
     def __init__(self, session: "Session") -> None:
-        plant = session.plant
-        m = plant.mj_model
-        scripted = plant.moving_terrain
-        bodies = scripted.bodies
-        names = [scripted_joint_name(b.name, k) for b in bodies for k in range(len(b.joints))]
-        self.joints = [(name, m.joint(name).qposadr[0]) for name in names]
-        self.low = {name: np.inf for name, _ in self.joints}
-        self.high = {name: -np.inf for name, _ in self.joints}
-        self.under = scripted.body_ids[0] if scripted.body_ids else 0  # 0: the world
+        joints = session.plant.scripted_joint_positions()
+        self.low = dict.fromkeys(joints, np.inf)
+        self.high = dict.fromkeys(joints, -np.inf)
         self.start = [self._local(session, i) for i in range(len(session.model.contacts))]
         self.slip = 0.0
 
-    def _local(self, session: "Session", i: int) -> np.ndarray:
-        d, body = session.plant.mj_data, self.under
-        return d.xmat[body].reshape(3, 3).T @ (session.model.contact_positions[i] - d.xpos[body])
+    @staticmethod
+    def _local(session: "Session", i: int) -> np.ndarray:
+        """Contact i's position in the frame of the scene's first moving body (or the world)."""
+        position, rotation = session.plant.terrain_frame()
+        return rotation.T @ (session.model.contact_positions[i] - position)
 
     def update(self, session: "Session") -> None:
-        qpos = session.plant.mj_data.qpos
-        for name, address in self.joints:
-            self.low[name] = min(self.low[name], float(qpos[address]))
-            self.high[name] = max(self.high[name], float(qpos[address]))
+        for name, value in session.plant.scripted_joint_positions().items():
+            self.low[name] = min(self.low[name], value)
+            self.high[name] = max(self.high[name], value)
         for i, start in enumerate(self.start):
             self.slip = max(self.slip, float(np.linalg.norm(self._local(session, i) - start)))
 
     def result(self) -> dict[str, float]:
         ranges = {}
-        for name, _ in self.joints:
+        for name in self.low:
             ranges[f"{name}_min"] = self.low[name]
             ranges[f"{name}_max"] = self.high[name]
         return {**ranges, "sole_slip_max_m": self.slip}

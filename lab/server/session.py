@@ -312,7 +312,7 @@ class Session:
         self.controller.references = behaviour.references
         if not walking_stack:
             return {}
-        reply = self._use_preset(getattr(behaviour, "stack_preset", WALKING_PRESET))
+        reply = self._use_preset(behaviour.stack_preset or WALKING_PRESET)
         self._gait_stack = reply["stack"]
         return reply
 
@@ -348,7 +348,7 @@ class Session:
         controller, behaviour = self.controller, self.behaviour
         # An idle behaviour's update changes nothing (Balance off a foot line): the model update
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
-        idle = getattr(behaviour, "idle", False) and not controller.reads_sensing
+        idle = behaviour.idle and not controller.reads_sensing
         if not self.native_ticks:
             self.tick_note = "native ticks are off (Session.native_ticks)"
         elif not self.fell and (not self.realism.ideal or self.realism.knobs.contact_estimate):

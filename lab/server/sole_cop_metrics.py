@@ -47,7 +47,7 @@ class SoleCopMetrics:
             inside = bool(np.all(np.abs(local[:2]) <= half - INSIDE_TOL))
             self.inside += inside
             at_edge |= not inside
-        self.edge_time += at_edge * plant.mj_model.opt.timestep
+        self.edge_time += at_edge * plant.timestep
 
     def result(self) -> dict[str, float]:
         return {

@@ -9,6 +9,7 @@ from typing import Protocol
 
 import numpy as np
 
+from lab.controller.behaviours.base import Behaviour
 from lab.controller.hierarchy import HierarchySolution
 from lab.controller.hierarchy.solution import SolveStatus
 from lab.controller.model import RobotModel
@@ -19,7 +20,6 @@ from lab.server.plant import MujocoPlant
 
 COP_MIN_FORCE = 1e-6  # N: a foot or the robot pressing less than this has no centre of pressure
 PREDICTION_STRIDE = 2  # of the planner's 10 ms rows: 20 ms apart in telemetry
-_NOT_STEPPING = object()
 
 
 class PushView(Protocol):
@@ -36,11 +36,6 @@ class ConfigView(Protocol):
     scene: str
 
 
-class BehaviourView(Protocol):
-    name: str
-    kernel_ran: str  # which kernel ran the last update: native, python or none
-
-
 class SessionView(Protocol):
     """The parts of a `Session` the messages read."""
 
@@ -50,7 +45,7 @@ class SessionView(Protocol):
     plant: MujocoPlant
     model: RobotModel
     controller: NativeController
-    behaviour: BehaviourView
+    behaviour: Behaviour
     paused: bool
     fell: bool
     divergences: int
@@ -94,21 +89,22 @@ def internal_force_report(controller: NativeController) -> dict:
     }
 
 
-def stepping_report(behaviour: BehaviourView, model: RobotModel) -> dict | None:
+def stepping_report(behaviour: Behaviour, model: RobotModel) -> dict | None:
     """A point-foot stepping behaviour's state for the phase portraits (Kim 2016 Figs. 4–5):
     touchdowns, swings cut short, the CoM and its velocity in the heading frame (the base's
     yaw, world origin; m, m/s: forward, lateral), and the planner's last prediction (its
     footstep and the CoM's predicted [t, x, ẋ] rows per axis, every 20 ms); None for other
     behaviours."""
-    prediction = getattr(behaviour, "prediction", _NOT_STEPPING)
-    if prediction is _NOT_STEPPING:
+    stepping = behaviour.stepping
+    if stepping is None:
         return None
+    prediction = stepping.prediction
     yaw = float(np.arctan2(model.base_rotation[1, 0], model.base_rotation[0, 0]))
     c, s = np.cos(yaw), np.sin(yaw)
     to_heading = np.array([[c, s], [-s, c]])
     report = {
-        "steps": behaviour.steps,
-        "swings_cut": behaviour.shortened,
+        "steps": stepping.steps,
+        "swings_cut": stepping.shortened,
         "com": (to_heading @ model.com[:2]).tolist(),
         "com_velocity": (to_heading @ model.com_velocity[:2]).tolist(),
         "prediction": None,
@@ -333,5 +329,5 @@ def state_message(session: SessionView) -> dict:
         "frames": session.frame_placements.message(q),
     }
     if session.plant.moving_terrain.body_ids:
-        message["scene_bodies"] = session.plant.moving_terrain.poses(session.plant.mj_data)
+        message["scene_bodies"] = session.plant.scene_body_poses()
     return message

@@ -206,6 +206,11 @@ class BipedStepping(NativeTwin, NoOptions):
         self._native_stale = True  # the native tick must read this object's state first
 
     @property
+    def stepping(self) -> "BipedStepping":
+        """It steps: its counts and the planner's prediction (behaviours/base.py, Stepping)."""
+        return self
+
+    @property
     def prediction(self) -> StepPrediction | None:
         """The planner's last answer (Kim Figs. 4–5) for the drawing, built from `plan` when
         read; None before the first plan."""

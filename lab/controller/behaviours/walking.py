@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from lab.controller.behaviours.balance import references_at_rest, standing_model
-from lab.controller.behaviours.base import Behaviour
+from lab.controller.behaviours.base import Behaviour, BehaviourDefaults
 from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS, GRAVITY, FootholdQuery
 from lab.controller.behaviours.gait import GAITS, GaitPattern, GaitScheduler, LegState
 from lab.controller.behaviours.leg_posture import LegPostureReference
@@ -76,7 +76,7 @@ def _wrap(angle: float) -> float:
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
-class Walking(NativeTwin):
+class Walking(NativeTwin, BehaviourDefaults):
     """Walk with `gait` on four point feet, steered by the velocity command."""
 
     lifts_feet = True
