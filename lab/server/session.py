@@ -202,6 +202,14 @@ class Session:
     `gain_designer`, when given (`lab serve`: a worker process, gain_designer.py), designs the
     momentum task's LQR gains off the loop; headless sessions design them at once."""
 
+    # The parts a robot and scene make (SessionParts), swapped in together by `_install`.
+    config: SessionConfig
+    robot: Robot
+    plant: MujocoPlant
+    model: RobotModel
+    controller: NativeController
+    frame_placements: FramePlacements
+
     def __init__(
         self,
         config: SessionConfig | None = None,
