@@ -8,6 +8,7 @@ import pytest
 
 from lab.description import ROBOT_NAMES, load_description
 from lab.robot import build_robot
+from lab.scenes.terrain import scripted_joint_name
 from lab.server.plant import MujocoPlant, SimulationDiverged
 from lab.server.robot_check import posture_hold_gains
 
@@ -21,6 +22,7 @@ FALL_TOL = 0.5 * G * DT * 0.1 + 1e-9  # m, after 0.1 s
 # times smaller at dt = 0.1 ms, where the test runs: ≤ 3.4e-3 on every robot.
 MOMENTUM_REL_TOL = 5e-3  # of the expected change
 PUSH_DT = 1e-4  # s, the push test's time step
+STEP_MOTION_TOL = 1e-3  # m or rad: the platform moves < 1 m/s, < 1 rad/s, for one 1 ms step
 FORCE_TOL = 0.02  # relative: feet carry the weight once a PD-held stance has settled
 
 
@@ -200,3 +202,30 @@ def test_joint_damping_is_settable_and_checked() -> None:
         plant.set_joint_damping(-1.0)
     plant.set_joint_damping(0.0)
     assert not plant.mj_model.dof_damping.any()
+
+
+def test_the_terrain_reads_name_the_moving_platform_and_agree_with_each_other() -> None:
+    """`scripted_joint_positions`, `terrain_frame` and `scene_body_poses` (what metrics and
+    telemetry read instead of MuJoCo's data): empty and the world's frame in a static scene; on
+    the rolling platform, its six joints by name, moving, and the frame they make (slides along
+    the world's x, y, z, then hinges about z, y, x) is the frame and pose read."""
+    robot = build_robot(load_description("solo12"))
+    still = MujocoPlant(robot)
+    position, rotation = still.terrain_frame()
+    assert still.scripted_joint_positions() == {}
+    assert still.scene_body_poses() == {}
+    assert np.allclose(position, 0.0) and np.allclose(rotation, np.eye(3))
+
+    plant = MujocoPlant(robot, scene="platform")
+    for _ in range(600):  # 0.6 s: past half the platform's fade-in
+        plant.step()
+    joints = plant.scripted_joint_positions()
+    assert list(joints) == [scripted_joint_name("platform", k) for k in range(6)]
+    x, y, z, yaw, pitch, roll = joints.values()
+    assert abs(y) > 1e-3 and abs(yaw) > 1e-3  # it moves
+    position, rotation = plant.terrain_frame()
+    # The frame is the last step's kinematics, the joints after its integration: a step apart.
+    assert np.allclose(position, [x, y, z], atol=STEP_MOTION_TOL)
+    expected = pin.rpy.rpyToMatrix(roll, pitch, yaw)  # Rz(yaw) Ry(pitch) Rx(roll)
+    assert np.allclose(rotation, expected, atol=STEP_MOTION_TOL)
+    assert np.allclose(plant.scene_body_poses()["platform"][:3], position, atol=1e-12)
