@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 SITUATIONS: dict[str, tuple[str, tuple[tuple[str, dict], ...]]] = {
     "bolt stand": ("bolt", ()),

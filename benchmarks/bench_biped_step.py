@@ -19,10 +19,10 @@ import numpy as np
 
 from lab.controller.behaviours.biped_step import BipedStepping
 from lab.controller.model import RobotModel
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from native_ticks import recording  # the agreement tests' recorder
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.helpers.native_ticks import recording  # the agreement tests' recorder
 
 
 def recorded_walk(seconds: float) -> tuple:

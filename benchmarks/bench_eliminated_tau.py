@@ -23,7 +23,7 @@ from dataclasses import replace
 import numpy as np
 
 from lab.controller.hierarchy import METHODS
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 WARM_UP_TICKS = 300
 # The stance transition (behaviours/stance.py): the CoG over the sole in 1 s, the other sole

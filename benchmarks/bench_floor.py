@@ -13,7 +13,7 @@ times, alternated:
 - `default`: the server's defaults (sleep, then a short busy spin; the EEVDF slice and the nice
   value it asks for);
 - `nice 0`: the same without the raised priority;
-- `adaptive`: the wake-up margin learned (`lab serve --spin-ms auto`, lab/server/wake_margin.py);
+- `adaptive`: the wake-up margin learned (`lab serve --spin-ms auto`, lab/runtime/wake_margin.py);
 - `whole period`: never sleep (spin the whole period: one CPU kept busy);
 - `whole period, nice 0`.
 
@@ -34,8 +34,8 @@ import threading
 import time
 from collections.abc import Callable
 
-from lab.server.deadline_stats import ON_TIME_TOLERANCE
-from lab.server.loop import LoopConfig, SimLoop
+from lab.runtime.deadline_stats import ON_TIME_TOLERANCE
+from lab.runtime.loop import LoopConfig, SimLoop
 
 PERIOD_S = 1e-3
 SETTINGS = {

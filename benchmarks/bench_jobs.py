@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/bench_jobs.py [--robot anymal] [--trot] [--reps 2000]
 
 The loop builds a telemetry message (100 Hz) and a drawing state (60 Hz) on ticks of their own
-and encodes them on the tick that publishes (lab/server/loop.py). On a running session (after
+and encodes them on the tick that publishes (lab/runtime/loop.py). On a running session (after
 1 s of warm-up) each repetition is a session tick, then the drawing state built whole (`after a
 tick`: caches as the loop's job tick finds them), another session tick, the telemetry message
 built whole, then each part in a hot loop (`hot`), the encoding of the messages just built
@@ -23,9 +23,9 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from lab.server import telemetry
-from lab.server.session import Session, SessionConfig
-from lab.server.transport import encode
+from lab.runtime.transport import encode
+from lab.world import telemetry
+from lab.world.session import Session, SessionConfig
 
 WARM_UP_TICKS = 1000
 COLD_PERIODS = 3

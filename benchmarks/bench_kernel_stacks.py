@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 WARM_UP_TICKS = 5  # of each block, after a kernel switch
 

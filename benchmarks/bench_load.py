@@ -30,12 +30,11 @@ import time
 from collections import deque
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from browser import CHROMIUM, CHROMIUM_ARGS, LabServe
-
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from lab.client import LabClient
 from lab.client_core import client_id, open_session
 from lab.protocol import LabKeys
+from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LabServe
 
 IN_FLIGHT = 32  # queries a flooding client keeps unanswered at most
 # Counts the page's requestAnimationFrame callbacks in window.__frames from now on.

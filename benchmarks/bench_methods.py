@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/bench_protocol.py [--robot anymal] [--reps 2000]
 
 On a running session (after 1 s of warm-up): the telemetry message and the drawing state built
-as the loop builds them (dicts, lab/server/telemetry.py), their encoding to JSON, and what a
+as the loop builds them (dicts, lab/world/telemetry.py), their encoding to JSON, and what a
 struct would add: the dict converted (validated) into its `Telemetry` / `State` struct, and the
 struct encoded. Also a command's decoding: `parse_command` on a push payload, as the intake
 thread runs it. Prints median and p99 of each in µs. The loop builds dicts and the tests hold
@@ -19,8 +19,8 @@ import numpy as np
 
 from lab.protocol import parse_command
 from lab.protocol.messages import State, Telemetry
-from lab.server.session import Session, SessionConfig
-from lab.server.transport import encode
+from lab.runtime.transport import encode
+from lab.world.session import Session, SessionConfig
 
 WARM_UP_TICKS = 1000
 

@@ -18,7 +18,7 @@ import numpy as np
 from lab import _kernel
 from lab.realism.knobs import knobs_from, preset
 from lab.realism.layer import RealismLayer, realism_layer
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 NA, DT = 12, 1e-3
 

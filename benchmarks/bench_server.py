@@ -52,7 +52,7 @@ def free_port() -> int:
 
 
 def start_server(args: argparse.Namespace, robot: str, port: int, log) -> subprocess.Popen:
-    cmd = [sys.executable, "-m", "lab.server.serve", "--port", str(port), "--robot", robot]
+    cmd = [sys.executable, "-m", "lab.runtime.serve", "--port", str(port), "--robot", robot]
     cmd += ["--rate", str(args.rate), "--sched", args.sched]
     if args.spin_ms is not None:
         cmd += ["--spin-ms", str(args.spin_ms)]

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from browser import CHROMIUM, CHROMIUM_ARGS, LabServe
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LabServe
 
 ACTION_TIMEOUT_S = 60.0
 

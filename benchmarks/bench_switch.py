@@ -1,6 +1,6 @@
 """What a robot switch costs the realtime loop (not a test): the loop at 1 kHz (SCHED_OTHER)
 switching between two robots every `--every` s, with the switch built beside the loop
-(lab/server/switch.py, as `lab serve` does) or on the loop's thread (as before); prints, for
+(lab/runtime/switch.py, as `lab serve` does) or on the loop's thread (as before); prints, for
 each, the ticks skipped, the on-time fraction and the worst lateness over the run, and the
 resident memory before and after.
 
@@ -15,10 +15,10 @@ import time
 from pathlib import Path
 
 from lab.protocol import RobotCommand
-from lab.server.intake import Request
-from lab.server.loop import LoopConfig, SimLoop
-from lab.server.session import Session, SessionConfig
-from lab.server.switch import Switcher
+from lab.runtime.intake import Request
+from lab.runtime.loop import LoopConfig, SimLoop
+from lab.runtime.switch import Switcher
+from lab.world.session import Session, SessionConfig
 
 
 def rss_mb() -> float:

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 WARM_UP_TICKS = 1500
 EVERY = 10  # ticks between two messages: 100 Hz at 1 kHz

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 WARM_UP_TICKS = 1500
 SIDES = ("python walking", "native walking")

@@ -135,7 +135,7 @@ def _run(command: list, check: bool = True, env: dict | None = None) -> subproce
 def record_states(robot: str, n_standing: int, n_pushed: int) -> dict:
     """States (q, v) and the balance references of a lab session on `robot`: standing, then
     during and after a lateral push (the default stack and kernel run the robot)."""
-    from lab.server.session import Session, SessionConfig
+    from lab.world.session import Session, SessionConfig
 
     session = Session(SessionConfig(robot=robot))
     weight = session.model.mass * 9.81

@@ -12,7 +12,7 @@ import argparse
 import os
 
 from lab.description import ROBOT_NAMES
-from lab.server.bench import bench_one
+from lab.experiments.bench import bench_one
 
 
 def main() -> None:

@@ -27,11 +27,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_load import flood, rss_mb
 
 from lab.protocol import LabKeys
-from lab.server.memory import release_free_memory
-from lab.server.transport import COMMAND_QUEUE, ServerTransport, server_config
+from lab.runtime.transport import COMMAND_QUEUE, ServerTransport, server_config
+from lab.world.memory import release_free_memory
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from ports import free_port
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from tests.helpers.ports import free_port
 
 
 def serve(queryable: zenoh.Queryable) -> None:

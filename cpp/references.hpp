@@ -1,9 +1,9 @@
 // What the behaviour asks of the tasks this tick (mirrors lab/controller/references.py,
 // walk_references.py and tasks/sole.py's SoleReferences). The behaviour owns them in Python;
 // the bindings read the fields `kReferenceFields` lists, the one layout both sides check
-// (tests/test_kernel.py compares it with the dataclasses' fields). A walking field left empty means
-// what the Python side does for a plain References: flat ground, no swing trajectories, no force
-// interpolation, zero posture velocity, full postural weight.
+// (tests/kernel/test_kernel.py compares it with the dataclasses' fields). A walking field left
+// empty means what the Python side does for a plain References: flat ground, no swing trajectories,
+// no force interpolation, zero posture velocity, full postural weight.
 #pragma once
 
 #include <Eigen/Dense>

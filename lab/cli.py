@@ -10,8 +10,8 @@ from dataclasses import asdict
 def _run(argv: list[str]) -> int:
     """`lab run`: exit 0 when the scenario's [expect] holds (without one, or cut short by
     --duration: when the robot did not fall), 1 naming what failed, 2 for bad input."""
-    from lab.server.expect import failed_checks
-    from lab.server.scenario import ScenarioError, check_duration, load_scenario, run_scenario
+    from lab.experiments.expect import failed_checks
+    from lab.experiments.scenario import ScenarioError, check_duration, load_scenario, run_scenario
 
     parser = argparse.ArgumentParser(
         prog="lab run",
@@ -55,7 +55,7 @@ def _run(argv: list[str]) -> int:
 
 
 def _replay(argv: list[str]) -> int:
-    from lab.server.recording import replay
+    from lab.recording.record_replay import replay
 
     parser = argparse.ArgumentParser(
         prog="lab replay",
@@ -83,7 +83,7 @@ def _replay(argv: list[str]) -> int:
     )
     args = parser.parse_args(argv)
     if args.serve:
-        from lab.server.replay_serve import replay_serve_main
+        from lab.recording.replay_serve import replay_serve_main
 
         ui_port = None if args.headless else args.ui_port
         return replay_serve_main(args.recording, args.port, args.speed, args.lab_id, ui_port)
@@ -113,7 +113,7 @@ def _robot(argv: list[str]) -> int:
     check.add_argument("--seconds", type=float, default=5.0, help="how long it must stand")
     args = parser.parse_args(argv)
     if args.verb == "new":
-        from lab.server.robot_new import new_robot
+        from lab.experiments.robot_new import new_robot
 
         try:
             path = new_robot(args.name, args.urdf)
@@ -122,7 +122,7 @@ def _robot(argv: list[str]) -> int:
             return 2
         print(f"wrote {path}: edit it, then `lab robot check {args.name}`")
         return 0
-    from lab.server.robot_check import check_robot
+    from lab.experiments.robot_check import check_robot
 
     findings = check_robot(args.name, args.seconds)
     for finding in findings:
@@ -131,37 +131,37 @@ def _robot(argv: list[str]) -> int:
 
 
 def _bench(argv: list[str]) -> int:
-    from lab.server.bench import bench_main
+    from lab.experiments.bench import bench_main
 
     return bench_main(argv)
 
 
 def _serve(argv: list[str]) -> int:
-    from lab.server.serve import serve_main
+    from lab.runtime.serve import serve_main
 
     return serve_main(argv)
 
 
 def _soak(argv: list[str]) -> int:
-    from lab.server.soak import soak_main
+    from lab.experiments.soak import soak_main
 
     return soak_main(argv)
 
 
 def _router(argv: list[str]) -> int:
-    from lab.server.router import router_main
+    from lab.runtime.router import router_main
 
     return router_main(argv)
 
 
 def _sweep(argv: list[str]) -> int:
-    from lab.sweep.cli import sweep_main
+    from lab.experiments.sweep.cli import sweep_main
 
     return sweep_main(argv)
 
 
 def _report(argv: list[str]) -> int:
-    from lab.sweep.report import report_main
+    from lab.experiments.report import report_main
 
     return report_main(argv)
 

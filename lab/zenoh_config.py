@@ -1,5 +1,5 @@
 """Zenoh configurations the lab's processes open sessions with, and the credentials they
-present: shared by the clients (`lab.client_core`) and the sim process (`lab.server.transport`,
+present: shared by the clients (`lab.client_core`) and the sim process (`lab.runtime.transport`,
 which adds what a server listens with), so a client imports nothing of the server.
 
 Clients present LAB_ZENOH_USER / LAB_ZENOH_PASSWORD from their environment, over the Zenoh

@@ -2,11 +2,13 @@
 
 `./dev test` runs the suite on two pytest-xdist workers, one test file at a time per worker
 (`--dist loadfile`, in collection order). The browser file and the whole scenario runs
-(tests/scenario_runs.py) are the longest; started first, they run beside the other files
+(tests/helpers/scenario_runs.py) are the longest; started first, they run beside the other files
 instead of alone after them.
 """
 
 import pytest
+
+from tests.helpers.ui import viser_server  # noqa: F401 (fixtures, for all)
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

@@ -81,7 +81,7 @@ def test_the_controller_imports_form_no_cycle() -> None:
 
 def test_the_imports_of_all_of_lab_form_no_cycle() -> None:
     graph = import_graph(LAB)
-    assert {"lab.ui.app", "lab.ui.panel", "lab.server.session"} <= set(graph)
+    assert {"lab.ui.app", "lab.ui.panel", "lab.world.session"} <= set(graph)
     cycle = find_cycle(graph)
     assert cycle is None, " → ".join(cycle or [])
 

@@ -1,4 +1,4 @@
-// lab::MujocoStep: the plant's per-tick exchange with MuJoCo (lab/server/plant.py's check, state,
+// lab::MujocoStep: the plant's per-tick exchange with MuJoCo (lab/world/plant.py's check, state,
 // set_torques, step and the feet's contacts), on raw MjModel / MjData pointers. Header-only: both
 // lab._plant (plant.cpp, PlantStep's calls one by one) and lab._kernel (server_tick.cpp, the whole
 // server tick in one call) compile it, each against the same wheel's libmujoco.

@@ -1,9 +1,10 @@
-// lab._plant: the per-tick exchange of lab/server/plant.py (MujocoPlant) with MuJoCo in one
+// lab._plant: the per-tick exchange of lab/world/plant.py (MujocoPlant) with MuJoCo in one
 // crossing each: the state check, the state in pinocchio conventions, the torques, the step,
 // and the feet's contacts with the terrain. It works on the MjModel and MjData the Python plant
 // built (their `_address`), through the MuJoCo C API of the same wheel (its headers and
 // libmujoco), and mirrors plant.py's functions of the same names; plant.py keeps its Python
-// path for when this module is not built, and tests/test_plant_native.py holds the two equal.
+// path for when this module is not built, and tests/kernel/test_plant_native.py holds the two
+// equal.
 #include <mujoco/mujoco.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -101,7 +102,7 @@ class PlantStep {
 }  // namespace
 
 NB_MODULE(_plant, m) {
-  m.doc() = "The plant's per-tick exchange with MuJoCo in C (lab/server/plant.py; cpp/README.md).";
+  m.doc() = "The plant's per-tick exchange with MuJoCo in C (lab/world/plant.py; cpp/README.md).";
   m.attr("mujoco_version") = mj_versionString();
   nb::class_<PlantStep>(m, "PlantStep")
       .def(nb::init<nb::object, nb::object, const Indices&, const Indices&, const Indices&,

@@ -1,11 +1,11 @@
-// lab::ServerTick: the session's tick (lab/server/session.py Session.tick and _control, in their
+// lab::ServerTick: the session's tick (lab/world/session.py Session.tick and _control, in their
 // order) in one call on the plant's MjModel / MjData (plant/mujoco_step.hpp), the native kernel
 // (controller.hpp) and the behaviour's native tick (behaviours/native_behaviour.hpp): the state
 // check, the state, the sensing (touch, and the feet's forces when a task reads them), the model
 // update, the behaviour, the references, the solve, the torques into ctrl, mj_step, the check
 // after it and the fall check's contact test. What telemetry and the drawing state read goes into
 // preallocated arrays (`buffers`); what went wrong comes back as a status code, which
-// lab/server/native_tick.py turns into the Python path's exceptions (the same events). Compiled
+// lab/world/native_tick.py turns into the Python path's exceptions (the same events). Compiled
 // into lab._kernel when MuJoCo's headers and libmujoco are found (CMakeLists.txt): one module
 // holds the kernel, the behaviours and this, so no object crosses between extension modules.
 #include <mujoco/mujoco.h>

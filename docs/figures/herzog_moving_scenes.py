@@ -23,8 +23,8 @@ import numpy as np
 from herzog_push_response import plot_column, save
 
 from lab.controller.constraints import INNER_COP_MARGIN
-from lab.server.scenario import load_scenario
-from lab.server.session import Session
+from lab.experiments.scenario import load_scenario
+from lab.world.session import Session
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 SCENARIOS = {

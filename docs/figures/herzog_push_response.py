@@ -16,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from lab.server.session import Session, SessionConfig
+from lab.world.session import Session, SessionConfig
 
 PUSH_FORCE = np.array([-293.0, 0.0, 0.0])  # N, at the pelvis, from the front
 PUSH_DURATION = 0.0324  # s: 9.5 N s

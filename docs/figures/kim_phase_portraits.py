@@ -15,8 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from lab.server.scenario import load_scenario
-from lab.server.session import Session
+from lab.experiments.scenario import load_scenario
+from lab.world.session import Session
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 SCENARIO = ROOT / "scenarios" / "bolt_push_recovery.toml"

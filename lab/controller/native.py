@@ -283,7 +283,7 @@ class NativeController(WholeBodyController):
 
     @property
     def server_tick_note(self) -> str:
-        """Why the server's native tick (lab/server/native_tick.py: plant, behaviour and
+        """Why the server's native tick (lab/world/native_tick.py: plant, behaviour and
         controller in one crossing) cannot run this controller ('' when it can): the native
         kernel does not run the stack, or the momentum task's gain schedule, which runs in
         Python, must read each tick's model update before the solve."""

@@ -308,7 +308,7 @@ class ReleaseCommand(CommandStruct, frozen=True):
 
 class FloorCommand(CommandStruct, frozen=True):
     """Measure the machine's floor: the loop's on-time fraction with nothing to do, for
-    `seconds` (the session stands still meanwhile; lab/server/floor.py). The reply carries it."""
+    `seconds` (the session stands still meanwhile; lab/runtime/floor.py). The reply carries it."""
 
     VERB: ClassVar[str] = "floor"
     seconds: Annotated[float, Meta(ge=FLOOR_SECONDS_MIN, le=FLOOR_SECONDS_MAX, description="s")] = (

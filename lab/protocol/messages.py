@@ -76,7 +76,7 @@ class StatsUs(Message, frozen=True):
 
 class Floor(Message, frozen=True):
     """The machine's floor: the loop's own on-time fraction with nothing to do, measured at
-    start-up and by the `floor` command (lab/server/floor.py)."""
+    start-up and by the `floor` command (lab/runtime/floor.py)."""
 
     on_time_fraction: float
     ticks: int

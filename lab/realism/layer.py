@@ -103,7 +103,8 @@ class RealismLayer:
 
 class NativeRealismLayer:
     """`RealismLayer` whose per-tick work runs in lab._kernel.RealismLayer (cpp/realism/layer.cpp:
-    the same draws and arithmetic, tests/test_realism_native.py); `knobs` and `ideal` as there."""
+    the same draws and arithmetic, tests/realism/test_realism_native.py); `knobs` and `ideal` as
+    there."""
 
     kernel = "native"
 

@@ -12,7 +12,7 @@ from lab.scenes.geometry import TerrainGeom
 
 ANGLE = np.radians(45.0)
 # Bolt's standing foot-sphere centres (m, world; robots/bolt.toml's standing posture) and radius:
-# the wedges are placed for them (tests/test_kim_wedges.py checks it).
+# the wedges are placed for them (tests/controller/test_kim_wedges.py checks it).
 FOOT_X = -0.0213
 FOOT_Y = 0.02607
 FOOT_Z = 0.01677

@@ -2,7 +2,7 @@
 
 It talks to the sim process only through Zenoh (`lab.ui.link`, `lab.protocol`); it reads robot
 descriptions (TOML, URDF visuals) and scene geometry, all plain data, and imports neither the
-controller, pinocchio nor MuJoCo (tests/test_ui_logic.py checks).
+controller, pinocchio nor MuJoCo (tests/ui/test_ui_logic.py checks).
 
 Over 400 lines because the render loop, the browsers' control and the command path share the
 app's state (telemetry, info, velocity, ownership); what does not is kept apart: the status

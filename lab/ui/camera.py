@@ -1,4 +1,4 @@
-"""The browser camera following the robot (pure: tested in tests/test_ui_logic.py).
+"""The browser camera following the robot (pure: tested in tests/ui/test_ui_logic.py).
 
 Following puts the camera's target above the base (at the target's height) and moves the camera
 with it, keeping the direction and distance the user orbited to, so a trotting robot stays in

@@ -1,4 +1,4 @@
-"""The page's event log (pure: the app renders `markdown()` in the page; tests/test_ui_logic.py).
+"""The page's event log (pure: the app renders `markdown()` in the page; tests/ui/test_ui_logic.py).
 
 Two parts:
 - **Recurring** lines, one per kind of event that repeats by nature (the loop's overruns): a
@@ -160,7 +160,8 @@ class EventLog:
 
 
 # The server's events (`lab/<id>/events`, lab.protocol.events) by the log's category and level;
-# any other kind is logged as an info warning (tests/test_protocol_messages.py: only kinds the
+# any other kind is logged as an info warning (tests/protocol/test_protocol_messages.py: only kinds
+# the
 # server sends are named here).
 SERVER_EVENTS = {
     "fall": ("fall", "error"),

@@ -1,4 +1,4 @@
-"""Warnings that teach (pure: tested in tests/test_ui_logic.py): what a stack edit will do to the
+"""Warnings that teach (pure: tested in tests/ui/test_ui_logic.py): what a stack edit will do to the
 robot before it is applied, and what a hierarchy switch that dropped the robot changed."""
 
 from collections.abc import Sequence

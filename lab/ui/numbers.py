@@ -1,6 +1,6 @@
 """Numbers typed into the panel: parsed exactly as typed and checked against the lab's limits, so
 that a value out of range is refused with a message naming the limit instead of being clamped or
-converted silently (pure logic, tested in tests/test_ui_logic.py)."""
+converted silently (pure logic, tested in tests/ui/test_ui_logic.py)."""
 
 import math
 from dataclasses import dataclass

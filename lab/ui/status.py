@@ -3,7 +3,7 @@ method, solver and formulation that computed the tick, telemetry's `ran`), how f
 status (ok, fallback, capped, violated, failed) and every warning in effect: a fall, fallback
 torques, a status other than ok with its level and reason, ticks slower than the loop period, a
 sim slower than real time, a loop that keeps few ticks on time or overruns (pure: tested in
-tests/test_ui_logic.py).
+tests/ui/test_ui_logic.py).
 
 Live figures are shown over the last few seconds beside the session's: a loop that collapsed
 under `nullspace` showed 73.9 % on time averaged over the session while 1.9 % of its recent

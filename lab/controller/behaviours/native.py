@@ -35,7 +35,7 @@ class NativeTick(Protocol):
 class NativeTwin:
     """The part of a behaviour that hands its tick to a native twin (module docstring): on a
     Python tick through `_native_tick`, and inside the server's one crossing
-    (lab/server/native_tick.py), which takes `native_twin()` and reports `native_ran()`."""
+    (lab/world/native_tick.py), which takes `native_twin()` and reports `native_ran()`."""
 
     kernel_ran: KernelRan = "none"
     _native: NativeTick | None = None

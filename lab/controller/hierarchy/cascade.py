@@ -53,7 +53,7 @@ from lab.controller.qp import QPFailure, solve_qp
 # proximal solve shrinks the distance to the optimum along a direction of curvature λ by
 # ε/(λ + ε), so ε must sit well below the level's weakest curvature: at 1e-8, a Talos level
 # whose optimum lay 3e4 away along weak directions (σ_min(A_r Z) = 2e-4) ended its 8 solves at
-# cost 0.15 instead of 0 (tests/test_strictness.py); at 1e-10 it reaches 1e-17.
+# cost 0.15 instead of 0 (tests/controller/test_strictness.py); at 1e-10 it reaches 1e-17.
 REGULARIZATION = 1e-10
 # A level with one or two equality rows in a null space of ten dimensions leaves its Hessian with
 # eigenvalues of ε alone; DAQP then sometimes reports a level infeasible although u = 0 is

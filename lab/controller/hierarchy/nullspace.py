@@ -66,7 +66,8 @@ from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, leve
 ACTIVATION_TOL = 1e-9  # an inequality violated by more than this is activated
 RATIO_TIE = 1e-12  # step lengths this close block together (ties, broken by Bland's rule)
 # Hierarchy solves per call, at most: against cycling and against ticks far over their budget.
-# tests/test_hutter.py (the Hutter 2014 replications) and tests/test_nullspace.py use at most
+# tests/controller/test_hutter.py (the Hutter 2014 replications) and
+# tests/controller/test_nullspace.py use at most
 # 121 (measured over their 16,796 calls; p99 18): the cap leaves their results as they were.
 MAX_PROJECTIONS = 128
 

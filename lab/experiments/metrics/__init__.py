@@ -1,0 +1,64 @@
+"""Scenario metrics: accumulators fed once per tick, each reporting a few named numbers.
+
+Every scenario reports the `standing` metrics; a scenario file lists more by name in
+`metrics = [...]`. A metric is a class with `update(session)` (after each tick) and
+`result() -> dict[str, float]`; register it in METRICS.
+"""
+
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from lab.experiments.metrics.cop import CopBindingMetrics
+from lab.experiments.metrics.hand import HandTrackingMetrics
+from lab.experiments.metrics.kim import KIM_METRICS
+from lab.experiments.metrics.load import LOAD_METRICS
+from lab.experiments.metrics.locomotion import LocomotionMetrics
+from lab.experiments.metrics.push import PushMetrics
+from lab.experiments.metrics.scene import SceneMotionMetrics
+from lab.experiments.metrics.sole_cop import SoleCopMetrics
+from lab.experiments.metrics.tracking import CogTrackingMetrics, SwingTrackingMetrics
+
+if TYPE_CHECKING:
+    from lab.world.session import Session
+
+
+class Metric(Protocol):
+    def update(self, session: "Session") -> None: ...
+
+    def result(self) -> dict[str, float]: ...
+
+
+class StandingMetrics:
+    """Largest base-orientation and base-height errors, peak measured normal force."""
+
+    def __init__(self, session: "Session") -> None:
+        self.reference_height = session.controller.references.base_height
+        self.orientation = self.height = self.peak_normal = 0.0
+
+    def update(self, session: "Session") -> None:
+        self.orientation = max(self.orientation, session.base_orientation_error())
+        self.height = max(self.height, abs(session.model.q[2] - self.reference_height))
+        self.peak_normal = max(self.peak_normal, float(np.max(session.plant.foot_forces()[:, 2])))
+
+    def result(self) -> dict[str, float]:
+        return {
+            "max_base_orientation_error_rad": self.orientation,
+            "max_base_height_error_m": self.height,
+            "peak_contact_normal_force_n": self.peak_normal,
+        }
+
+
+METRICS: dict[str, type] = {
+    "standing": StandingMetrics,
+    "locomotion": LocomotionMetrics,
+    "pushes": PushMetrics,
+    "cog_tracking": CogTrackingMetrics,
+    "swing_tracking": SwingTrackingMetrics,
+    "hand_tracking": HandTrackingMetrics,
+    "cop_binding": CopBindingMetrics,
+    "sole_cop": SoleCopMetrics,
+    "scene_motion": SceneMotionMetrics,
+    **LOAD_METRICS,
+    **KIM_METRICS,
+}

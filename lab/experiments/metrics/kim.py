@@ -1,0 +1,112 @@
+"""Metrics of the Kim 2016 replications (see metrics.py): the internal force between two point
+feet, measured (MuJoCo's contact forces, as a foot force sensor gives them) against its
+reference, and the largest foot slide.
+
+- `internal_force`: mean, RMS and largest |error| of the measured F_int = W_int λ (eqs. 14–17)
+  against the task's reference, over the ticks from SETTLE on with both feet in support; the
+  largest horizontal slide of a foot from where it stood at SETTLE.
+- `stepping`: the steps of a stepping behaviour (touchdowns) and how long it stepped; the
+  largest errors of the CoM height, of the base height and of the body's roll-pitch against
+  their references while stepping (Kim Fig. 8d: 2 cm, 0.15 rad); how far the CoM wandered
+  horizontally from where stepping began, and where it ended (world x, y from there); the
+  CoM's path length and the base's unwrapped yaw turned; how many swings the lateral planner
+  cut short or lengthened (`biped_step`).
+"""
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pinocchio as pin
+
+from lab.controller.internal_force import internal_forces
+
+if TYPE_CHECKING:
+    from lab.world.session import Session
+
+SETTLE = 0.5  # s: the first half second (the force builds up from zero) is not scored
+
+
+class InternalForceMetrics:
+    def __init__(self, session: "Session") -> None:
+        self.errors: list[float] = []
+        self.start: np.ndarray | None = None
+        self.slide = 0.0
+
+    def update(self, session: "Session") -> None:
+        if session.time < SETTLE or session.fell:
+            return
+        model = session.model
+        if self.start is None:
+            self.start = model.contact_positions[:, :2].copy()
+        slide = np.linalg.norm(model.contact_positions[:, :2] - self.start, axis=1)
+        self.slide = max(self.slide, float(slide.max()))
+        if not np.all(session.controller.references.contact_active):
+            return
+        measured = internal_forces(model.contact_positions, session.plant.foot_forces())
+        self.errors.append(float(measured[0]) - session.controller.internal_force.reference)
+
+    def result(self) -> dict[str, float]:
+        e = np.array(self.errors) if self.errors else np.full(1, np.nan)
+        return {
+            "internal_force_mean_error_n": float(np.mean(e)),
+            "internal_force_rms_error_n": float(np.sqrt(np.mean(e * e))),
+            "internal_force_max_error_n": float(np.max(np.abs(e))),
+            "max_foot_slide_m": self.slide,
+        }
+
+
+class SteppingMetrics:
+    def __init__(self, session: "Session") -> None:
+        self.start: float | None = None
+        self.origin = np.zeros(2)
+        self.steps = self.cut = self.lengthened = 0
+        self.duration = 0.0
+        self.com_height = self.base_height = self.orientation = self.wander = 0.0
+        self.travel = np.zeros(2)
+        self.path = self.turned = 0.0  # m walked by the CoM, rad turned by the base (unwrapped)
+        self.last: tuple[np.ndarray, float] | None = None  # the CoM and yaw at the last tick
+
+    def update(self, session: "Session") -> None:
+        stepping = session.behaviour.stepping
+        if stepping is None or session.fell:
+            return
+        model, refs = session.model, session.controller.references
+        if self.start is None:
+            self.start, self.origin = session.time, model.com[:2].copy()
+        self.steps, self.duration = stepping.steps, session.time - self.start
+        self.cut, self.lengthened = stepping.shortened, stepping.lengthened
+        self.com_height = max(self.com_height, abs(refs.com[2] - model.com[2]))
+        self.base_height = max(self.base_height, abs(refs.base_height - model.base_position[2]))
+        tilt = pin.log3(refs.base_rotation.T @ model.base_rotation)
+        yaw_axis = refs.base_rotation[:, 2]
+        roll_pitch = tilt - (tilt @ yaw_axis) * yaw_axis  # yaw is not a task while stepping
+        self.orientation = max(self.orientation, float(np.linalg.norm(roll_pitch)))
+        self.travel = model.com[:2] - self.origin
+        yaw = float(np.arctan2(model.base_rotation[1, 0], model.base_rotation[0, 0]))
+        if self.last is not None:
+            self.path += float(np.linalg.norm(model.com[:2] - self.last[0]))
+            self.turned += float(np.angle(np.exp(1j * (yaw - self.last[1]))))
+        self.last = model.com[:2].copy(), yaw
+        self.wander = max(self.wander, float(np.linalg.norm(self.travel)))
+
+    def result(self) -> dict[str, float]:
+        return {
+            "steps": float(self.steps),
+            "stepping_s": self.duration,
+            "swings_cut": float(self.cut),
+            "swings_lengthened": float(self.lengthened),
+            "max_com_height_error_m": self.com_height,
+            "max_base_height_error_m": self.base_height,
+            "max_roll_pitch_error_rad": self.orientation,
+            "max_com_wander_m": self.wander,
+            "com_travel_x_m": float(self.travel[0]),
+            "com_travel_y_m": float(self.travel[1]),
+            "com_path_m": self.path,
+            "yaw_turned_rad": self.turned,
+        }
+
+
+KIM_METRICS: dict[str, type] = {
+    "internal_force": InternalForceMetrics,
+    "stepping": SteppingMetrics,
+}

@@ -1,0 +1,84 @@
+"""Robot and scene switches built beside the loop, so that a switch does not stall it.
+
+A `robot` or `scene` command rebuilds the session: URDF, pinocchio model, MuJoCo compile,
+the native kernel: 0.5-1 s here. `Switcher` builds the new parts (`build_parts`) on a thread
+of its own while the loop keeps ticking the old robot; the loop swaps them in between two ticks
+(`Session.install`) and answers the command then. The old parts are handed back to the thread,
+freed there, and the C heap's free memory is returned to the system (lab/world/memory.py).
+One switch at a time: another one while a switch is under way is refused, naming it.
+
+While it builds, the thread shares the GIL with the loop: the loop's `switch_interval_s`
+(LoopConfig) bounds how long the loop waits for it.
+"""
+
+import queue
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from lab.runtime.intake import Request
+from lab.world.memory import release_free_memory
+from lab.world.session import SessionConfig, SessionParts, build_parts
+
+
+@dataclass(frozen=True)
+class Built:
+    """A finished switch: the command's request, and the new parts or why there are none."""
+
+    request: Request
+    parts: SessionParts | None
+    error: str | None
+
+
+class Switcher:
+    """Builds session parts for one switch at a time on its own thread (see the module)."""
+
+    def __init__(self, build: Callable[[SessionConfig], SessionParts] = build_parts) -> None:
+        self._build = build
+        self._jobs: queue.SimpleQueue[tuple[Request, SessionConfig] | SessionParts | None] = (
+            queue.SimpleQueue()
+        )
+        self._done: queue.SimpleQueue[Built] = queue.SimpleQueue()
+        self.pending: Request | None = None  # the switch under way
+        self._thread = threading.Thread(target=self._run, name="session-switch", daemon=True)
+        self._thread.start()
+
+    def start(self, request: Request, config: SessionConfig) -> None:
+        """Build the parts of `config` for `request` (only when no switch is `pending`)."""
+        self.pending = request
+        self._jobs.put((request, config))
+
+    def finished(self) -> Built | None:
+        """The switch built since the last call, if any (then nothing is pending)."""
+        try:
+            built = self._done.get_nowait()
+        except queue.Empty:
+            return None
+        self.pending = None
+        return built
+
+    def discard(self, old: SessionParts) -> None:
+        """Free `old` (a session's replaced parts) on the thread, then trim the C heap."""
+        self._jobs.put(old)
+
+    def close(self) -> None:
+        """Finish what is queued, then stop the thread."""
+        self._jobs.put(None)
+        self._thread.join()
+
+    def _run(self) -> None:
+        while (job := self._jobs.get()) is not None:
+            if isinstance(job, SessionParts):
+                del job  # the last reference: the old session's parts are freed here
+                release_free_memory()
+                continue
+            request, config = job
+            try:
+                self._done.put(Built(request, self._build(config), None))
+            except (KeyError, ValueError) as error:  # an unknown robot or scene, or a scene
+                # made for another robot: the message names what there is
+                message = error.args[0] if isinstance(error, KeyError) else str(error)
+                self._done.put(Built(request, None, f"{request.verb}: {message}"))
+            except Exception as error:  # a fault building it is a refused switch, never a stop
+                message = f"{request.verb}: could not build {config.robot} in {config.scene}"
+                self._done.put(Built(request, None, f"{message}: {type(error).__name__}: {error}"))

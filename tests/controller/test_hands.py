@@ -1,0 +1,190 @@
+"""The hands task (lab/controller/tasks/hands.py, cpp/tasks/hands.cpp): the same rows on both
+kernels, a standing robot's hand reaching a target, and the `hand` command's validation."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from lab.controller.hand_targets import HandTarget, HandTargets
+from lab.controller.native import kernel_for, send_references
+from lab.description import load_description
+from lab.protocol.validation import CommandError, parse_command
+from lab.world.session import Session, SessionConfig
+from tests.helpers.controllers import controller_for
+from tests.helpers.hands import HAND_STACK
+from tests.helpers.kernel import assert_rows_equal, random_state
+
+HANDED = ("talos_arms", "g1", "b1_z1")
+
+
+def frames_of(name: str) -> tuple[str, ...]:
+    return tuple(frame for _, frame in load_description(name).hands)
+
+
+@pytest.mark.parametrize("name", HANDED)
+def test_the_hands_rows_agree_between_kernels(name: str) -> None:
+    _kernel = pytest.importorskip("lab._kernel", reason="the native kernel is not built")
+    del _kernel
+    controller, robot = controller_for(name)  # with the robot's hands, as a session has them
+    kernel = kernel_for(controller)  # which mirrors them
+    model, refs = controller.robot, controller.references
+    rng = np.random.default_rng(29)
+    h = len(frames_of(name))
+    assert controller.hands == frames_of(name)
+    for i in range(4):
+        q, v = random_state(robot, rng)
+        model.update(q, v)
+        kernel.update(q, v)
+        kp, kd = rng.uniform(1.0, 400.0, 2)
+        controller.set_gains("hands", kp, kd, 1.0)
+        kernel.set_gains("hands", kp, kd, 1.0)
+        refs.hand_position = rng.normal(0.0, 0.5, (h, 3))
+        refs.hand_velocity = rng.normal(0.0, 0.5, (h, 3))
+        refs.hand_acceleration = rng.normal(0.0, 0.5, (h, 3))
+        refs.hand_rotation = np.array(
+            [pin.rpy.rpyToMatrix(*rng.uniform(-3, 3, 3)) for _ in range(h)]
+        )
+        send_references(kernel, refs)
+        python = controller.tasks["hands"].rows(model, refs)
+        assert python.A.shape == (6 * h, model.nx)
+        assert_rows_equal(kernel.rows("hands"), python[:2], f"{name} state {i}: hands")
+
+
+def test_a_frame_the_model_lacks_is_refused_on_both_kernels_and_changes_nothing() -> None:
+    controller, _ = controller_for("talos_arms")
+    with pytest.raises(ValueError, match="no frame 'nope'"):
+        controller.set_hands(("nope",))
+    assert len(controller.tasks["hands"].frame_ids) == 2
+    _kernel = pytest.importorskip("lab._kernel", reason="the native kernel is not built")
+    del _kernel
+    kernel = kernel_for(controller)
+    with pytest.raises(ValueError, match="no frame 'nope'"):
+        kernel.set_hands(["nope"])
+
+
+def test_without_targets_the_task_gives_no_rows() -> None:
+    controller, _ = controller_for("g1")
+    rows = controller.tasks["hands"].rows(controller.robot, controller.references)
+    assert rows.A.shape == (0, controller.robot.nx)
+
+
+def test_references_with_another_number_of_hands_are_refused_on_both_kernels() -> None:
+    controller, _ = controller_for("g1")  # two hands
+    refs = controller.references
+    refs.hand_position, refs.hand_velocity = np.zeros((1, 3)), np.zeros((1, 3))
+    refs.hand_acceleration, refs.hand_rotation = np.zeros((1, 3)), np.eye(3)[None]
+    with pytest.raises(ValueError, match="hand_position has 1 rows, expected 0 or 2"):
+        controller.tasks["hands"].rows(controller.robot, refs)
+    _kernel = pytest.importorskip("lab._kernel", reason="the native kernel is not built")
+    del _kernel
+    with pytest.raises(ValueError, match="hand_position"):
+        send_references(kernel_for(controller), refs)
+
+
+def test_a_circle_target_moves_on_its_circle_with_its_derivatives() -> None:
+    target = HandTarget(np.zeros(3), np.eye(3), radius=0.1, period=2.0, axis=np.array([0, 0, 1.0]))
+    dt = 1e-5
+    for t in (0.0, 0.3, 1.1):
+        p, v, a = target.at(t)
+        assert np.linalg.norm(p) == pytest.approx(0.1) and abs(p[2]) < 1e-12
+        np.testing.assert_allclose(
+            v, (target.at(t + dt)[0] - target.at(t - dt)[0]) / (2 * dt), atol=1e-6
+        )
+        np.testing.assert_allclose(
+            a, (target.at(t + dt)[1] - target.at(t - dt)[1]) / (2 * dt), atol=1e-4
+        )
+    # counter-clockwise about +z
+    p0, v0, _ = target.at(0.0)
+    assert np.cross(p0, v0)[2] > 0
+
+
+@pytest.mark.parametrize(
+    ("payload", "message"),
+    [
+        ({"name": "left", "position": [0.1, float("nan"), 1.0]}, "position\\[1\\]' must be finite"),
+        ({"name": "left", "position": [0.1, 0.0]}, "'position' must be a list of 3 numbers"),
+        ({"name": "left"}, "'position' is missing"),
+        (
+            {"name": "left", "position": [0, 0, 1], "radius": -0.1},
+            "'radius' = -0.1 is out of range",
+        ),
+        ({"name": "left", "position": [0, 0, 1], "period": 0}, "'period' = 0 is out of range"),
+        ({"name": "left", "position": [0, 0, 1], "axis": [0, 0, 0]}, "'axis' must not be zero"),
+        ({"name": "left", "position": [0, 0, 1], "rpy": [0, 0, float("inf")]}, "must be finite"),
+        ({"name": "left", "position": [0, 0, 1], "speed": 1}, "unknown field"),
+    ],
+)
+def test_the_hand_command_refuses_bad_payloads_naming_the_field(payload, message) -> None:
+    with pytest.raises(CommandError, match=message):
+        parse_command("hand", payload)
+
+
+def test_a_hand_command_sets_the_target_and_a_bad_hand_changes_nothing() -> None:
+    session = Session(SessionConfig(robot="talos_arms", stack=HAND_STACK))
+    before = session.info()["hands"]
+    assert [h["name"] for h in before] == ["left", "right"]
+    reply = session.handle("hand", {"name": "nope", "position": [0.0, 0.0, 1.0]})
+    assert not reply["ok"] and "unknown hand 'nope' (hands: left, right)" in reply["error"]
+    assert session.info()["hands"] == before
+    far = [50.0, 0.0, 1.0]  # out of reach but finite: accepted
+    reply = session.handle("hand", {"name": "left", "position": far, "rpy": [0.0, 0.0, 0.5]})
+    assert reply["ok"] and reply["hand"]["position"] == far
+    assert reply["hand"]["rpy"] == pytest.approx([0.0, 0.0, 0.5])
+    assert session.info()["hands"][1] == before[1]
+
+
+def hand_position(session: Session, frame: str) -> np.ndarray:
+    return session.model.frame_position(frame)
+
+
+def test_a_standing_talos_reaches_a_target_10_cm_away_with_its_feet_forces_in_their_cones() -> None:
+    """The left hand's target 10 cm forward and up-left of where it stands: within 1 cm after
+    1.5 s, the measured sole forces inside the friction cone all along, the robot standing."""
+    session = Session(SessionConfig(robot="talos_arms", stack=HAND_STACK))
+    frame = frames_of("talos_arms")[0]
+    start = session.info()["hands"][0]
+    goal = np.array(start["position"]) + np.array([0.08, 0.03, 0.05])  # |offset| = 9.9 cm
+    assert np.linalg.norm(goal - start["position"]) == pytest.approx(0.099, abs=1e-3)
+    assert session.handle("hand", {"name": "left", "position": goal.tolist()})["ok"]
+    mu = load_description("talos_arms").friction
+    worst_cone = 0.0
+    for _ in range(1500):
+        session.tick()
+        f = session.plant.foot_forces()
+        tangential = np.linalg.norm(f[:, :2], axis=1)
+        worst_cone = max(worst_cone, float(np.max(tangential - mu * f[:, 2])))
+    error = np.linalg.norm(hand_position(session, frame) - goal)
+    assert not session.fell
+    assert error < 0.01, f"hand {error * 100:.2f} cm from its target after 1.5 s"
+    assert worst_cone <= 1e-6, f"a sole force left its friction cone by {worst_cone:.3g} N"
+    assert all(f[2] > 0 for f in session.plant.foot_forces())
+
+
+def test_hand_targets_hold_each_hand_where_it_stands() -> None:
+    description = load_description("g1")
+    controller, robot = controller_for("g1")
+    targets = HandTargets.holding(robot.model, robot.q_standing, description.hands)
+    refs = controller.references
+    targets.write(refs, 0.0)
+    controller.robot.update(robot.q_standing, np.zeros(robot.model.nv))
+    error = controller.tasks["hands"].rows(controller.robot, refs).error
+    np.testing.assert_allclose(error, 0.0, atol=1e-12)
+
+
+def test_a_target_set_after_a_write_reaches_the_references_at_the_next_write() -> None:
+    """Still targets are written once per references object; a new target (or a moving one)
+    is written again."""
+    controller, robot = controller_for("g1")
+    targets = HandTargets.holding(robot.model, robot.q_standing, load_description("g1").hands)
+    refs = controller.references
+    targets.write(refs, 0.0)
+    still = targets.target("left")
+    moved = HandTarget(still.position + 0.1, still.rotation)
+    targets.set("left", moved)
+    targets.write(refs, 0.1)
+    np.testing.assert_allclose(refs.hand_position[0], moved.position)
+    circling = HandTarget(still.position, still.rotation, radius=0.05, period=1.0, start=0.0)
+    targets.set("left", circling)
+    for t in (0.25, 0.5):
+        targets.write(refs, t)
+        np.testing.assert_allclose(refs.hand_position[0], circling.at(t)[0])

@@ -1,0 +1,237 @@
+"""`lab sweep`: sweep files expand into the right scenarios; a small sweep on a local Ray
+instance with 2 workers gives the table single runs give; failures are rows; reruns resume."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from lab.experiments.scenario import run_scenario
+from lab.experiments.sweep.spec import SweepError, check_scenario, load_sweep
+from lab.experiments.sweep.table import ERROR, KEY, read_rows, write_rows
+
+BASE = Path(__file__).resolve().parent.parent.parent / "scenarios" / "anymal_push_lateral.toml"
+# Wall-clock columns differ from run to run; every other report entry must match.
+TIMING = ("wall_time_s", "realtime_factor", "tick_us.p50", "tick_us.p99", "tick_us.max")
+
+SMALL_SWEEP = f"""
+name = "small"
+base = "{BASE}"
+duration = 0.8
+
+[set]
+metrics = ["cog_tracking"]
+"push.t" = 0.3
+"push.duration" = 0.15
+
+[grid]
+"controller.method" = ["cascade", "weighted"]
+"push.direction_deg" = [0.0, 90.0]
+"push.force_n" = [120.0]
+
+[[points]]
+robot = "no_such_robot"
+"""
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "sweep.toml"
+    path.write_text(text)
+    return path
+
+
+def test_fields_reach_the_scenario(tmp_path):
+    sweep = load_sweep(_write(tmp_path, SMALL_SWEEP))
+    assert len(sweep.points) == 5
+    point = sweep.points[1]  # cascade, 90°
+    assert point.fields == {
+        "controller.method": "cascade",
+        "push.direction_deg": 90.0,
+        "push.force_n": 120.0,
+    }
+    scenario = check_scenario(point.scenario, BASE)
+    assert scenario.duration == 0.8 and scenario.config.method == "cascade"
+    assert "cog_tracking" in scenario.metrics
+    (push,) = scenario.events
+    assert push.t == 0.3 and push.payload["duration"] == 0.15
+    assert push.payload["force"] == pytest.approx([0.0, 120.0, 0.0], abs=1e-9)
+
+
+def test_sample_is_seeded_and_bad_fields_are_named(tmp_path):
+    sampled = f"""base = "{BASE}"
+[sample]
+n = 4
+seed = 3
+"push.force_n" = {{ uniform = [50.0, 100.0] }}
+"controller.method" = {{ choice = ["cascade", "nullspace"] }}
+"""
+    first, second = (load_sweep(_write(tmp_path, sampled)).points for _ in range(2))
+    assert [p.fields for p in first] == [p.fields for p in second]
+    assert all(50.0 <= p.fields["push.force_n"] <= 100.0 for p in first)
+    for bad, message in [
+        ('[grid]\n"controller.gainz" = [1]', "unknown \\[controller\\] keys"),
+        ('[grid]\n"kick.force_n" = [1]', "unknown field 'kick.force_n'"),
+        ('[grid]\n"velocity.vx" = [0.1]', "has 0 velocity events"),
+        ('[grid]\n"controller.method" = []', "non-empty list"),
+        ('[grid]\n"controller.method" = ["cascade", "cascade"]', "same point twice"),
+    ]:
+        with pytest.raises(SweepError, match=message):
+            load_sweep(_write(tmp_path, f'base = "{BASE}"\n{bad}\n'))
+
+
+def test_table_round_trip(tmp_path):
+    rows = [
+        {KEY: '{"a": 1}', "a": 1, ERROR: "", "fell": False, "force": [0.0, 1.5], "m": "x"},
+        {KEY: '{"a": 2}', "a": 2, ERROR: "KeyError: 'b'", "extra": math.inf},
+    ]
+    write_rows(tmp_path / "t.csv", rows)
+    assert read_rows(tmp_path / "t.csv") == rows
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """One local Ray instance with 2 workers for the module (Ray takes seconds to start)."""
+    import ray
+
+    from lab.experiments.sweep.runner import _start_ray
+
+    _start_ray(2, None)
+    yield ray
+    ray.shutdown()
+
+
+def test_sweep_matches_single_runs_and_resumes(local_ray, tmp_path):
+    from lab.experiments.sweep.runner import run_sweep
+
+    sweep = load_sweep(_write(tmp_path, SMALL_SWEEP))
+    table = tmp_path / "small.csv"
+    outcome = run_sweep(sweep, table, workers=2, progress=False)
+    assert (outcome.ok, outcome.failed, outcome.skipped) == (4, 1, 0)
+    rows = read_rows(table)
+    assert [row[KEY] for row in rows] == [point.key for point in sweep.points]
+
+    failed = rows[-1]
+    assert failed["robot"] == "no_such_robot" and "no_such_robot" in failed[ERROR]
+    for point, row in zip(sweep.points[:-1], rows[:-1], strict=True):
+        assert row[ERROR] == "" and row["push.force_n"] == point.fields["push.force_n"]
+        single = run_scenario(check_scenario(point.scenario, BASE))
+        assert row["fell"] == single["fell"] and row["method"] == single["method"]
+        assert row["sim_time_s"] == pytest.approx(single["sim_time_s"], abs=1e-9)
+        for name, value in single["metrics"].items():
+            assert row[f"metrics.{name}"] == pytest.approx(value, rel=1e-3, abs=1e-6), name
+    assert rows[0]["metrics.cog_error_max_m"] > 0.0  # the push moved the CoM
+
+    # A rerun runs nothing; a row lost (as when a sweep is killed) is run again, alone.
+    assert run_sweep(sweep, table, workers=2, progress=False).skipped == 5
+    write_rows(table, rows[1:])
+    outcome = run_sweep(sweep, table, workers=2, progress=False)
+    assert (outcome.ok, outcome.failed, outcome.skipped) == (1, 0, 4)
+    rerun = read_rows(table)
+    assert [row[KEY] for row in rerun] == [row[KEY] for row in rows]
+    for old, new in zip(rows, rerun, strict=True):
+        assert set(old) == set(new)
+        for name in set(old) - set(TIMING):
+            expected = old[name]
+            if isinstance(expected, float):
+                expected = pytest.approx(expected, rel=1e-3, abs=1e-6)
+            assert new[name] == expected, name
+    outcome = run_sweep(sweep, table, workers=2, retry_failed=True, progress=False)
+    assert (outcome.ok, outcome.failed, outcome.skipped) == (0, 1, 4)
+
+
+def test_push_map_png(tmp_path):
+    from lab.experiments.sweep.plot import PlotError, plot_push_map
+
+    rows = [
+        {KEY: str(i), ERROR: "", "controller.method": method, "push.force_n": force}
+        | {"push.direction_deg": 45.0 * i, "fell": force > 200, "metrics.cog_error_max_m": 0.01}
+        for i, (method, force) in enumerate([("cascade", 100), ("cascade", 300), ("weighted", 100)])
+    ]
+    rows.append(rows[0] | {KEY: "x", ERROR: "timeout", "controller.method": "weighted"})
+    png = plot_push_map(rows, tmp_path / "map.png", "test")
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
+    with pytest.raises(PlotError, match=r"push\.direction_deg"):
+        plot_push_map([{KEY: "1", ERROR: "", "push.force_n": 1.0}], tmp_path / "no.png", "t")
+
+
+def test_a_cluster_address_where_nothing_answers_is_refused_at_once():
+    """`--address HOST:PORT` with no Ray there: a clear error naming it at once (Ray itself
+    would retry for minutes)."""
+    from lab.experiments.sweep.runner import RayUnavailable, _start_ray
+    from tests.helpers.ports import free_port
+
+    address = f"127.0.0.1:{free_port()}"
+    # what `lab sweep --address` does first (run_sweep itself would use a Ray session this
+    # module's fixture may have started)
+    with pytest.raises(RayUnavailable, match=f"the Ray cluster at {address}: nothing answers"):
+        _start_ray(None, address)
+
+
+@pytest.mark.parametrize(
+    ("greeting", "says"),
+    [
+        (None, "no answer within 5 s"),  # a listener that accepts and says nothing
+        (b"SSH-2.0-OpenSSH_9.2\r\n", "it sent b'SSH-2.0-OpenSSH_'"),
+        (b"HTTP/1.1 400 Bad Request\r\n\r\n", "it sent b'HTTP/1.1 400 Bad"),
+    ],
+)
+def test_a_cluster_address_where_something_else_listens_is_refused_within_seconds(
+    greeting: bytes | None, says: str
+) -> None:
+    """`ray.init` hung for over 200 s on such a port; the GCS check takes at most
+    CONNECT_TIMEOUT_S and names the address."""
+    import socket
+    import threading
+
+    from lab.experiments.sweep.runner import RayUnavailable, _start_ray
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    accepted: list[socket.socket] = []
+
+    def serve() -> None:
+        connection, _ = listener.accept()
+        accepted.append(connection)
+        if greeting is not None:
+            connection.sendall(greeting)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    address = f"127.0.0.1:{listener.getsockname()[1]}"
+    try:
+        with pytest.raises(RayUnavailable) as refused:
+            _start_ray(None, address)
+    finally:
+        listener.close()
+        for connection in accepted:
+            connection.close()
+    assert str(refused.value).startswith(f"the Ray cluster at {address}: something listens")
+    assert says in str(refused.value) and "ray start --head" in str(refused.value)
+
+
+def test_ctrl_c_stops_lab_sweep_while_it_waits_for_a_cluster(tmp_path):
+    """SIGINT while `lab sweep --address` waits on a port that says nothing: one line, exit 130
+    (Ray's own retries used to ignore it)."""
+    import signal
+    import socket
+    import subprocess
+    import sys
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    address = f"127.0.0.1:{listener.getsockname()[1]}"
+    command = [sys.executable, "-m", "lab", "sweep", str(_write(tmp_path, SMALL_SWEEP))]
+    sweep = subprocess.Popen(
+        [*command, "--address", address, "--output", str(tmp_path / "out.csv")],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        listener.settimeout(120)  # importing Ray first, on a busy machine
+        connection, _ = listener.accept()  # the check is waiting for an answer now
+        sweep.send_signal(signal.SIGINT)
+        assert sweep.wait(60) == 130
+        assert sweep.stderr.read() == "lab sweep: interrupted before any point ran\n"
+        connection.close()
+    finally:
+        sweep.kill()
+        sweep.wait()
+        listener.close()

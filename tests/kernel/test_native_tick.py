@@ -1,0 +1,214 @@
+"""The server's native tick (lab/world/native_tick.py, cpp/plant/server_tick.cpp) against the
+Python tick, the reference: from the same state, tick by tick, the same torques, planned forces
+and next state; the same events from the same faults; and the tick path reported."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from lab.world.native_tick import HAS_SERVER_TICK
+from lab.world.session import FALL_CHECK_PERIOD, Session, SessionConfig
+
+pytestmark = pytest.mark.skipif(not HAS_SERVER_TICK, reason="lab._kernel has no ServerTick")
+
+STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # qpos, qvel, act, warm start, ctrl, time, forces
+
+
+def pair(config: SessionConfig, gait: str | None, command: dict | None) -> tuple[Session, Session]:
+    """Two sessions of `config` walking `gait` under velocity `command`: one on native ticks,
+    one on Python ticks."""
+    sessions = Session(config), Session(config)
+    sessions[1].native_ticks = False
+    for session in sessions:
+        if gait is not None:
+            assert session.handle("gait", {"name": gait})["ok"]
+        if command is not None:
+            assert session.handle("velocity", command)["ok"]
+    return sessions
+
+
+def copy_physics(source: Session, target: Session) -> None:
+    """The target's MuJoCo state becomes the source's (integration state and the last step's
+    contacts, which the touch sensing reads)."""
+    m, d = source.plant.mj_model, source.plant.mj_data
+    state = np.empty(mujoco.mj_stateSize(m, STATE))
+    mujoco.mj_getState(m, d, state, STATE)
+    mujoco.mj_setState(target.plant.mj_model, target.plant.mj_data, state, STATE)
+
+
+def agreement(native: Session, python: Session, ticks: int) -> dict[str, float]:
+    """Per tick, from the native session's state copied into the Python one: the largest
+    differences of τ, planned F and the next (qpos, qvel) over `ticks` ticks, each relative to
+    its scale, and `lifted`, the ticks with a foot out of contact; asserts each tick ran the
+    path it should."""
+    worst = dict.fromkeys(("tau", "forces", "qpos", "qvel", "lifted"), 0.0)
+    for _ in range(ticks):
+        copy_physics(native, python)
+        native.tick()
+        python.tick()
+        assert native.tick_report() == {"tick": "native", "tick_note": ""}
+        assert python.tick_report()["tick"] == "python"
+        pairs = {
+            "tau": (native.tau, python.tau),
+            "forces": (native.forces, python.forces),
+            "qpos": (native.plant.mj_data.qpos, python.plant.mj_data.qpos),
+            "qvel": (native.plant.mj_data.qvel, python.plant.mj_data.qvel),
+        }
+        worst["lifted"] += not all(native.controller.references.contact_active)
+        for name, (a, b) in pairs.items():
+            scale = max(1.0, float(np.max(np.abs(b))))
+            worst[name] = max(worst[name], float(np.max(np.abs(a - b))) / scale)
+    return worst
+
+
+@pytest.mark.parametrize(
+    ("robot", "gait", "command"),
+    [
+        ("anymal", None, None),  # standing: Balance idle, the controller's compute
+        ("anymal", "trot", {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.2}),
+        ("bolt", "biped_step", {"vx": 0.2, "vy": 0.0, "yaw_rate": 0.0}),
+    ],
+)
+def test_the_native_tick_agrees_with_the_python_tick(robot, gait, command) -> None:
+    """300 ticks after a warm-up (the trot's legs in swing and stance, Bolt stepping): each
+    tick from the same state gives the same τ, F and next state, to 1e-12 of their scale (both
+    paths run the same kernel, behaviour twin and MuJoCo step: bit for bit on this machine; the
+    tolerance leaves room for a compiler's reordering of sums)."""
+    native, python = pair(SessionConfig(robot=robot), gait, command)
+    for _ in range(200):  # warm-up, both on their own path: the behaviours start their clocks
+        copy_physics(native, python)
+        native.tick()
+        python.tick()
+    worst = agreement(native, python, 300)
+    assert max(worst[name] for name in ("tau", "forces", "qpos", "qvel")) < 1e-12, worst
+    assert not native.fell and native.qp_ok
+    if gait is not None:  # feet really swung on the native ticks compared
+        assert worst["lifted"] > 50, worst
+
+
+@pytest.mark.parametrize(
+    ("speed", "where"),
+    [(math.nan, "before the step"), (5e9, "after the step: MuJoCo flags the acceleration")],
+)
+def test_a_divergence_on_a_native_tick_gives_the_python_ticks_events(speed, where) -> None:
+    """A joint speed set from outside (NaN: caught before control; 5e9 rad/s: finite, caught
+    after the step): the native tick gives the Python tick's events (sim_diverged with its
+    cause, and what the controller reported on the way), at the same sim times, and the robot
+    stands again on native ticks."""
+    events, counted = [], []
+    for native_ticks in (True, False):
+        session = Session(SessionConfig(robot="anymal"))
+        session.native_ticks = native_ticks
+        for _ in range(20):
+            session.tick()
+        session.pop_events()
+        session.plant.mj_data.qvel[8] = speed
+        session.tick()
+        assert session.divergences == 1, where
+        events.append(session.pop_events())
+        counted.append(sum(session.ran_ticks.values()))
+        for _ in range(20):
+            session.tick()
+        assert session.tick_report()["tick"] == ("native" if native_ticks else "python")
+        assert abs(session.model.q[2] - session.robot.q_standing[2]) < 0.02
+    assert events[0] == events[1] and any(e["type"] == "sim_diverged" for e in events[0])
+    assert counted[0] == counted[1]
+
+
+def test_a_solver_failure_on_native_ticks_falls_back_as_on_python_ticks() -> None:
+    """Weighted, infeasible contact limits (a normal force of at least 200 N and at most 100 N)
+    for 30 ticks: each native tick fails as a Python tick does (fallback torques, the same
+    solver_failure event and count), and the native ticks carry on after."""
+    reports = []
+    for native_ticks in (True, False):
+        session = Session(SessionConfig(robot="anymal"))
+        session.native_ticks = native_ticks
+        assert session.handle("hierarchy", {"method": "weighted"})["ok"]
+        for _ in range(50):
+            session.tick()
+        limits = session.controller.config.limits
+        sane = (limits.normal_min, limits.normal_max)
+        limits.normal_min, limits.normal_max = 200.0, 100.0
+        for _ in range(30):
+            session.tick()
+        assert session.qp_failures == 30 and not session.qp_ok
+        failures = [e for e in session.pop_events() if e["type"] == "solver_failure"]
+        limits.normal_min, limits.normal_max = sane
+        for _ in range(300):
+            session.tick()
+        assert session.qp_ok and not session.fell
+        assert session.tick_report()["tick"] == ("native" if native_ticks else "python")
+        reports.append(failures)
+    assert reports[0] == reports[1] and reports[0]  # kinds, messages, counts and sim times
+
+
+def test_the_python_tick_runs_and_says_why_when_the_native_one_cannot() -> None:
+    """The Python kernel and a push at a point (its lever arm is set in Python each step) each
+    run the Python tick, and telemetry's `ran` and `info` name the reason; every behaviour has a
+    native twin, so Hutter's height step runs native."""
+    session = Session(SessionConfig(robot="anymal"))
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    assert session.handle("hierarchy", {"kernel": "python"})["ok"]
+    session.tick()
+    ran = session.telemetry()["ran"]
+    assert ran["tick"] == "python" and "python" in ran["tick_note"]
+    assert session.handle("hierarchy", {"kernel": "native"})["ok"]
+    assert session.handle("gait", {"name": "height_step"})["ok"]
+    session.tick()
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    base = session.robot.base_link
+    push = {"body": base, "force": [5.0, 0.0, 0.0], "duration": 0.5, "point": [0.0, 0.0, 0.6]}
+    assert session.handle("push", push)["ok"]
+    session.tick()
+    ran = session.telemetry()["ran"]
+    assert ran["tick"] == "python" and "push at a point" in ran["tick_note"]
+    assert session.info()["tick"] == "python"
+
+
+def test_the_native_tick_sees_a_body_other_than_a_foot_on_the_ground() -> None:
+    """The fall check's contact test made in the native tick is the plant's: ANYmal let down
+    onto its knees touches the ground with them (True), standing it does not (False); it falls
+    by its height at the next fall check."""
+    session = Session(SessionConfig(robot="anymal"))
+    for _ in range(FALL_CHECK_PERIOD):  # standing, through one fall check
+        session.tick()
+        assert session.native_tick.non_foot_contact is False
+    q = session.robot.q_standing.copy()
+    q[2] = 0.2  # m: the base low, the knees on the ground
+    session.plant.reset(q)
+    for _ in range(FALL_CHECK_PERIOD - 1):
+        session.tick()
+        assert session.tick_report()["tick"] == "native"
+        assert session.native_tick.non_foot_contact is True
+        assert session.plant.non_foot_ground_contact()
+    session.tick()
+    assert session.fell
+
+
+def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeypatch) -> None:
+    """The controller raises before the native tick's crossing (as a bug would) for 50 ticks:
+    each falls back to the joint PD on the state the plant is in (not the last one the native
+    tick read), the failures are counted, and the robot still stands after."""
+    session = Session(SessionConfig(robot="anymal"))
+    for _ in range(50):
+        session.tick()
+    monkeypatch.setattr(
+        session.controller,
+        "prepare_native_tick",
+        lambda: (_ for _ in ()).throw(RuntimeError("injected")),
+    )
+    for _ in range(50):
+        q, v = session.plant.state()
+        expected = session._fallback_torques(q, v)  # the joint PD at the state ticked from
+        session.tick()
+        assert np.allclose(session.tau, expected, rtol=0.0, atol=1e-9)
+    assert session.qp_failures == 50 and "injected" in session.status.reason
+    monkeypatch.undo()
+    for _ in range(300):
+        session.tick()
+    assert session.qp_ok and session.tick_report()["tick"] == "native"
+    assert abs(session.model.q[2] - session.robot.q_standing[2]) < 0.02

@@ -1,0 +1,99 @@
+"""The command intake's bookkeeping without Zenoh: per-client queues served round-robin, the
+rate limit, the size cap, validation. `tests/client/test_client.py` drives it through real Zenoh."""
+
+import json
+
+import zenoh
+
+from lab.protocol import MAX_PAYLOAD_BYTES, LabKeys, parse_command
+from lab.runtime.intake import BURST, CLIENT_QUEUE, RATE_HZ, CommandIntake
+
+KEYS = LabKeys("intake")
+
+
+class _Bytes:
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+class _Query:
+    """What the intake reads of a zenoh.Query."""
+
+    def __init__(self, verb: str, payload: dict | bytes, client: str | None) -> None:
+        self.key_expr = KEYS.cmd(verb)
+        raw = payload if isinstance(payload, bytes) else json.dumps(payload).encode()
+        self.payload = _Bytes(raw)
+        self.attachment = None if client is None else _Bytes(client.encode())
+
+
+class _ClosedQueryable:
+    def recv(self) -> None:
+        raise zenoh.ZError("closed")
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def _intake(clock: _Clock) -> tuple[CommandIntake, list[tuple[object, dict]]]:
+    answers: list[tuple[object, dict]] = []
+    intake = CommandIntake(
+        _ClosedQueryable(), KEYS, parse_command, lambda q, body: answers.append((q, body)), clock
+    )
+    intake.join(5.0)  # its thread ended at once: only `receive` below feeds it
+    return intake, answers
+
+
+def test_clients_are_served_in_turn_whatever_one_of_them_sends() -> None:
+    intake, answers = _intake(_Clock())
+    for _ in range(CLIENT_QUEUE):
+        intake.receive(_Query("pause", {}, "flood"))
+    intake.receive(_Query("resume", {}, "calm"))
+    taken = [intake.take() for _ in range(CLIENT_QUEUE + 1)]
+    assert [r.client for r in taken[:3]] == ["flood", "calm", "flood"]
+    assert intake.take() is None and not answers
+
+
+def test_a_full_queue_a_fast_client_and_a_large_payload_are_refused_with_the_reason() -> None:
+    clock = _Clock()
+    intake, answers = _intake(clock)
+    for _ in range(CLIENT_QUEUE + 1):
+        intake.receive(_Query("pause", {}, "a"))
+    assert f"busy: {CLIENT_QUEUE} commands of client a" in answers[-1][1]["error"]
+    for _ in range(BURST):  # the bucket is empty now
+        intake.receive(_Query("info", {}, "a"))
+    assert (
+        "rate limit" in answers[-1][1]["error"]
+        and f"{RATE_HZ:g} commands/s" in (answers[-1][1]["error"])
+    )
+    clock.now += 1.0  # refilled: served again (its queue has room once the loop takes)
+    intake.take()
+    refused = len(answers)
+    intake.receive(_Query("info", {}, "a"))
+    assert len(answers) == refused  # accepted: it waits, unanswered
+    big = b'{"vx": ' + b" " * MAX_PAYLOAD_BYTES + b"1}"
+    intake.receive(_Query("velocity", big, "b"))
+    assert f"over the {MAX_PAYLOAD_BYTES}-byte cap" in answers[-1][1]["error"]
+    count, verb, error = intake.rejections()
+    assert count == len(answers) and verb == "velocity" and "cap" in error
+    assert intake.rejections()[0] == 0
+
+
+def test_only_valid_commands_wait_for_the_loop() -> None:
+    intake, answers = _intake(_Clock())
+    intake.receive(_Query("velocity", {"vx": 99}, "a"))
+    intake.receive(_Query("velocity", {"vx": 0.5}, "a"))
+    assert answers[0][1] == {"ok": False, "error": answers[0][1]["error"]}
+    assert "'vx'" in answers[0][1]["error"] and len(answers) == 1
+    request = intake.take()
+    assert request.command.vx == 0.5 and intake.take() is None

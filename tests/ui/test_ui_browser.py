@@ -1,0 +1,888 @@
+"""The browser lab in a real headless Chromium against a real `lab serve` (sim + UI processes).
+
+One server and one browser are shared by the tests in file order (ANYmal first, then typed
+numbers, then a switch to every robot and every scene the dropdowns offer, ANYmal on flat last).
+"""
+
+import math
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lab.client import LabClient
+from lab.description import ROBOT_NAMES, load_description
+from lab.recording.record_replay import read_recording
+from lab.scenes import SCENE_ROBOTS, SCENES
+from lab.stack_presets import load_stack_preset
+from lab.ui.panel import default_push_newtons
+from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LabServe, serves_http
+from tests.helpers.ports import free_port
+
+playwright_api = pytest.importorskip("playwright.sync_api")
+
+pytestmark = pytest.mark.browser
+PAGE_TIMEOUT_MS = 60_000
+# s: from a click in the page to its effect in telemetry or `info`. A second or less when idle;
+# generous because on a loaded 2-core machine the browser and the UI process share what is left.
+UI_ACTION_TIMEOUT_S = 30.0
+VIEWPORT = {"width": 1400, "height": 800}  # plots | 3-D view | controls
+# ms: a robot's view is built (status line "Loading …") in a second or two from the mesh cache,
+# but converting the meshes on a cold cache took ANYmal 40 s on a busy 2-core machine.
+LOAD_TIMEOUT_MS = 180_000
+
+
+@pytest.fixture(scope="module")
+def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LabServe]:
+    tmp = tmp_path_factory.mktemp("ui")
+    srv = LabServe(tmp / "serve.log", "--robot", "anymal", "--record-dir", str(tmp / "rec"))
+    srv.record_dir = tmp / "rec"
+    yield srv
+    srv.stop()
+
+
+@pytest.fixture(scope="module")
+def lab(serve: LabServe) -> Iterator[LabClient]:
+    client = serve.client()
+    yield client
+    client.close()
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[object]:
+    if not Path(CHROMIUM).exists():
+        pytest.skip(f"no Chromium at {CHROMIUM} (./dev test installs Debian's chromium)")
+    with playwright_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser, serve: LabServe, lab: LabClient):
+    context = browser.new_context(viewport=VIEWPORT)
+    pg = context.new_page()
+    pg.set_default_timeout(PAGE_TIMEOUT_MS)
+    frames: list[float] = []
+    pg.on("websocket", lambda ws: ws.on("framereceived", lambda _: frames.append(time.monotonic())))
+    pg.console_errors = console_errors(pg)
+    serve.wait_ui()
+    pg.goto(serve.url)
+    pg.get_by_text("You hold control").wait_for()
+    pg.ws_frames = frames
+    yield pg
+    context.close()
+
+
+def dark_pixels(pg) -> int:
+    """Pixels of the 3-D view (its canvas, between the plots and the control panel) darker than
+    the floor and grid lines: the robot's meshes and their shadows."""
+    import io
+
+    from PIL import Image
+
+    box = pg.locator("canvas").first.bounding_box()  # viser's 3-D canvas comes first
+    shot = np.asarray(Image.open(io.BytesIO(pg.screenshot())).convert("L"))
+    view = shot[150:, int(box["x"]) : int(box["x"] + box["width"])]
+    return int((view < 90).sum())
+
+
+def wait_dark_pixels(pg, predicate, timeout: float = 30.0) -> int:
+    """Poll `dark_pixels` until `predicate` holds (viser fades new meshes in) or time is up."""
+    end = time.monotonic() + timeout
+    n = dark_pixels(pg)
+    while not predicate(n) and time.monotonic() < end:
+        pg.wait_for_timeout(500)
+        n = dark_pixels(pg)
+    return n
+
+
+def console_errors(pg) -> list[str]:
+    """The page's console errors and uncaught exceptions, collected from now on."""
+    errors: list[str] = []
+    pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    pg.on("pageerror", lambda e: errors.append(f"uncaught: {e}"))
+    return errors
+
+
+def press(pg, button: str) -> None:
+    """Click a panel button by its DOM click event: a mouse click waits for a rendered frame,
+    which a software-rendered page on a loaded machine may not produce for a minute."""
+    pg.get_by_role("button", name=button, exact=True).dispatch_event("click")
+
+
+OPEN_DROPDOWN_TRIES = 3
+CLICK_TRIES = 3
+CLICK_WAIT_MS = 20_000
+OPEN_DROPDOWN_WAIT_MS = 20_000
+
+
+def open_dropdown(pg, label: str, wanted) -> None:
+    """Open dropdown `label` until locator `wanted` (one of its options) shows. A click that
+    lands while the panel re-renders leaves the dropdown closed (seen in a fresh-clone run and
+    under a CPU hog: the options never appeared), so the dropdown is clicked again, at most
+    OPEN_DROPDOWN_TRIES times. (A DOM click event does not open viser's dropdowns: it takes a
+    mouse click.)"""
+    for _ in range(OPEN_DROPDOWN_TRIES - 1):
+        pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
+        try:
+            wanted.wait_for(timeout=OPEN_DROPDOWN_WAIT_MS)
+            return
+        except playwright_api.TimeoutError:
+            continue
+    pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
+    wanted.wait_for()
+
+
+def choose_task(pg, task: str) -> None:
+    """Pick `task` in the stack editor and wait until the UI process has taken it: the editor
+    marks the chosen task after it has filled the task's fields. A click or a typed gain before
+    that could act on the task chosen before, or be overwritten by the fields' update."""
+    choose(pg, "Task", task)
+    pg.get_by_text(f"[{task}]").first.wait_for()
+
+
+def choose(pg, label: str, option: str) -> None:
+    """Open dropdown `label` and pick `option`."""
+    wanted = pg.get_by_role("option", name=option, exact=True)
+    open_dropdown(pg, label, wanted)
+    wanted.click(no_wait_after=True)
+
+
+def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
+    page.get_by_text("anymal", exact=True).first.wait_for()
+    playwright_api.expect(page.get_by_text("Loading")).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
+    t0 = time.monotonic()
+    n0 = len(page.ws_frames)
+    page.wait_for_timeout(2000)  # lets playwright dispatch the websocket events
+    rate = (len(page.ws_frames) - n0) / (time.monotonic() - t0)
+    # Liveness, not speed: a stalled UI sends nothing, a live one streams every pose it draws.
+    # The rate itself is a benchmark number (docs/performance.md: 23-30 frames/s with software
+    # WebGL on a busy 2-core machine), never a test threshold.
+    assert rate >= 5.0, f"UI updates arrive at {rate:.1f} frames/s: the view is not live"
+    # the robot is drawn in the view (the page's first draw took up to 60 s at load 20)
+    assert wait_dark_pixels(page, lambda n: n > 1500, timeout=LOAD_TIMEOUT_MS / 1000) > 1500
+    page.get_by_text("RTF").wait_for()  # status line from live telemetry
+    # the charts are in sight beside the 3-D view as the page opens, without scrolling
+    chart = page.locator(".uplot").first
+    chart.wait_for()
+    box, view = chart.bounding_box(), page.locator("canvas").first.bounding_box()
+    assert box["x"] + box["width"] <= view["x"], (box, view)  # left of the view, not over it
+    assert box["y"] + box["height"] <= VIEWPORT["height"], (box, VIEWPORT)
+
+    # the Lab dropdown lists the one lab, which the page found without being told its id
+    page.get_by_text("1 of 1 labs online").wait_for()
+
+
+def test_the_status_line_shows_the_floor_measured_at_start_up(page, lab: LabClient) -> None:
+    """`lab serve` measured the machine's floor before the sim started (issue 31): `info`
+    carries it and the page's status line gives the on-time fraction against it."""
+    floor = lab.command("info", timeout=10.0)["loop"]["floor"]
+    assert floor is not None and floor["seconds"] == 2.0 and floor["ticks"] >= 500, floor
+    assert 0.5 < floor["on_time_fraction"] <= 1.0
+    shown = f"(this machine's floor {100 * floor['on_time_fraction']:.1f} %)"
+    page.get_by_text(shown).wait_for(timeout=PAGE_TIMEOUT_MS)
+
+
+def test_push_button_moves_the_base_in_the_pushed_direction(
+    page, lab: LabClient, serve: LabServe
+) -> None:
+    type_number(slider_box(page, "Magnitude [N]"), "150")  # twice ANYmal's default
+    type_number(slider_box(page, "Duration [ms]"), "200")
+    tel = lab.wait_telemetry(lambda m: not m["fell"], timeout=5.0)
+    yaw_ok = abs(tel["base"]["quaternion"][2]) < 0.1  # heading ~ world x: "left" is world +y
+    assert yaw_ok, tel["base"]["quaternion"]
+    press(page, "left")
+    try:  # since the read above: a test thread starved after the click still sees the push
+        peak = lab.wait_telemetry(
+            lambda m: m["base"]["linear_velocity"][1] > 0.1,
+            timeout=UI_ACTION_TIMEOUT_S,
+            since_last_read=True,
+        )
+    except TimeoutError as error:  # seen once in ten runs: keep what the page and server saw
+        page.screenshot(path=str(serve.log.with_name("push_timeout.png")))
+        time.sleep(5.0)  # a late "took N s to answer" line from the UI process
+        raise AssertionError(f"no push arrived; lab serve said:\n{serve.output()}") from error
+    vx, vy, _ = peak["base"]["linear_velocity"]
+    assert vy > 0.1 and vy > abs(vx), peak["base"]["linear_velocity"]
+
+
+def test_moving_a_task_in_the_stack_editor_is_acknowledged(page, lab: LabClient) -> None:
+    before = lab.command("info")["stack"]
+    task = before[-1][0]  # a task of the lowest level
+    choose_task(page, task)
+    press(page, "▲ level")
+    expected_level = len(before) - 2  # into the level above (the last one vanishes if emptied)
+    end = time.monotonic() + UI_ACTION_TIMEOUT_S
+    stack = before
+    while time.monotonic() < end:
+        stack = lab.command("info")["stack"]
+        if stack != before:
+            break
+        time.sleep(0.1)
+    assert task in stack[expected_level], (before, stack)
+    level_text = ", ".join(stack[expected_level])  # the editor shows the acknowledged stack
+    page.get_by_text(level_text.replace(task, f"[{task}]"), exact=True).wait_for()
+
+
+def wait_info(lab: LabClient, predicate, timeout: float = UI_ACTION_TIMEOUT_S) -> dict:
+    """The first `info` reply for which `predicate` holds (fails naming the last one)."""
+    end = time.monotonic() + timeout
+    info = lab.command("info")
+    while not predicate(info) and time.monotonic() < end:
+        time.sleep(0.1)
+        info = lab.command("info")
+    assert predicate(info), info
+    return info
+
+
+def test_default_stack_restores_the_robots_stack(page, lab: LabClient) -> None:
+    default = [list(level) for level in load_description("anymal").stack]
+    assert lab.command("info")["stack"] != default  # the test above moved a task
+    press(page, "Default stack")
+    wait_info(lab, lambda info: info["stack"] == default)
+
+
+def test_disabling_the_contact_task_asks_first_and_cancel_changes_nothing(page, lab) -> None:
+    before = lab.command("info")["stack"]
+    choose_task(page, "contact")  # a fresh-clone CI run saw no dialog: see choose_task
+    enabled = page.get_by_label("Enabled", exact=True).first
+    playwright_api.expect(enabled).to_be_checked()
+    warning = page.get_by_text("the robot will fall: no contact task").first
+    for _ in range(CLICK_TRIES):  # a click that lands while the panel re-renders is lost
+        enabled.dispatch_event("click")
+        try:
+            warning.wait_for(timeout=CLICK_WAIT_MS)
+            break
+        except playwright_api.TimeoutError:
+            assert enabled.is_checked(), "the box was unticked and no dialog asked first"
+    warning.wait_for()
+    press(page, "Cancel")
+    playwright_api.expect(page.get_by_text("the robot will fall")).to_have_count(0)
+    time.sleep(1.0)  # a stack command, had one been sent, would have been applied by now
+    assert lab.command("info")["stack"] == before
+
+
+def test_the_kernel_dropdown_switches_the_kernel_that_runs(page, lab: LabClient) -> None:
+    choose(page, "Kernel", "python")
+    lab.wait_telemetry(lambda m: m["kernel"] == "python", timeout=UI_ACTION_TIMEOUT_S)
+    page.get_by_text("python kernel").first.wait_for()  # the status line says so
+    choose(page, "Kernel", "native")
+    wait_info(lab, lambda info: info["kernel"] == "native")
+
+
+def test_a_second_browser_is_read_only_until_it_takes_control(browser, serve, page) -> None:
+    context = browser.new_context(viewport=VIEWPORT)
+    second = context.new_page()
+    second.set_default_timeout(PAGE_TIMEOUT_MS)
+    second.goto(serve.url)
+    second.get_by_text("Read-only").wait_for()
+    assert second.get_by_role("button", name="Stop").is_disabled()
+    assert second.get_by_label("Gait", exact=True).first.is_disabled()
+    assert second.get_by_role("button", name="Load preset").is_disabled()
+    assert second.get_by_role("button", name="forward", exact=True).count() == 0
+    press(second, "Take control")
+    second.get_by_text("You hold control").wait_for()
+    page.get_by_text("Read-only").wait_for()
+    assert page.get_by_role("button", name="Stop").is_disabled()
+    press(page, "Take control")
+    page.get_by_text("You hold control").wait_for()
+    context.close()
+
+
+def heading_speed(window_s: float, start: dict):
+    """A telemetry predicate: true once the base's mean velocity along its heading over the last
+    `window_s` of sim time exceeds 0.1 m/s; raises if the robot falls or 5 s of sim pass."""
+    samples: list[tuple[float, np.ndarray]] = []
+
+    def moving(tel: dict) -> bool:
+        assert not tel["fell"], "the robot fell"
+        assert tel["t"] - start["t"] < 5.0, f"no forward walk within 5 s of sim: {samples[-1]}"
+        samples.append((tel["t"], np.array(tel["base"]["position"][:2])))
+        while len(samples) > 2 and samples[-1][0] - samples[1][0] >= window_s:
+            samples.pop(0)
+        (t0, p0), (t1, p1) = samples[0], samples[-1]
+        qx, qy, qz, qw = tel["base"]["quaternion"]
+        yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        heading = np.array([np.cos(yaw), np.sin(yaw)])
+        return t1 - t0 >= window_s and heading @ (p1 - p0) / (t1 - t0) > 0.1
+
+    return moving
+
+
+def test_trot_from_the_gait_dropdown_walks_forward(page, lab: LabClient) -> None:
+    choose(page, "Gait", "trot")
+    tel = lab.wait_telemetry(lambda m: m["gait"] == "trot", timeout=UI_ACTION_TIMEOUT_S)
+    assert "swing_feet" in {name for level in tel["stack"] for name in level}  # walking stack
+    page.get_by_text("swing_feet").first.wait_for()  # the stack editor shows it
+    # The dropdown just used keeps the focus (a searchable box): the hotkeys work all the same.
+    assert page.evaluate("document.activeElement.tagName") == "INPUT"
+    page.keyboard.press("i")  # velocity hotkeys: two taps, 0.3 m/s forward
+    page.keyboard.press("i")
+    start = lab.wait_telemetry(lambda m: m["command"]["vx"] > 0.25, timeout=UI_ACTION_TIMEOUT_S)
+    walked = lab.wait_telemetry(heading_speed(1.0, start), timeout=60.0)
+    assert walked["gait"] == "trot" and not walked["fell"]
+    press(page, "Reset")  # no X first: Reset ends the walk, and the page stops resending it
+    # Only a reset turns trot into stand ("t < 1" could pass unseen by a starved test process).
+    reset = lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=UI_ACTION_TIMEOUT_S)
+    assert reset["command"] == {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
+    time.sleep(1.5)  # the page resent a non-zero command every 0.2 s, so it never ended
+    assert lab.latest_telemetry()["command"]["vx"] == 0.0
+    page.get_by_text("vx +0.00 m/s").first.wait_for()
+
+
+def test_loading_a_stack_preset_is_acknowledged(page, lab: LabClient) -> None:
+    preset = load_stack_preset("raiola_s1")
+    choose(page, "Preset", "raiola_s1")
+    press(page, "Load preset")
+    end = time.monotonic() + UI_ACTION_TIMEOUT_S
+    info = lab.command("info")
+    while info["stack"] != preset.levels and time.monotonic() < end:
+        time.sleep(0.1)
+        info = lab.command("info")
+    assert info["stack"] == preset.levels
+    assert info["hierarchy"]["method"] == preset.method == "weighted"
+    expect = playwright_api.expect  # the panel shows the preset's hierarchy method
+    expect(page.get_by_label("Hierarchy", exact=True).first).to_have_value(
+        "weighted", timeout=PAGE_TIMEOUT_MS
+    )
+
+
+def test_the_balance_buttons_send_the_momentum_law_and_a_refused_stance_says_why(
+    page, lab: LabClient
+) -> None:
+    """The folder shows the current law from the page's load on, before a law is picked; PD, LQR
+    and LQR Talos reach the server; `On left` on ANYmal (point feet) is refused, and the page
+    says why."""
+    shown = f"Momentum law: {lab.command('info')['momentum']['mode']}"
+    page.get_by_text(shown).first.wait_for(timeout=PAGE_TIMEOUT_MS)
+    for label, mode in (("PD", "pd"), ("LQR", "lqr"), ("LQR Talos", "lqr_talos")):
+        press(page, label)
+        end = time.monotonic() + UI_ACTION_TIMEOUT_S
+        while lab.command("info")["momentum"]["mode"] != mode and time.monotonic() < end:
+            time.sleep(0.1)
+        assert lab.command("info")["momentum"]["mode"] == mode
+    page.get_by_text("Momentum law: lqr_talos").first.wait_for(timeout=PAGE_TIMEOUT_MS)
+    press(page, "On left")
+    page.get_by_text("not a biped with flat soles").first.wait_for(timeout=PAGE_TIMEOUT_MS)
+    assert lab.command("info")["gait"] == "stand"
+
+
+def slider_box(pg, label: str):
+    """The number box beside a viser slider (the slider's label points at the slider)."""
+    slider = pg.locator("label", has_text=label).first.get_attribute("for")
+    return pg.locator(f"[id='{slider}']").locator("xpath=..").locator("input:not([type=hidden])")
+
+
+def text_box(pg, label: str):
+    """A viser text box: its label's `for` names no element, so go through the label's row."""
+    row = pg.locator("label").filter(has_text=re.compile(f"^{label}$")).first
+    return row.locator("xpath=../../..").locator("input")
+
+
+def type_keys(box, text: str, delay_ms: float) -> None:
+    """Focus `box` (no scrolling: a loaded software-rendered page can take a minute to scroll),
+    select what it holds and type `text` over it."""
+    box.focus()
+    box.page.keyboard.press("Control+A")
+    box.page.keyboard.type(text, delay=delay_ms)
+
+
+def type_number(box, text: str) -> None:
+    """Type like a user: replace the number, leave the box (the browser clamps on leaving)."""
+    type_keys(box, text, delay_ms=60)
+    # Viser sends a typed number at most every 50 ms, keeping the newest: leaving the box at
+    # once could replace "700" by the browser's clamped 600 before it was sent.
+    time.sleep(0.5)
+    box.page.keyboard.press("Tab")
+    time.sleep(1.0)  # a user's pause between typing and clicking
+
+
+class Pushes:
+    """Every push the server reports in telemetry, as (|force| N, longest remaining s)."""
+
+    def __init__(self, lab: LabClient) -> None:
+        self.seen: dict[float, float] = {}
+        lab.subscribe_telemetry(self._record)
+
+    def _record(self, tel: dict) -> None:
+        for push in tel["pushes"]:
+            norm = round(math.hypot(*push["force"]), 6)
+            self.seen[norm] = max(self.seen.get(norm, 0.0), push["remaining"])
+
+    def wait(self, norm: float, timeout: float = 20.0) -> float:
+        """The longest remaining time seen of a push of `norm` N."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if round(norm, 6) in self.seen:
+                time.sleep(0.3)  # later messages of the same push
+                return self.seen[round(norm, 6)]
+            time.sleep(0.05)
+        raise AssertionError(f"no push of {norm} N reached the server; seen {self.seen}")
+
+
+@pytest.fixture(scope="module")
+def pushes(lab: LabClient) -> Pushes:
+    return Pushes(lab)
+
+
+def event_log(pg) -> str:
+    return pg.get_by_text("Events, newest first").first.locator("xpath=..").inner_text()
+
+
+def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: Pushes) -> None:
+    type_number(slider_box(page, "Magnitude [N]"), "500")
+    type_number(slider_box(page, "Duration [ms]"), "300")
+    press(page, "forward")
+    remaining = pushes.wait(500.0)
+    assert 0.0 < remaining <= 0.3 + 1e-9, remaining  # 300 ms, as typed
+    page.get_by_text("pushed forward: 500 N for 300 ms").first.wait_for()
+    lab.command("reset")
+
+
+def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
+    choose_task(page, "com")
+    for label, text in (("kp", "123.5"), ("kd", "7"), ("weight", "2.5e-3")):
+        type_number(text_box(page, label), text)
+    press(page, "Apply gains")
+    end = time.monotonic() + 10.0
+    com = {}
+    while time.monotonic() < end:
+        com = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
+        if com["kp"] == 123.5:
+            break
+        time.sleep(0.1)
+    assert (com["kp"], com["kd"], com["weight"]) == (123.5, 7.0, 0.0025), com
+    page.get_by_text("com: kp 123.5, kd 7, weight 0.0025 applied").first.wait_for()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [("-5", "kp = -5 is below the limit 0"), ("1e9", "kp = 1e+09 is above the limit 100000")],
+)
+def test_out_of_range_gains_are_refused_naming_the_limit(page, lab, text, message) -> None:
+    choose_task(page, "com")
+    before = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
+    type_number(text_box(page, "kp"), text)
+    press(page, "Apply gains")
+    page.get_by_text(message).first.wait_for()  # in the panel
+    log = page.get_by_text("Events, newest first").first.locator("xpath=..")
+    playwright_api.expect(log).to_contain_text(message, timeout=PAGE_TIMEOUT_MS)  # the log too
+    after = next(t for t in lab.command("info")["tasks"] if t["name"] == "com")
+    assert after == before  # nothing was sent
+
+
+def test_a_push_magnitude_above_the_slider_is_clamped_with_a_message(page, pushes) -> None:
+    box = slider_box(page, "Magnitude [N]")
+    type_number(box, "700")
+    page.get_by_text("Magnitude 700 N is above the limit 600 N").first.wait_for()
+    assert box.input_value() == "600"
+    press(page, "left")
+    pushes.wait(600.0)
+
+
+def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pushes) -> None:
+    """Viser drops a typed number that a click follows within its 50 ms throttle: the panel
+    refuses such a click, or the push it sends is the number the box then shows."""
+    box = slider_box(page, "Magnitude [N]")
+    lab.wait_telemetry(lambda m: not m["pushes"], timeout=20.0)  # earlier pushes have ended
+    pushes.seen.clear()
+    type_keys(box, "432", delay_ms=0)
+    press(page, "backward")
+    refused = page.get_by_text("Nothing sent: check the box and press again").first
+    end = time.monotonic() + PAGE_TIMEOUT_MS / 1000  # a loaded UI may take seconds to answer
+    while not pushes.seen and not refused.is_visible() and time.monotonic() < end:
+        time.sleep(0.1)
+    time.sleep(1.0)  # a push's later messages; the boxes then show the numbers sent
+    sent, shown = list(pushes.seen), float(box.input_value())
+    assert sent or refused.is_visible(), "the click neither pushed nor said why not"
+    if sent:
+        assert sent == [shown], (sent, shown)
+    lab.command("reset")
+
+
+def test_the_event_log_keeps_pushes_and_refusals_and_shows_one_kind(page) -> None:
+    """The pushes and refused numbers of the tests above are all kept, each kind on its own,
+    and the loop's overruns (if any) take one line, not one per report."""
+    expect = playwright_api.expect
+    choose(page, "Show", "push")
+    shown = page.get_by_text("Events (push), newest first").first.locator("xpath=..")
+    expect(shown).to_contain_text("pushed forward: 500 N for 300 ms", timeout=PAGE_TIMEOUT_MS)
+    assert "below the limit" not in shown.inner_text()
+    choose(page, "Show", "refusal")
+    shown = page.get_by_text("Events (refusal), newest first").first.locator("xpath=..")
+    expect(shown).to_contain_text("kp = -5 is below the limit 0", timeout=PAGE_TIMEOUT_MS)
+    assert "pushed forward" not in shown.inner_text()
+    choose(page, "Show", "all")
+    text = event_log(page)
+    assert "pushed forward: 500 N" in text, text
+    assert "· overrun:" not in text and text.count("⚠ overrun:") <= 1, text  # one line at most
+
+
+def test_export_csv_and_png_deliver_what_the_charts_show(page, lab: LabClient) -> None:
+    """Both buttons download a file (they offered only a link in a notification: nothing
+    arrived) and the page says what was exported."""
+    import io
+
+    from PIL import Image
+
+    with page.expect_download(timeout=PAGE_TIMEOUT_MS) as csv:
+        press(page, "Export CSV")
+    assert csv.value.suggested_filename == "lab-plots.csv"
+    lines = Path(csv.value.path()).read_text().splitlines()
+    contacts = lab.command("info")["contacts"]
+    assert (
+        lines[0].startswith('"t [s]",') and f'"Contact normal force [N]: {contacts[0]}"' in lines[0]
+    )
+    times = [float(line.split(",", 1)[0]) for line in lines[1:]]
+    assert len(times) > 50 and times == sorted(times), lines[:3]  # a window at ~100 Hz
+    page.get_by_text("Exported lab-plots.csv").first.wait_for()
+    with page.expect_download(timeout=PAGE_TIMEOUT_MS) as png:
+        press(page, "Export PNG")
+    assert png.value.suggested_filename == "lab-plots.png"
+    figure = Image.open(io.BytesIO(Path(png.value.path()).read_bytes()))
+    assert figure.format == "PNG" and figure.height > 5 * figure.width / 7  # a panel per chart
+    page.get_by_text("Exported lab-plots.png").first.wait_for()
+
+
+def test_the_record_button_records_the_live_session_to_mcap(page, lab, serve) -> None:
+    page.get_by_text("Recording", exact=True).first.click()  # open the folder
+    press(page, "Record")
+    page.get_by_text("● Recording", exact=False).first.wait_for()
+    lab.wait_telemetry(lambda m: (m["recording"] or {}).get("seconds", 0) > 0.5, timeout=30.0)
+    press(page, "Stop recording")
+    page.get_by_text("Recorded", exact=False).first.wait_for()
+    (path,) = serve.record_dir.glob("lab-anymal-*.mcap")
+    messages = read_recording(path).messages
+    assert sum(m.kind == "telemetry" for m in messages) > 20  # 100 Hz for > 0.5 s
+
+
+def ui_alive(page, serve: LabServe) -> None:
+    """The UI process serves HTTP, streams to the page, and logged no error of its own."""
+    assert serves_http(serve.ui_port)
+    n0 = len(page.ws_frames)
+    page.wait_for_timeout(1500)
+    assert len(page.ws_frames) > n0, "the page gets no more updates"
+    assert "UI error" not in event_log(page), event_log(page)
+
+
+def wait_drawn(page, robot: str) -> None:
+    """The status line names `robot` (from live telemetry, no longer loading) and the view shows
+    a robot."""
+    status = page.get_by_text(f"{robot} on", exact=False).first
+    playwright_api.expect(status).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+    playwright_api.expect(page.get_by_text("Loading")).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
+    assert wait_dark_pixels(page, lambda n: n > 300, timeout=60.0) > 300
+
+
+def offered(page, label: str) -> list[str]:
+    """The options of dropdown `label`, as the page lists them."""
+    open_dropdown(page, label, page.get_by_role("option").first)
+    names = page.get_by_role("option").all_inner_texts()
+    page.keyboard.press("Escape")
+    playwright_api.expect(page.get_by_role("option")).to_have_count(0)
+    return [n.strip() for n in names]
+
+
+def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot: str) -> None:
+    """Choose `value` in `dropdown`, wait until the sim runs it and `robot` is drawn, push, and
+    check the UI is alive."""
+    choose(page, dropdown, value)
+    try:
+        lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
+    except TimeoutError:  # seen once at load 24: the sim never got the switch
+        shown = page.get_by_label(dropdown, exact=True).first.input_value()
+        assert shown != value, f"the page shows {value}, the sim never switched: {event_log(page)}"
+        choose(page, dropdown, value)  # the option click was lost: a user clicks again
+        lab.wait_telemetry(lambda m: m[dropdown.lower()] == value, timeout=60.0)
+    wait_drawn(page, robot)
+    if robot == "bolt":  # the page says how Bolt stands and how to make it step
+        page.get_by_text("Bolt stands on its two point feet").first.wait_for()
+    box = slider_box(page, "Magnitude [N]")
+    if dropdown == "Robot":  # the push offered is a share of this robot's weight
+        wanted = str(int(default_push_newtons(lab.command("info")["mass"])))
+        playwright_api.expect(box).to_have_value(wanted, timeout=PAGE_TIMEOUT_MS)
+    pushes.seen.clear()
+    press(page, "forward")
+    pushes.wait(float(box.input_value()))
+    ui_alive(page, serve)
+
+
+def for_anymal(scene: str) -> bool:
+    """Is `scene` one ANYmal may stand in (not one made for another robot's feet)?"""
+    return "anymal" in SCENE_ROBOTS.get(scene, ("anymal",))
+
+
+def test_every_robot_and_scene_switches_draws_takes_a_push_and_the_ui_lives(
+    page, lab: LabClient, serve: LabServe, pushes: Pushes, subtests
+) -> None:
+    """One page walks every robot the Robot dropdown offers (ANYmal last) and then every scene
+    of the Scene dropdown with ANYmal (flat last; not the scenes made for another robot's feet):
+    one server and page for all, the switches being what is tested."""
+    info = lab.command("info")
+    assert (info["robots"], info["scenes"]) == (list(ROBOT_NAMES), list(SCENES))
+    robots, scenes = offered(page, "Robot"), offered(page, "Scene")
+    assert (robots, scenes) == (list(ROBOT_NAMES), list(SCENES))
+    walk = [("Robot", r, r) for r in robots if r != "anymal"] + [("Robot", "anymal", "anymal")]
+    walk += [("Scene", s, "anymal") for s in scenes if s != "flat" and for_anymal(s)]
+    walk += [("Scene", "flat", "anymal")]
+    for dropdown, value, robot in walk:
+        with subtests.test(dropdown=dropdown, value=value):
+            switch_draw_push(page, lab, serve, pushes, dropdown, value, robot)
+
+
+def test_the_shared_page_logged_no_console_error_and_no_traceback(page, serve) -> None:
+    """Everything the page did above, robot and scene switches included: no error in the
+    browser's console ("Tried to update non-existent component" was), no traceback in the
+    output of `lab serve` (sim and UI processes; "deque mutated during iteration" was)."""
+    assert not page.console_errors, page.console_errors[:5]
+    output = serve.log.read_text(errors="replace")
+    assert "Traceback" not in output and "UI error" not in event_log(page), output[-4000:]
+
+
+def test_a_page_whose_sim_process_dies_says_disconnected_and_recovers(browser, tmp_path) -> None:
+    """A remote UI process (`python -m lab.ui --connect`) beside a headless sim: SIGKILL to the
+    sim makes the page say "Disconnected" (status line and event log) instead of showing a
+    frozen robot as if it ran; a new sim on the same endpoint is found again by itself."""
+    sim = LabServe(tmp_path / "sim.log", "--headless")
+    ui_port = free_port()
+    with (tmp_path / "ui.log").open("wb") as out:
+        ui = subprocess.Popen(
+            [sys.executable, "-m", "lab.ui", "--port", str(ui_port), "--connect", sim.endpoint],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
+    again = None
+    context = browser.new_context(viewport=VIEWPORT)
+    try:
+        sim.client().close()
+        pg = context.new_page()
+        pg.set_default_timeout(PAGE_TIMEOUT_MS)
+        end = time.monotonic() + LOAD_TIMEOUT_MS / 1000
+        while time.monotonic() < end and not serves_http(ui_port):
+            time.sleep(0.3)
+        pg.goto(f"http://127.0.0.1:{ui_port}")
+        running = pg.get_by_text("anymal on", exact=False).first
+        playwright_api.expect(running).to_be_visible(timeout=LOAD_TIMEOUT_MS)
+        sim.process.kill()
+        sim.process.wait()
+        lost = pg.get_by_text("Disconnected since").first
+        playwright_api.expect(lost).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+        assert "is not reachable" in event_log(pg)
+        again = LabServe(tmp_path / "sim2.log", "--headless", port=sim.port)
+        again.client().close()
+        log = pg.get_by_text("Events, newest first").first.locator("xpath=..")
+        back = "the lab server is back"
+        playwright_api.expect(log).to_contain_text(back, timeout=PAGE_TIMEOUT_MS)
+        gone = pg.get_by_text("Disconnected since")
+        playwright_api.expect(gone).to_have_count(0, timeout=PAGE_TIMEOUT_MS)
+        playwright_api.expect(running).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+        assert ui.poll() is None, "the UI process ended"
+    finally:
+        context.close()
+        ui.terminate()
+        ui.wait()
+        for process in (sim, again):
+            if process is not None:
+                process.stop()
+
+
+# Per registered uPlot chart (viser's testpoint): its title, whether it shows, its x data and x
+# scale, where its first series' first finite sample is, and a sum of that series (it changes).
+READ_TIME_AXES = """() => Object.values(window.__viserTestpoints?.uplots ?? {}).map(e => {
+  const u = e.chart, xs = u.data[0], ys = u.data[1] ?? [];
+  const first = ys.findIndex(v => Number.isFinite(v));
+  return {title: u.root.querySelector('.u-title')?.textContent ?? '', n: xs.length,
+          visible: u.root.offsetParent !== null,
+          x0: xs[0] ?? null, x1: xs[xs.length - 1] ?? null,
+          first: first >= 0 ? xs[first] : null,
+          sum: ys.reduce((a, v) => Number.isFinite(v) ? a + v : a, 0),
+          min: u.scales.x?.min ?? null, max: u.scales.x?.max ?? null};
+})"""
+PLOT_WINDOW_S = 10.0  # the page's default window
+PLOT_LAG_S = 3.0  # s of sim time a drawn chart may trail the newest telemetry on a loaded machine
+
+
+def _following(charts: list[dict], before: list[dict], t_now: float) -> list[str]:
+    """Why the time charts (read now and, `before`, a moment earlier) do not show the last
+    window's samples up to the newest, `t_now` s of sim time after a reset; [] when they do.
+    Their time axis reads seconds before the newest sample: [-window, 0]."""
+    timed = [c for c in charts if c["visible"] and not c["title"].startswith("CoM phase")]
+    if len(timed) < 5:
+        return [f"only {len(timed)} time charts drawn: {charts}"]
+    earlier = {c["title"]: c for c in before}
+    window = PLOT_WINDOW_S
+    shown = min(PLOT_WINDOW_S, t_now) - PLOT_LAG_S  # s of samples each chart must show at least
+    wrong = []
+    for c in timed:
+        if c["n"] < 10 or c["first"] is None:
+            wrong.append(f"{c['title']}: {c['n']} points, first sample {c['first']}")
+        elif c["x1"] != 0 or c["x0"] < -PLOT_WINDOW_S or [c["min"], c["max"]] != [-window, 0]:
+            wrong.append(f"{c['title']}: data {c['x0']}..{c['x1']} s, axis {c['min']}..{c['max']}")
+        elif c["first"] > -shown:
+            wrong.append(f"{c['title']}: samples from {c['first']:.2f} s only, at t {t_now:.2f}")
+        elif earlier.get(c["title"], {}).get("sum") == c["sum"]:
+            wrong.append(f"{c['title']}: not redrawn")
+    return wrong
+
+
+def test_plots_opened_before_the_lab_follow_the_data_across_a_switch_and_a_reset(
+    browser, tmp_path
+) -> None:
+    """A page open before the sim process starts; the lab switches robot, then resets: every
+    time chart then holds the last window's samples (from the reset on) and its time axis spans
+    exactly them (the axis stuck on a 1 s slice 35 s behind, or at -10,530 s after a reset).
+    No console error and no UI traceback on the way."""
+    port, ui_port = free_port(), free_port()
+    with (tmp_path / "ui.log").open("wb") as out:
+        ui = subprocess.Popen(
+            [sys.executable, "-m", "lab.ui", "--port", str(ui_port), "--connect",
+             f"tcp/127.0.0.1:{port}"],
+            stdout=out, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+    context = browser.new_context(viewport=VIEWPORT)
+    sim = None
+    try:
+        pg = context.new_page()
+        pg.set_default_timeout(PAGE_TIMEOUT_MS)
+        errors = console_errors(pg)
+        end = time.monotonic() + LOAD_TIMEOUT_MS / 1000
+        while time.monotonic() < end and not serves_http(ui_port):
+            time.sleep(0.3)  # (an HTTP probe: a bare TCP one makes a handshake traceback)
+        pg.goto(f"http://127.0.0.1:{ui_port}")
+        pg.get_by_text("WBC lab").first.wait_for()  # open before the lab starts
+        sim = LabServe(tmp_path / "sim.log", "--headless", port=port)
+        with sim.client() as lab:
+            lab.wait_telemetry(lambda m: m["t"] > 2.0, timeout=60.0)
+            assert lab.command("robot", name="solo12")["ok"]
+            lab.wait_telemetry(lambda m: m["robot"] == "solo12" and m["t"] > 2.0, timeout=60.0)
+            assert lab.command("reset")["ok"]
+            lab.wait_telemetry(lambda m: m["t"] < 1.0, timeout=60.0, since_last_read=True)
+            lab.wait_telemetry(lambda m: m["t"] > 4.0, timeout=60.0)
+            end = time.monotonic() + 60.0
+            wrong, before = ["not read"], pg.evaluate(READ_TIME_AXES)
+            while wrong and time.monotonic() < end:
+                pg.wait_for_timeout(1000)
+                t_now, charts = lab.latest_telemetry()["t"], pg.evaluate(READ_TIME_AXES)
+                wrong, before = _following(charts, before, t_now), charts
+        assert not wrong, wrong
+        assert not errors, errors
+    finally:
+        context.close()
+        ui.terminate()
+        ui.wait()
+        if sim is not None:
+            sim.stop()
+    log = (tmp_path / "ui.log").read_text(errors="replace")
+    assert "Traceback" not in log, log[-3000:]
+
+
+def floor_fraction(pg) -> float:
+    """The share of the 3-D view's pixels that are terrain or grid grey (neither the white
+    background nor the robot's dark meshes)."""
+    import io
+
+    from PIL import Image
+
+    box = pg.locator("canvas").first.bounding_box()
+    shot = np.asarray(Image.open(io.BytesIO(pg.screenshot())).convert("L"))
+    view = shot[150:, int(box["x"]) : int(box["x"] + box["width"])]
+    return float(((view > 150) & (view < 249)).mean())
+
+
+def test_lab_replay_serve_starts_the_page_with_floor_timeline_and_controls_greyed(
+    browser, tmp_path
+) -> None:
+    """`lab replay FILE --serve` starts the page as `lab serve` does: the recorded robot on its
+    floor (drawn although the recording ended before the page opened), the timeline at the top,
+    and the controls that cannot act on a recording greyed out, with the reason."""
+    record = tmp_path / "stand.mcap"
+    run = [sys.executable, "-m", "lab", "run", "scenarios/anymal_stand_cascade.toml"]
+    subprocess.run([*run, "--duration", "1", "--record", str(record)], check=True, timeout=300)
+    port, ui_port = free_port(), free_port()
+    with (tmp_path / "replay.log").open("wb") as out:
+        replay = subprocess.Popen(
+            [sys.executable, "-m", "lab", "replay", str(record), "--serve", "--port", str(port),
+             "--ui-port", str(ui_port)],
+            stdout=out, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+    context = browser.new_context(viewport=VIEWPORT)
+    try:
+        end = time.monotonic() + LOAD_TIMEOUT_MS / 1000
+        while time.monotonic() < end and not serves_http(ui_port):
+            assert replay.poll() is None, (tmp_path / "replay.log").read_text()
+            time.sleep(0.3)
+        pg = context.new_page()
+        pg.set_default_timeout(PAGE_TIMEOUT_MS)
+        errors = console_errors(pg)
+        pg.goto(f"http://127.0.0.1:{ui_port}")
+        pg.get_by_text("A recording").first.wait_for()
+        pg.get_by_text("Timeline [s]").first.wait_for()  # in the Replay folder, expanded
+        assert pg.get_by_label("Gait", exact=True).first.is_disabled()
+        assert pg.get_by_label("Robot", exact=True).first.is_disabled()
+        assert pg.get_by_role("button", name="forward", exact=True).count() == 0
+        gait = pg.get_by_label("Gait", exact=True).first.input_value()
+        assert gait == "stand" and "anymal" in pg.get_by_text("anymal on").first.inner_text()
+        shown = wait_dark_pixels(pg, lambda n: n > 300, timeout=LOAD_TIMEOUT_MS / 1000)
+        assert shown > 300  # the robot
+        end = time.monotonic() + 60.0
+        while floor_fraction(pg) < 0.3 and time.monotonic() < end:
+            pg.wait_for_timeout(500)
+        assert floor_fraction(pg) >= 0.3, "no floor drawn"
+        assert not errors, errors
+    finally:
+        context.close()
+        replay.terminate()
+        replay.wait()
+
+
+def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(browser, tmp_path) -> None:
+    """Reset after stepping stands, on the default stack. Picking Kim's split wedges offers the
+    set-up they were made for; *Use it* installs WBOSC with the internal force (0.51 m g, K_F 1)
+    and shows its controls and chart, and Bolt holds on the wedges, across a Reset too (it fell
+    on every Reset)."""
+    serve = LabServe(tmp_path / "serve.log", "--robot", "bolt")
+    context = browser.new_context(viewport=VIEWPORT)
+    try:
+        with serve.client() as lab:
+            serve.wait_ui()
+            pg = context.new_page()
+            pg.set_default_timeout(PAGE_TIMEOUT_MS)
+            errors = console_errors(pg)
+            pg.goto(serve.url)
+            pg.get_by_text("You hold control").wait_for()
+            wait_drawn(pg, "bolt")
+            default = lab.command("info")["stack"]
+            choose(pg, "Gait", "biped_step")  # brings kim_stepping, which has no CoM task
+            lab.wait_telemetry(lambda m: m["gait"] == "biped_step", timeout=UI_ACTION_TIMEOUT_S)
+            press(pg, "Reset")  # back to standing on a stack that stands: Bolt fell at 1.4 s
+            stand = lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=60.0)
+            assert stand["stack"] == default, stand["stack"]
+            stood = lab.wait_telemetry(lambda m: m["t"] > 2.5 or m["fell"], timeout=120.0)
+            assert not stood["fell"]
+            choose(pg, "Scene", "split_wedges")
+            pg.get_by_text("Scene split_wedges was made for this set-up").first.wait_for()
+            press(pg, "Use it")
+            mass = lab.command("info")["mass"]
+            held = lab.wait_telemetry(
+                lambda m: (
+                    m["hierarchy"]["method"] == "wbosc" and m["internal_force"]["reference"] > 0.0
+                ),
+                timeout=UI_ACTION_TIMEOUT_S,
+            )
+            assert held["internal_force"]["reference"] == pytest.approx(0.51 * mass * 9.81, 0.01)
+            pg.get_by_text("Internal force (Kim 2016)").first.wait_for()
+            pg.get_by_text("Internal force between the feet").first.wait_for()  # its chart
+            press(pg, "Reset")
+            lab.wait_telemetry(lambda m: m["t"] < 0.5, timeout=60.0, since_last_read=True)
+            after = lab.wait_telemetry(lambda m: m["t"] > 2.0 or m["fell"], timeout=120.0)
+            assert not after["fell"] and after["hierarchy"]["method"] == "wbosc", after["t"]
+            assert not errors, errors
+    finally:
+        context.close()
+        serve.stop()
