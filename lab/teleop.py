@@ -22,8 +22,8 @@ import time
 import tty
 from dataclasses import dataclass, replace
 
+import msgspec
 import zenoh
-from msgspec.structs import asdict
 
 from lab.client import LabClient, LabNotFound
 from lab.directory import next_online
@@ -66,6 +66,11 @@ class TeleopState:
     def velocity(self) -> VelocityCommand:
         """The velocity command of this state."""
         return VelocityCommand(self.vx, self.vy, self.yaw_rate)
+
+
+def wire(command: CommandStruct) -> str:
+    """A command's payload as it goes on the wire (the fields given: defaults are left out)."""
+    return msgspec.json.encode(command).decode()
 
 
 def _step(value: float, step: float, limit: float) -> float:
@@ -244,7 +249,7 @@ def _run(
             state, commands = key_to_commands(data, state, body, push_force)
             for command in commands:
                 reply = lab.send(command)
-                print(f"\r\x1b[K{command.VERB} {asdict(command)} -> {reply}")
+                print(f"\r\x1b[K{command.VERB} {wire(command)} -> {reply}")
                 # a gait this robot cannot run: the next one of the cycle, until one is taken
                 for _ in range(len(GAIT_CYCLE) - 2):
                     gait = isinstance(command, GaitCommand)
@@ -252,7 +257,7 @@ def _run(
                         break
                     state, [command] = key_to_commands("g", state, body, push_force)
                     reply = lab.send(command)
-                    print(f"\r\x1b[K{command.VERB} {asdict(command)} -> {reply}")
+                    print(f"\r\x1b[K{command.VERB} {wire(command)} -> {reply}")
                 state = acknowledged(state, before, command, reply)
                 last_sent = time.monotonic()
         if not state.velocity().is_zero and time.monotonic() - last_sent > REFRESH_S:

@@ -181,6 +181,10 @@ class ReferenceArrays {
         {"leg_position", r.leg_position.data()},
         {"leg_velocity", r.leg_velocity.data()},
         {"leg_acceleration", r.leg_acceleration.data()},
+        {"hand_position", r.hand_position.data()},
+        {"hand_velocity", r.hand_velocity.data()},
+        {"hand_acceleration", r.hand_acceleration.data()},
+        {"hand_rotation", r.hand_rotation.data()},
     };
     for (const auto& [field, data] : vectors)
       if (name == field) return data;

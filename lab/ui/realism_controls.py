@@ -25,7 +25,7 @@ class RealismControls:
         with gui.add_folder(
             "Realism (sensors, actuators, model)", order=order, expand_by_default=False
         ):
-            self.preset = gui.add_dropdown("Preset", PRESET_NAMES, initial_value="ideal")
+            self.preset = gui.add_dropdown("Realism preset", PRESET_NAMES, initial_value="ideal")
             load = gui.add_button("Run preset")
             self.actuator = gui.add_dropdown("Actuator", ACTUATORS, initial_value="ideal")
             self.knobs = {

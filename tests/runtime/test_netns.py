@@ -38,7 +38,8 @@ USER, PASSWORD = "alice", "correct horse"  # the one line of the users file
 # alpha's sim in between).
 CLIENT = """
 import json, os, sys, time
-from lab.client import LabClient, LabUnreachable
+from lab.client import LabClient
+from lab.client_core import LabUnreachable
 
 router, alpha_id, beta_id, vx, wait_s = sys.argv[1:4] + [float(a) for a in sys.argv[4:6]]
 
