@@ -352,7 +352,7 @@ def test_teleop_keys_reach_the_server(lab: LabClient, server: Server) -> None:
             teleop.kill()
             teleop.wait()
     assert teleop.returncode == 0, output
-    assert "velocity {'vx': 0.2, 'vy': 0.0, 'yaw_rate': 0.0} -> {'ok': True}" in output
+    assert """velocity {"vx":0.2,"vy":0.0,"yaw_rate":0.0} -> {'ok': True}""" in output
     lab.wait_telemetry(lambda m: m["command"]["vx"] == 0.0, timeout=1.0)
 
 
