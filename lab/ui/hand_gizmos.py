@@ -5,6 +5,8 @@ with its position and roll-pitch-yaw; each gizmo starts at the target `info` rep
 
 from __future__ import annotations
 
+import threading
+
 import viser
 import viser.transforms as tf
 
@@ -23,18 +25,28 @@ class HandGizmos:
         self._shown: tuple[str, tuple[str, ...]] | None = None  # the robot and its hands
         self._in_stack = False
         self._acts = False
+        # `show_info` runs on the render loop and on viser's callback threads (a click that
+        # refreshes `info`): one at a time, or one reads the gizmos the other is replacing.
+        self._lock = threading.Lock()
 
     def show_info(self, info: dict) -> None:
         """New gizmos for another robot or another set of hands (an `info` from the middle of
         a switch may name the new robot before its hands), each at its hand's target (moved
         there when another client set it); shown while `hands` is in the stack."""
+        with self._lock:
+            self._show_info(info)
+
+    def _show_info(self, info: dict) -> None:
         hands = info.get("hands", [])
         shown = (info["robot"], tuple(hand["name"] for hand in hands))
         if shown != self._shown:
-            self._shown = shown
+            self._shown = None  # until every gizmo is made: a frame that failed halfway retries
             for handle in self.handles.values():
                 handle.remove()
-            self.handles = {hand["name"]: self._gizmo(hand) for hand in hands}
+            self.handles = {}
+            for hand in hands:
+                self.handles[hand["name"]] = self._gizmo(hand)
+            self._shown = shown
         for hand in hands:
             handle = self.handles[hand["name"]]
             handle.position = tuple(hand["position"])  # no update callback: nothing is sent
@@ -44,8 +56,9 @@ class HandGizmos:
 
     def show_ownership(self, acts: bool) -> None:
         """Shown only to the browser that holds control (outside a replay)."""
-        self._acts = acts
-        self._show()
+        with self._lock:
+            self._acts = acts
+            self._show()
 
     def _show(self) -> None:
         for handle in self.handles.values():
