@@ -147,6 +147,10 @@ class LabApp:
         self._wanted_lab: str | None = None  # a browser's switch, done by the render loop
         self.panels: dict[int, ControlPanel] = {}
         self._lock = threading.RLock()
+        # `refresh_info` runs on the render loop and on viser's callback threads (a click that
+        # changes the world): one shows its reply at a time, or one panel part (the hand
+        # gizmos) reads what another call is replacing.
+        self._showing_info = threading.Lock()
         self._sender = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lab-ui-send")
         self._pending: Future | None = None
         self._robot_name: str | None = None
@@ -355,11 +359,12 @@ class LabApp:
         reply = self.link.request("info")
         if not reply.get("ok"):
             return False
-        self.info = reply
-        with self._lock:
-            panels = list(self.panels.values())
-        for panel in panels:
-            panel.show_info(reply)
+        with self._showing_info:
+            self.info = reply
+            with self._lock:
+                panels = list(self.panels.values())
+            for panel in panels:
+                panel.show_info(reply)
         return True
 
     def set_velocity(self, client: viser.ClientHandle, cmd: VelocityCommand) -> None:

@@ -5,8 +5,6 @@ with its position and roll-pitch-yaw; each gizmo starts at the target `info` rep
 
 from __future__ import annotations
 
-import threading
-
 import viser
 import viser.transforms as tf
 
@@ -25,18 +23,12 @@ class HandGizmos:
         self._shown: tuple[str, tuple[str, ...]] | None = None  # the robot and its hands
         self._in_stack = False
         self._acts = False
-        # `show_info` runs on the render loop and on viser's callback threads (a click that
-        # refreshes `info`): one at a time, or one reads the gizmos the other is replacing.
-        self._lock = threading.Lock()
 
     def show_info(self, info: dict) -> None:
         """New gizmos for another robot or another set of hands (an `info` from the middle of
         a switch may name the new robot before its hands), each at its hand's target (moved
-        there when another client set it); shown while `hands` is in the stack."""
-        with self._lock:
-            self._show_info(info)
-
-    def _show_info(self, info: dict) -> None:
+        there when another client set it); shown while `hands` is in the stack. One call at a
+        time (the app's `refresh_info`)."""
         hands = info.get("hands", [])
         shown = (info["robot"], tuple(hand["name"] for hand in hands))
         if shown != self._shown:
@@ -56,9 +48,8 @@ class HandGizmos:
 
     def show_ownership(self, acts: bool) -> None:
         """Shown only to the browser that holds control (outside a replay)."""
-        with self._lock:
-            self._acts = acts
-            self._show()
+        self._acts = acts
+        self._show()
 
     def _show(self) -> None:
         for handle in self.handles.values():
