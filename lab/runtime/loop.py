@@ -262,13 +262,15 @@ class SimLoop:
         message (in two steps, on two ticks: `Session.telemetry_in_two`) or a drawing state on
         its schedule, and publish it (encoding; the Zenoh put is the transport's thread's) on a
         later tick. Building and publishing on one tick made it 0.65-1.06 ms long at the median
-        in the server under load, and there were about as many overruns as such ticks. Jobs
+        in the server under load, and there were about as many overruns as such ticks. A
+        telemetry build runs on the tick it is due (its `loop.ticks` then steps evenly: in the
+        queue at 250 Hz two were built on one tick, then one 3 ticks late); the other jobs
         wait in order for a tick of their own (at most MAX_PENDING_JOBS; when a message is due
         every tick, all run at once). The statistics' percentiles take a tick with no job.
         Returns the tick's kind (TICK_KINDS)."""
         ticks = self.stats.ticks
-        if ticks % self._telemetry_every == 0:
-            self._jobs.append(self._build_telemetry)
+        if ticks % self._telemetry_every == 0:  # built on its own tick, ahead of the queue: a
+            self._jobs.appendleft(self._build_telemetry)  # queued build ran 0-4 ticks late
         if ticks >= self._state_due:
             self._jobs.append(self._build_state)
             self._state_due += self._state_every

@@ -454,6 +454,25 @@ def test_telemetry_and_state_keep_their_rates_and_rarely_share_a_tick(
         assert len(refreshes) == pytest.approx(ticks / STATS_INTERVAL_TICKS, abs=1)
 
 
+@pytest.mark.parametrize("rate", [200.0, 250.0, 500.0, 1000.0, 2000.0])
+def test_telemetry_is_built_every_nth_tick_exactly_at_any_rate(rate: float) -> None:
+    """A telemetry message's `loop.ticks` steps by the same count every message, from the first
+    one: at 250 Hz the queued builds ran 0, 3 or 4 ticks apart at first (the server test saw
+    it), and at 500 Hz 4 to 6 apart for good."""
+    ticks = 600
+    stop = threading.Event()
+    session = _CountingSession(ticks, stop)
+    messages = _Messages(session)
+    session.telemetry = lambda: messages.build("telemetry")
+    loop = SimLoop(session, _NoTransport(), LoopConfig(rate_hz=rate, fast=True))
+    loop.run(stop)
+    assert loop.error is None
+    every = max(1, math.floor(rate / LoopConfig().telemetry_hz))
+    built = [tick for kind, tick in messages.built if kind == "telemetry"]
+    assert len(built) >= ticks // every - 1
+    assert {b - a for a, b in itertools.pairwise(built)} == {every}
+
+
 def test_each_message_is_published_on_a_later_tick_than_it_was_built() -> None:
     """Building a message and publishing it took one tick 0.65-0.9 ms in the server under load:
     at 1 kHz the publish waits for a tick of its own, in order, and none is lost."""
