@@ -95,6 +95,11 @@ def main() -> int:
             while time.monotonic() < end:  # the velocity deadman wants a fresh command
                 client.command("velocity", vx=0.3)
                 page.wait_for_timeout(200)
+            # viser's toast that WebGL is software-rendered (headless Chromium has no GPU)
+            # would cover the 3D view: close it.
+            for close in page.locator(".mantine-Notification-closeButton").all():
+                close.click()
+            page.wait_for_timeout(500)
             page.screenshot(path=str(args.out))
             browser.close()
         print(f"wrote {args.out} (lab serve's log: {log})")
