@@ -13,7 +13,7 @@ last. Prints median, p99 and minimum of each in µs. Standing uses the robot's d
 `--cold` times each part the way the server's loop finds it instead: first after
 COLD_PERIODS periods of the loop (sleep ~0.8 ms, one session tick), with the caches as sleeping
 and the session tick left them; in the server the side jobs cost 3-5x their hot time
-(docs/performance.md, round 10).
+(`git show fe8d29c:docs/performance.md`, round 10).
 """
 
 import argparse

@@ -27,7 +27,8 @@ class LogHistogram:
     Both are C calls on a list, not Python arithmetic: a record is one `bisect` over the bin
     edges (the log, division and `min` it replaced cost ~1 µs a record, three records a tick), a
     percentile one `accumulate` and one `bisect` (a Python pass over the bins cost ~0.1 ms a
-    percentile in the server, six at every refresh: docs/performance.md, round 10)."""
+    percentile in the server, six at every refresh: `git show fe8d29c:docs/performance.md`,
+    round 10)."""
 
     LOW_S = 1e-7
     RATIO = 1.05

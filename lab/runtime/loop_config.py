@@ -22,7 +22,7 @@ class LoopConfig:
     # period instead gets the loop throttled by the kernel's realtime budget (50 ms stalls at
     # SCHED_FIFO), and at SCHED_OTHER every µs of spin is CPU time EEVDF charges the loop with.
     # 0.05 ms, busy, with the slice below: the best of the settings measured in round 9
-    # (docs/performance.md, "The 1 kHz loop on EEVDF").
+    # (docs/performance.md, "Why the loop is built this way").
     spin_s: float = 5e-5
     # Spin for a margin learned instead (lab/runtime/wake_margin.py: a high percentile of how
     # late the loop's own sleeps ended over the last 2 s); spin_s is then unused.

@@ -14,7 +14,7 @@ SCHED_CHOICES = ("auto", "fifo", "other")
 # `auto` takes SCHED_FIFO only with this many CPUs to run on. On a 2-core machine a 1 kHz FIFO
 # loop left the UI process and a local browser so little that a click took up to 4 s to reach
 # the sim (issue 16); with 4 or more, one core for the loop leaves enough for the rest. Round 8
-# measured FIFO on 2 cores again (docs/performance.md, "The 1 kHz loop: scheduling"): far more
+# measured FIFO on 2 cores again (docs/performance.md, "Why the loop is built this way"): far more
 # ticks on time than SCHED_OTHER under load and no 4 s clicks, but short of 99.9 %: kept for now.
 # Round 9 ("The 1 kHz loop on EEVDF"): with jobs split over ticks, FIFO 96.6-98.9 % against
 # SCHED_OTHER's 95-97 % at low load; its starvation not measured again: still kept.

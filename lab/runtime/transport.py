@@ -112,10 +112,11 @@ class PutThread:
     A put costs the caller 30 µs at the median and up to ~0.15 ms on a busy 2-core machine
     (it wakes Zenoh's sending thread), on the realtime loop's tick that publishes. zenoh-python's
     `put` releases the GIL, so on this thread it runs while the loop sleeps or on the other
-    core; the loop only hands over the encoded bytes (docs/performance.md, round 10). A put that
-    fails here is raised to the caller's next `put`. With PUBLISH_BACKLOG messages waiting (the
-    thread starved for ~0.4 s at the loop's rates) the caller puts itself: nothing is dropped,
-    nothing piles up, but that message may then arrive before older ones still waiting."""
+    core; the loop only hands over the encoded bytes (docs/performance.md, "Why the loop is built
+    this way"). A put that fails here is raised to the caller's next `put`. With PUBLISH_BACKLOG
+    messages waiting (the thread starved for ~0.4 s at the loop's rates) the caller puts itself:
+    nothing is dropped, nothing piles up, but that message may then arrive before older ones still
+    waiting."""
 
     def __init__(self) -> None:
         self._queue: queue.SimpleQueue[tuple[zenoh.Publisher, bytes] | None] = queue.SimpleQueue()

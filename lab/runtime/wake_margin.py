@@ -24,7 +24,8 @@ MIN_SAMPLES = 200  # with fewer sleeps in the window, the initial margin
 MIN_MARGIN_S = 2e-5  # never ask to be woken closer to the deadline than this
 # Nor further than this share of the period: on a host whose tail of wake-ups is that slow (a
 # loaded one: p99.5 beyond 1 ms at load 12 on 2 cores) a longer spin is CPU time EEVDF charges
-# the loop with, and it was late more often, not less (docs/performance.md, issue 31).
+# the loop with, and it was late more often, not less (docs/performance.md, "Why the loop is
+# built this way").
 MAX_MARGIN_SHARE = 0.5
 NO_SLEEP = -1  # in the window: a tick that did not sleep
 INITIAL_MARGIN_S = 3e-4  # while the window holds fewer than MIN_SAMPLES sleeps

@@ -230,9 +230,9 @@ def telemetry_message(session: SessionView) -> dict:
 
 def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
     """The telemetry message in two steps, for two ticks of the realtime loop (one costs up to
-    ~0.3 ms in the server, its caches cold: docs/performance.md, round 10): the message of
-    this tick with None for the parts that read no state the next tick overwrites, and
-    `finish`, which fills them in later: the stack's tasks with this tick's errors, this tick's
+    ~0.3 ms in the server, its caches cold: docs/performance.md, "Why the loop is built this way"):
+    the message of this tick with None for the parts that read no state the next tick overwrites,
+    and `finish`, which fills them in later: the stack's tasks with this tick's errors, this tick's
     solution summary, and the controller's configuration (stack, method, momentum mode, kernel
     note; as of `finish` when a command changed them in between). `ran` (kernel, method, solver,
     formulation, the kernel that ran the behaviour's update — native, python or none — and the

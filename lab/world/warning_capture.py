@@ -2,10 +2,10 @@
 
 The same as `warnings.catch_warnings(record=True)` with `warnings.simplefilter("always")`
 inside, which the session entered every tick: on this project's machines that pair cost
-~10-25 µs per tick (docs/performance.md, round 8), more than the native controller's Python
-around the kernel. This one swaps the warnings module's filters and hooks for a prepared
-"always" filter and a list, and puts them back on exit: ~1 µs. Where the warnings module lacks
-the hooks it swaps (a Python whose warnings module works differently), it falls back to
+~10-25 µs per tick (`git show fe8d29c:docs/performance.md`, round 8), more than the native
+controller's Python around the kernel. This one swaps the warnings module's filters and hooks for a
+prepared "always" filter and a list, and puts them back on exit: ~1 µs. Where the warnings module
+lacks the hooks it swaps (a Python whose warnings module works differently), it falls back to
 `catch_warnings`. Neither is thread-safe: like `catch_warnings`, it changes process-wide state
 while the block runs.
 
