@@ -96,6 +96,9 @@ def measure(lab: LabClient, pid: int, seconds: float) -> dict:
         "tick_us": last["tick_us"],
         "rss_mb": {"start": round(rss_before, 1), "end": round(samples[-1], 1)},
         "rss_max_mb": round(max(samples), 1),
+        # the RSS at each tenth of the phase: a flood's first seconds fill Zenoh's buffers, so
+        # growth over the phase reads from the first tenth on
+        "rss_mb_by_tenth": [round(samples[len(samples) * k // 10], 1) for k in range(10)],
     }
 
 
