@@ -353,14 +353,14 @@ class Session:
         if self.paused:
             return
         self._expire_pushes()
-        controller, behaviour = self.controller, self.behaviour
+        controller, behaviour, native_tick = self.controller, self.behaviour, self.native_tick
         # An idle behaviour's update changes nothing (Balance off a foot line): the model update
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
         idle = behaviour.idle and not controller.reads_sensing
         if not self.native_ticks:
             self.tick_note = "native ticks are off (Session.native_ticks)"
         else:
-            self.tick_note = self.native_tick.note(behaviour, idle, self.fell, self.realism)
+            self.tick_note = native_tick.note(behaviour, idle, self.fell, self.realism)
         native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
             if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
@@ -368,10 +368,8 @@ class Session:
                     self.plant.check()  # raises, naming the cause, as the Python step does
                 native = True
                 # what the native tick read and applied, through the realism layer if on
-                self._true_state = self.native_tick.true_state
-                self.applied_tau = (
-                    self.tau if self.realism.ideal else self.native_tick.applied_torques()
-                )
+                self._true_state = native_tick.true_state
+                self.applied_tau = self.tau if self.realism.ideal else native_tick.applied_torques()
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
                     self.plant.check()  # a state set from outside (fault injection) first
@@ -389,7 +387,7 @@ class Session:
         if (
             self.ticks % FALL_CHECK_PERIOD == 0
             and not self.fell
-            and self._fallen(self.native_tick.non_foot_contact if native else None)
+            and self._fallen(native_tick.non_foot_contact if native else None)
         ):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
