@@ -280,3 +280,24 @@ def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeyp
         session.tick()
     assert session.qp_ok and session.tick_report()["tick"] == "native"
     assert abs(session.model.q[2] - session.robot.q_standing[2]) < 0.02
+
+
+def test_a_realism_layer_in_python_runs_the_python_tick_and_says_why() -> None:
+    """`typical` runs native (its C++ layer inside the crossing); the touch estimate from
+    torques and the Python layer swapped in each run the Python tick, and `ran` names why."""
+    knobs = preset("typical", "anymal")
+    session = Session(SessionConfig(robot="anymal", realism=knobs))
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    assert session.handle("realism", {"contact_estimate": 1})["ok"]
+    session.tick()
+    ran = session.telemetry()["ran"]
+    assert ran["tick"] == "python" and "contact_estimate" in ran["tick_note"]
+    assert session.handle("realism", {"contact_estimate": 0})["ok"]
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    session.realism = RealismLayer(knobs, session.model.na, session.config.timestep)
+    session.realism.reset(session.plant.state()[0])
+    session.tick()
+    ran = session.telemetry()["ran"]
+    assert ran["tick"] == "python" and "Python one" in ran["tick_note"]
