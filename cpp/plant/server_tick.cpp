@@ -1,9 +1,12 @@
 // lab::ServerTick: the session's tick (lab/world/session.py Session.tick and _control, in their
 // order) in one call on the plant's MjModel / MjData (plant/mujoco_step.hpp), the native kernel
-// (controller.hpp) and the behaviour's native tick (behaviours/native_behaviour.hpp): the state
-// check, the state, the sensing (touch, and the feet's forces when a task reads them), the model
-// update, the behaviour, the references, the solve, the torques into ctrl, mj_step, the check
-// after it and the fall check's contact test. What telemetry and the drawing state read goes into
+// (controller.hpp), the behaviour's native tick (behaviours/native_behaviour.hpp) and the realism
+// layer (realism/layer.hpp) when it is not ideal: the state check, the true state, its
+// measurement through the layer (Session._measure), the sensing (touch, and the feet's forces
+// when a task reads them: the truth, as the Python tick's), the model update at the measured
+// state, the behaviour, the references, the solve, the torques through the layer's delay and
+// actuator (Session._actuated) into ctrl, mj_step, the check after it and the fall check's
+// contact test. What telemetry and the drawing state read goes into
 // preallocated arrays (`buffers`); what went wrong comes back as a status code, which
 // lab/world/native_tick.py turns into the Python path's exceptions (the same events). Compiled
 // into lab._kernel when MuJoCo's headers and libmujoco are found (CMakeLists.txt): one module
@@ -16,10 +19,12 @@
 
 #include <chrono>
 #include <cstdint>
+#include <tuple>
 #include <vector>
 
 #include "behaviours/native_behaviour.hpp"
 #include "plant/mujoco_step.hpp"
+#include "realism/layer.hpp"
 #include "tick_outcome.hpp"
 
 namespace nb = nanobind;
@@ -67,6 +72,7 @@ class ServerTick {
     q_.resize(robot.nq);
     v_.resize(robot.nv);
     tau_.setZero(robot.na);
+    applied_.setZero(robot.na);
     x_.setZero(robot.nx);
     foot_forces_.setZero(3 * n_feet);
     normal_forces_.setZero(n_feet);
@@ -74,11 +80,12 @@ class ServerTick {
   }
 
   /// One server tick (module comment); `behaviour` is null for an idle behaviour (its update
-  /// changes nothing: no touch sensing either). Returns (status, the controller's TickOutcome or
-  /// None when it did not run).
+  /// changes nothing: no touch sensing either), `layer` null for an ideal realism layer (the
+  /// controller reads the truth, the plant applies its torques). Returns (status, the
+  /// controller's TickOutcome or None when it did not run).
   nb::tuple tick(nb::handle refs, nb::handle robot, nb::handle owner, TickedBehaviour* behaviour,
                  bool reload, const InVector& command, const InVector& applied_torques,
-                 double touch_force, bool sensing) {
+                 double touch_force, bool sensing, realism::Layer* layer) {
     if (command.shape(0) != 3 || applied_torques.shape(0) != static_cast<std::size_t>(tau_.size()))
       throw std::invalid_argument("ServerTick.tick: command needs 3 entries, applied_torques na");
     const auto start = Clock::now();
@@ -88,9 +95,14 @@ class ServerTick {
     valid_time_ = plant_.check();  // a state set from outside (fault injection) before control
     if (valid_time_ < 0.0) return nb::make_tuple(static_cast<int>(kDivergedBefore), nb::none());
     tick_time_ = valid_time_;
-    plant_.state(q_.data(), v_.data());
-    kernel_.update(q_, v_);  // fills the Python model's arrays too (Kernel::on_update)
-    if (sensing) {           // measured only for a task that reads it (Kim eq. 12)
+    plant_.state(q_.data(), v_.data());  // the truth: touch, fall check and actuators read it
+    if (layer != nullptr) {              // the controller reads the measured state
+      std::tie(qm_, vm_) = layer->measure(q_, v_);
+      kernel_.update(qm_, vm_);  // fills the Python model's arrays too (Kernel::on_update)
+    } else {
+      kernel_.update(q_, v_);
+    }
+    if (sensing) {  // measured only for a task that reads it (Kim eq. 12)
       plant_.foot_forces(foot_forces_.data());
       kernel_.set_sensing(foot_forces_,
                           Eigen::Map<const Eigen::VectorXd>(applied_torques.data(), tau_.size()));
@@ -110,7 +122,13 @@ class ServerTick {
     if (!outcome.ok) return nb::make_tuple(static_cast<int>(kControlFailed), std::move(outcome));
     tau_ = result.tau;
     x_ = result.solution.x;
-    plant_.set_torques(tau_.data());
+    if (layer != nullptr) {  // the command delay and the actuator; copied, not moved: the
+      const Eigen::VectorXd applied = layer->actuate(tau_, q_, v_);  // buffers view applied_
+      applied_ = applied;
+    } else {
+      applied_ = tau_;
+    }
+    plant_.set_torques(applied_.data());
     const double after = plant_.step();
     if (after < 0.0) return nb::make_tuple(static_cast<int>(kDivergedAfter), std::move(outcome));
     valid_time_ = after;
@@ -119,8 +137,9 @@ class ServerTick {
     return nb::make_tuple(static_cast<int>(kStepped), std::move(outcome));
   }
 
-  /// Views of the arrays the tick writes: q and v (the state it controlled), tau and x (the
-  /// applied torques and [q̈, F] when the controller succeeded), foot_forces (n x 3, when sensed),
+  /// Views of the arrays the tick writes: q and v (the plant's true state before the step), tau
+  /// and x (the controller's torques and [q̈, F] when it succeeded), applied (the torques the
+  /// plant applied: tau through the realism layer), foot_forces (n x 3, when sensed),
   /// normal_forces and touching (when the behaviour ran).
   nb::dict buffers() {
     nb::handle self = nb::find(this);
@@ -129,6 +148,7 @@ class ServerTick {
     out["v"] = view(self, v_.data(), {static_cast<std::size_t>(v_.size())});
     out["tau"] = view(self, tau_.data(), {static_cast<std::size_t>(tau_.size())});
     out["x"] = view(self, x_.data(), {static_cast<std::size_t>(x_.size())});
+    out["applied"] = view(self, applied_.data(), {static_cast<std::size_t>(applied_.size())});
     out["foot_forces"] =
         view(self, foot_forces_.data(), {static_cast<std::size_t>(foot_forces_.size() / 3), 3});
     out["normal_forces"] =
@@ -152,7 +172,7 @@ class ServerTick {
   nb::object kernel_object_, model_object_, data_object_;  // keep them alive
   Kernel& kernel_;
   MujocoStep plant_;
-  Eigen::VectorXd q_, v_, tau_, x_, foot_forces_, normal_forces_;
+  Eigen::VectorXd q_, v_, qm_, vm_, tau_, applied_, x_, foot_forces_, normal_forces_;
   std::vector<char> touching_;  // bools: std::vector<bool> has no data()
   double valid_time_ = 0.0, tick_time_ = 0.0, control_seconds_ = 0.0, call_seconds_ = 0.0;
   bool behaviour_ran_ = false, non_foot_contact_ = false;
@@ -170,10 +190,13 @@ void bind_server_tick(nb::module_& m) {
            "On a Kernel and the plant's MjModel and MjData, with PlantStep's indices.")
       .def("tick", &ServerTick::tick, "refs"_a, "robot"_a, "owner"_a, "behaviour"_a.none(),
            "reload"_a, "command"_a, "applied_torques"_a, "touch_force"_a, "sensing"_a,
+           "realism"_a.none(),
            "One server tick: (status, TickOutcome or None); status 0 stepped, 1 diverged "
-           "before control, 2 the controller failed (nothing applied), 3 diverged after the step.")
+           "before control, 2 the controller failed (nothing applied), 3 diverged after the step. "
+           "`realism`: a RealismLayer between plant and controller, None when ideal.")
       .def("buffers", &ServerTick::buffers,
-           "Views of the arrays each tick writes (q, v, tau, x, foot_forces, normal_forces).")
+           "Views of the arrays each tick writes (q, v, tau, applied, x, foot_forces, "
+           "normal_forces).")
       .def_prop_ro("valid_time", &ServerTick::valid_time,
                    "The sim time of the last state found valid (s).")
       .def_prop_ro("tick_time", &ServerTick::tick_time,

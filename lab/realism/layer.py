@@ -110,14 +110,15 @@ class NativeRealismLayer:
 
     def __init__(self, knobs: RealismKnobs, na: int, dt: float) -> None:
         self.knobs, self.na = knobs, na
-        self._layer = _kernel.RealismLayer(knobs.values(), na, dt)
-        self.ideal = self._layer.ideal
-        self.measure = self._layer.measure  # (q, v) -> (q, v) measured
-        self.actuate = self._layer.actuate  # (command, q, v) -> joint torques
+        # the C++ layer itself: the session's native tick drives it (lab/world/native_tick.py)
+        self.native = _kernel.RealismLayer(knobs.values(), na, dt)
+        self.ideal = self.native.ideal
+        self.measure = self.native.measure  # (q, v) -> (q, v) measured
+        self.actuate = self.native.actuate  # (command, q, v) -> joint torques
 
     def reset(self, q: np.ndarray, tau: np.ndarray | None = None) -> None:
         """A new run from configuration `q` at rest, the actuators carrying `tau` (N m)."""
-        self._layer.reset(q, np.zeros(self.na) if tau is None else tau)
+        self.native.reset(q, np.zeros(self.na) if tau is None else tau)
 
 
 def realism_layer(

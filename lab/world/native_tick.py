@@ -1,10 +1,12 @@
 """NativeTick: the session's tick in one crossing (`lab._kernel.ServerTick`, server_tick.cpp).
 
-The Python tick (`Session.tick`, `_control`) crosses into C++ eight to ten times a tick: the
-plant's check, state, touch sensing, the kernel's update, the behaviour's native tick, the solve,
-the torques and the step. `ServerTick.tick` (cpp/plant/server_tick.cpp) does them all in that
-order in one call, on the plant's MjModel and MjData, the controller's native kernel and the
-behaviour's native twin (`NativeTwin`), and reports a status code; this module decides when it
+The Python tick (`Session.tick`, `_control`) crosses into C++ eight to twelve times a tick: the
+plant's check, state, the realism layer's measurement, touch sensing, the kernel's update, the
+behaviour's native tick, the solve, the layer's actuators, the torques and the step.
+`ServerTick.tick` (cpp/plant/server_tick.cpp) does them all in that order in one call, on the
+plant's MjModel and MjData, the controller's native kernel, the behaviour's native twin
+(`NativeTwin`) and the session's C++ realism layer (`NativeRealismLayer`, when not ideal), and
+reports a status code; this module decides when it
 can run (`note`) and turns its outcome into what the Python tick leaves behind: the session's τ,
 F and output, the plant's bookkeeping, and on a fault the same exceptions (`SimulationDiverged`
 from the plant's own check, `QPFailure` from the controller), so the session raises the same
@@ -20,6 +22,7 @@ from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.native import NativeTwin
 from lab.controller.controller import ControlOutput
 from lab.controller.native import NativeController
+from lab.realism.layer import NativeRealismLayer, RealismLayer
 from lab.world.plant import MujocoPlant
 
 try:
@@ -52,15 +55,27 @@ class NativeTick:
             else None
         )
         self.buffers = {} if self._tick is None else self._tick.buffers()
+        # the plant's true state before the last tick's step (views: valid until the next tick)
+        self.true_state = (self.buffers["q"], self.buffers["v"]) if self.buffers else None
 
-    def note(self, behaviour: Behaviour, idle: bool, fell: bool) -> str:
+    def note(
+        self,
+        behaviour: Behaviour,
+        idle: bool,
+        fell: bool,
+        realism: RealismLayer | NativeRealismLayer,
+    ) -> str:
         """Why the next tick runs in Python ('' when it can run here): not built, a fallen robot
-        (torques off), what the plant's step does in Python, the controller, or a behaviour
-        without a native twin."""
+        (torques off), the realism layer's Python parts, what the plant's step does in Python,
+        the controller, or a behaviour without a native twin."""
         if self._tick is None:
             return NOT_BUILT or "the plant or the controller has no native part"
         if fell:
             return "the robot fell: torques off until reset"
+        if realism.knobs.contact_estimate:
+            return "the touch estimate from torques (contact_estimate) runs in Python (realism.md)"
+        if not realism.ideal and not isinstance(realism, NativeRealismLayer):
+            return "the realism layer is the Python one (realism.md)"
         if note := self.plant.native_step_note or self.controller.server_tick_note:
             return note
         if idle:
@@ -76,8 +91,10 @@ class NativeTick:
         command: np.ndarray,
         applied: np.ndarray,
         touch_force: float,
+        realism: RealismLayer | NativeRealismLayer,
     ) -> tuple[TickStatus, ControlOutput]:
-        """One tick (`note` said it can run): the status (STEPPED, or DIVERGED_AFTER: the
+        """One tick (`note` said it can run), its state measured and its torques applied
+        through `realism` unless that is ideal: the status (STEPPED, or DIVERGED_AFTER: the
         caller's `plant.check()` then raises, as the Python tick's step does, after the tick's
         bookkeeping) and the controller's output. Raises `SimulationDiverged` when the state was
         not valid before control (the plant's check names why) and the controller's QPFailure
@@ -86,6 +103,12 @@ class NativeTick:
         twin = None if idle or not isinstance(behaviour, NativeTwin) else behaviour.native_twin()
         stale = twin is not None and behaviour.native_stale
         sensing = controller.reads_sensing
+        # the C++ layer between plant and controller (`note` keeps a Python one off this path)
+        layer = (
+            realism.native
+            if isinstance(realism, NativeRealismLayer) and not realism.ideal
+            else None
+        )
         controller.prepare_native_tick()
         try:
             status, outcome = tick.tick(
@@ -98,6 +121,7 @@ class NativeTick:
                 applied,
                 touch_force,
                 sensing,
+                layer,
             )
         finally:
             if twin is not None and tick.behaviour_ran:
@@ -112,6 +136,11 @@ class NativeTick:
         plant.stepped_elsewhere(tick.valid_time, status is not TickStatus.CONTROL_FAILED)
         output = controller.finish_native_tick(outcome, self.buffers["tau"], self.buffers["x"])
         return status, output
+
+    def applied_torques(self) -> np.ndarray:
+        """The joint torques (N m) the plant applied in the last tick that stepped: the
+        controller's through the realism layer (a copy)."""
+        return self.buffers["applied"].copy()
 
     @property
     def non_foot_contact(self) -> bool:

@@ -353,24 +353,23 @@ class Session:
         if self.paused:
             return
         self._expire_pushes()
-        controller, behaviour = self.controller, self.behaviour
+        controller, behaviour, native_tick = self.controller, self.behaviour, self.native_tick
         # An idle behaviour's update changes nothing (Balance off a foot line): the model update
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
         idle = behaviour.idle and not controller.reads_sensing
         if not self.native_ticks:
             self.tick_note = "native ticks are off (Session.native_ticks)"
-        elif not self.fell and (not self.realism.ideal or self.realism.knobs.contact_estimate):
-            # the realism seams and the touch estimate are on the Python path (realism.md)
-            self.tick_note = "the realism layer runs between plant and controller (realism.md)"
         else:
-            self.tick_note = self.native_tick.note(behaviour, idle, self.fell)
+            self.tick_note = native_tick.note(behaviour, idle, self.fell, self.realism)
         native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
             if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
                 if stepped is TickStatus.DIVERGED_AFTER:
                     self.plant.check()  # raises, naming the cause, as the Python step does
                 native = True
-                self.applied_tau = self.tau  # the native tick applied them (realism ideal)
+                # what the native tick read and applied, through the realism layer if on
+                self._true_state = native_tick.true_state
+                self.applied_tau = self.tau if self.realism.ideal else native_tick.applied_torques()
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
                     self.plant.check()  # a state set from outside (fault injection) first
@@ -388,7 +387,7 @@ class Session:
         if (
             self.ticks % FALL_CHECK_PERIOD == 0
             and not self.fell
-            and self._fallen(self.native_tick.non_foot_contact if native else None)
+            and self._fallen(native_tick.non_foot_contact if native else None)
         ):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
@@ -437,7 +436,7 @@ class Session:
             try:
                 if native:
                     stepped, out = self.native_tick.run(
-                        behaviour, idle, self.velocity, self.tau, TOUCH_FORCE
+                        behaviour, idle, self.velocity, self.tau, TOUCH_FORCE, self.realism
                     )
                 else:
                     q, v = self._measure()
@@ -473,7 +472,7 @@ class Session:
                 raise
             except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
                 if native:  # the native tick did not step: the plant is at this tick's state
-                    q, v = self.plant.state()
+                    q, v = self._true_state = self.plant.state()  # _actuated reads it too
                 self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
                 self.qp_ok, self._output = False, None
                 self.qp_failures += 1

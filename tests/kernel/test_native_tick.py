@@ -1,6 +1,7 @@
 """The server's native tick (lab/world/native_tick.py, cpp/plant/server_tick.cpp) against the
 Python tick, the reference: from the same state, tick by tick, the same torques, planned forces
-and next state; the same events from the same faults; and the tick path reported."""
+and next state, with the realism layer ideal and with every knob on; the same events from the
+same faults; and the tick path reported."""
 
 import math
 
@@ -8,6 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
+from lab.realism.knobs import RealismKnobs, knobs_from, preset
+from lab.realism.layer import RealismLayer
 from lab.world.native_tick import HAS_SERVER_TICK
 from lab.world.session import FALL_CHECK_PERIOD, Session, SessionConfig
 
@@ -16,12 +19,16 @@ pytestmark = pytest.mark.skipif(not HAS_SERVER_TICK, reason="lab._kernel has no 
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # qpos, qvel, act, warm start, ctrl, time, forces
 
 
-def pair(config: SessionConfig, gait: str | None, command: dict | None) -> tuple[Session, Session]:
-    """Two sessions of `config` walking `gait` under velocity `command`: one on native ticks,
-    one on Python ticks."""
+def pair(
+    config: SessionConfig, gait: str | None, command: dict | None, payload: dict | None = None
+) -> tuple[Session, Session]:
+    """Two sessions of `config` walking `gait` under velocity `command` (carrying `payload` if
+    given): one on native ticks, one on Python ticks."""
     sessions = Session(config), Session(config)
     sessions[1].native_ticks = False
     for session in sessions:
+        if payload is not None:
+            assert session.handle("payload", payload)["ok"]
         if gait is not None:
             assert session.handle("gait", {"name": gait})["ok"]
         if command is not None:
@@ -43,7 +50,7 @@ def agreement(native: Session, python: Session, ticks: int) -> dict[str, float]:
     differences of τ, planned F and the next (qpos, qvel) over `ticks` ticks, each relative to
     its scale, and `lifted`, the ticks with a foot out of contact; asserts each tick ran the
     path it should."""
-    worst = dict.fromkeys(("tau", "forces", "qpos", "qvel", "lifted"), 0.0)
+    worst = dict.fromkeys(("tau", "applied", "forces", "qpos", "qvel", "lifted"), 0.0)
     for _ in range(ticks):
         copy_physics(native, python)
         native.tick()
@@ -52,6 +59,7 @@ def agreement(native: Session, python: Session, ticks: int) -> dict[str, float]:
         assert python.tick_report()["tick"] == "python"
         pairs = {
             "tau": (native.tau, python.tau),
+            "applied": (native.applied_tau, python.applied_tau),
             "forces": (native.forces, python.forces),
             "qpos": (native.plant.mj_data.qpos, python.plant.mj_data.qpos),
             "qvel": (native.plant.mj_data.qvel, python.plant.mj_data.qvel),
@@ -86,6 +94,66 @@ def test_the_native_tick_agrees_with_the_python_tick(robot, gait, command) -> No
     assert not native.fell and native.qp_ok
     if gait is not None:  # feet really swung on the native ticks compared
         assert worst["lifted"] > 50, worst
+
+
+def every_knob(robot: str) -> RealismKnobs:
+    """`harsh` for `robot` with the series elastic actuator: every sensor, delay, actuator,
+    drive-limit and model-error knob on (the contact estimate aside: it runs in Python)."""
+    sea = {"actuator": "sea", "sea_stiffness": 200.0, "sea_motor_inertia": 0.05}
+    return knobs_from(preset("harsh", robot), {**sea, "sea_kp": 1800.0, "sea_kd": 10.0})
+
+
+@pytest.mark.parametrize(
+    ("robot", "knobs", "gait", "command"),
+    [
+        ("anymal", every_knob("anymal"), None, None),
+        ("anymal", preset("typical", "anymal"), "trot", {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0}),
+        ("bolt", preset("typical", "bolt"), "biped_step", {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}),
+    ],
+    ids=["anymal-every-knob", "anymal-trot-typical", "bolt-step-typical"],
+)
+def test_the_native_tick_with_realism_agrees_with_the_python_tick(
+    robot, knobs, gait, command
+) -> None:
+    """With the realism layer on (same seed; a 2 kg payload on the base as well), the native
+    tick, which calls the C++ layer inside its one crossing, gives the Python tick's τ, applied
+    torques, F and next state, tick by tick, to 1e-12 of their scale: the Python tick calls the
+    same C++ layer from Python, so the two differ only in the path."""
+    base = {"body": "base", "mass": 2.0, "offset": [0.0, 0.0, 0.05]}
+    payload = base if robot == "anymal" else None
+    native, python = pair(SessionConfig(robot=robot, realism=knobs), gait, command, payload)
+    for _ in range(200):
+        copy_physics(native, python)
+        native.tick()
+        python.tick()
+    assert native.realism.kernel == "native" and not native.realism.ideal
+    worst = agreement(native, python, 300)
+    assert max(worst[name] for name in ("tau", "applied", "forces", "qpos", "qvel")) < 1e-12
+    assert not native.fell and native.qp_ok
+    # the layer acted: the applied torques are not the commanded ones
+    assert np.max(np.abs(native.applied_tau - native.tau)) > 1e-3
+    if gait is not None:
+        assert worst["lifted"] > 50, worst
+
+
+def test_the_native_tick_with_realism_agrees_with_the_python_layer() -> None:
+    """The full reference: the Python tick with the Python realism layer (lab/realism/layer.py)
+    against the native tick with the C++ one, ANYmal trotting under `typical` (SEA drives,
+    every sensor knob, delays, friction, model error): each tick from the same state gives the
+    same τ, F and next state to 1e-9 of their scale (the layers agree to 1e-12; a 17-bit
+    encoder's rounding could amplify that, but only at a grid boundary)."""
+    knobs = preset("typical", "anymal")
+    trot = {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0}
+    native, python = pair(SessionConfig(robot="anymal", realism=knobs), "trot", trot)
+    python.realism = RealismLayer(knobs, python.model.na, python.config.timestep)
+    python.realism.reset(python.robot.q_standing)
+    for _ in range(100):
+        copy_physics(native, python)
+        native.tick()
+        python.tick()
+    worst = agreement(native, python, 200)
+    assert max(worst[name] for name in ("tau", "applied", "forces", "qpos", "qvel")) < 1e-9
+    assert not native.fell and native.qp_ok
 
 
 @pytest.mark.parametrize(
@@ -212,3 +280,24 @@ def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeyp
         session.tick()
     assert session.qp_ok and session.tick_report()["tick"] == "native"
     assert abs(session.model.q[2] - session.robot.q_standing[2]) < 0.02
+
+
+def test_a_realism_layer_in_python_runs_the_python_tick_and_says_why() -> None:
+    """`typical` runs native (its C++ layer inside the crossing); the touch estimate from
+    torques and the Python layer swapped in each run the Python tick, and `ran` names why."""
+    knobs = preset("typical", "anymal")
+    session = Session(SessionConfig(robot="anymal", realism=knobs))
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    assert session.handle("realism", {"contact_estimate": 1})["ok"]
+    session.tick()
+    ran = session.telemetry()["ran"]
+    assert ran["tick"] == "python" and "contact_estimate" in ran["tick_note"]
+    assert session.handle("realism", {"contact_estimate": 0})["ok"]
+    session.tick()
+    assert session.telemetry()["ran"]["tick"] == "native"
+    session.realism = RealismLayer(knobs, session.model.na, session.config.timestep)
+    session.realism.reset(session.plant.state()[0])
+    session.tick()
+    ran = session.telemetry()["ran"]
+    assert ran["tick"] == "python" and "Python one" in ran["tick_note"]
