@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from lab.world.native_tick import HAS_SERVER_TICK
-from lab.world.session import FALL_CHECK_PERIOD, Session, SessionConfig
+from lab.world.session import Session, SessionConfig
+from lab.world.session_tick import FALL_CHECK_PERIOD
 
 pytestmark = pytest.mark.skipif(not HAS_SERVER_TICK, reason="lab._kernel has no ServerTick")
 
