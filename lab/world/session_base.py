@@ -5,24 +5,20 @@ events. The tick (session_tick.py), the commands (session_commands.py) and the r
 """
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from lab import protocol as cmd
-from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
+from lab.controller.behaviours import BEHAVIOURS, Balance
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.controller import ControlOutput, Ran
 from lab.controller.hand_targets import HandTargets
-from lab.controller.model import RobotModel
 from lab.controller.momentum import GainFuture, LqrProblem
-from lab.controller.native import NativeController
 from lab.controller.stack import Stack
 from lab.realism.knobs import PRESET_NAMES as REALISM_PRESETS
 from lab.realism.knobs import preset
-from lab.robot import FramePlacements, Robot
 from lab.stack_presets import load_stack_preset
-from lab.world.plant import MujocoPlant
 from lab.world.session_parts import SessionConfig, SessionParts, build_parts
 from lab.world.telemetry import hierarchy_report
 from lab.world.warning_capture import WarningCapture
@@ -62,26 +58,17 @@ class Push:
     ends_at: float
 
 
-class SessionBase:
-    """A session's parts and the state of its run (module docstring); `Session` is the
-    whole. `gain_designer`, when given (`lab serve`: a worker process, gain_designer.py),
-    designs the momentum task's LQR gains off the loop; headless sessions design them at
-    once."""
-
-    # The parts a robot and scene make (SessionParts), swapped in together by `_install`.
-    config: SessionConfig
-    robot: Robot
-    plant: MujocoPlant
-    model: RobotModel
-    controller: NativeController
-    frame_placements: FramePlacements
+class SessionBase(SessionParts):
+    """A session's parts (SessionParts, which declares them: swapped in together by
+    `install`) and the state of its run (module docstring); `Session` is the whole.
+    `gain_designer`, when given (`lab serve`: a worker process, gain_designer.py), designs the
+    momentum task's LQR gains off the loop; headless sessions design them at once."""
 
     def __init__(
         self,
         config: SessionConfig | None = None,
         gain_designer: Callable[[LqrProblem], GainFuture] | None = None,
     ) -> None:
-        self.config = config or SessionConfig()
         self._gain_designer = gain_designer
         self._events: list[dict] = []
         self.divergences = 0  # sim divergences since the session started
@@ -94,24 +81,22 @@ class SessionBase:
         # False: every tick runs the Python path (the reference the native tick is held to)
         self.native_ticks = True
         self.tick_note = ""  # why the last tick ran the Python path ('' when it ran native)
-        self.behaviour: Behaviour | None = None  # set by _build, replaced by the gait command
-        self._install(build_parts(self.config))  # raises on bad names
+        self._install(build_parts(config or SessionConfig()))  # raises on bad names
 
     # ----------------------------------------------------------------------------- set-up
-    def _install(self, parts: SessionParts) -> SessionParts:
-        """Replace the running session's parts by `parts` (the robot standing, nothing
-        commanded); the old parts, for the caller to drop where it likes (a thread beside the
-        loop frees them there, lab/runtime/switch.py)."""
-        old = SessionParts(
-            *(getattr(self, name, None) for name in SessionParts.__dataclass_fields__)
-        )
-        for name in SessionParts.__dataclass_fields__:
-            setattr(self, name, getattr(parts, name))
+    def _install(self, parts: SessionParts) -> None:
+        """Take `parts` as the session's (the robot standing, nothing commanded)."""
+        for part in fields(SessionParts):  # a copy, field by field
+            setattr(self, part.name, getattr(parts, part.name))
         self.controller.set_momentum_designer(self._gain_designer)
-        self._output = None
         self._gait_stack: list[list[str]] | None = None  # the levels a gait brought along
         self._reset_state()
-        return old
+
+    def parts(self) -> SessionParts:
+        """The parts running now, apart from the session: what `install` hands back."""
+        return SessionParts(
+            **{part.name: getattr(self, part.name) for part in fields(SessionParts)}
+        )
 
     def switch_config(self, command: cmd.RobotCommand | cmd.SceneCommand) -> SessionConfig:
         """The configuration a `robot` or `scene` command asks for: the live one (the
@@ -126,8 +111,11 @@ class SessionBase:
         return replace(self._live_config(), scene=command.name)
 
     def install(self, parts: SessionParts) -> SessionParts:
-        """Swap in parts built beside the loop for a switch (`build_parts`); the old parts."""
-        old = self._install(parts)
+        """Swap in parts built beside the loop for a switch (`build_parts`); the old parts, for
+        the caller to drop where it likes (a thread beside the loop frees them there,
+        lab/runtime/switch.py)."""
+        old = self.parts()
+        self._install(parts)
         self._event("session_rebuilt", f"robot {self.config.robot} in scene {self.config.scene}")
         return old
 
@@ -177,8 +165,7 @@ class SessionBase:
             options = {"footholds": footholds, **(options or {})}
         if options:
             behaviour.configure(**options)
-        if self.behaviour is not None:
-            behaviour.continue_from(self.behaviour)
+        behaviour.continue_from(self.behaviour)
         walking_stack = behaviour.lifts_feet and (
             "swing_feet" not in self.controller.config.stack.names()
         )

@@ -133,11 +133,11 @@ class SessionCommands(SessionTick):
                 }
                 return self._set_behaviour(name, options)
             case cmd.InternalForceCommand(reference=reference, source=source):
-                task = self.controller.internal_force
+                internal = self.controller.internal_force
                 if source is not None:
-                    task.set_source(source)  # ValueError names the sources, changes nothing
+                    internal.set_source(source)  # ValueError names the sources, changes nothing
                 if reference is not None:
-                    task.reference = reference
+                    internal.reference = reference
                 return {"internal_force": internal_force_report(self.controller)}
             case cmd.MomentumCommand(mode=mode):
                 self.controller.set_momentum_mode(mode)  # ValueError names the modes
@@ -184,21 +184,22 @@ class SessionCommands(SessionTick):
         if len(contacts) != 2 or any(contact.kind != "flat" for contact in contacts):
             raise ValueError(f"stance: robot {self.config.robot!r} is not a biped with flat soles")
         reply: dict = {}
-        if not isinstance(self.behaviour, Stance):
+        stance = self.behaviour
+        if not isinstance(stance, Stance):
             self.model.update(*self.plant.state())
-            behaviour = Stance(self.model, self.robot.q_standing)
+            stance = Stance(self.model, self.robot.q_standing)
             if side is not None:
-                behaviour.request(side)  # raises before anything changes
-            self.behaviour = behaviour
-            self.controller.references = behaviour.references
+                stance.request(side)  # raises before anything changes
+            self.behaviour = stance
+            self.controller.references = stance.references
         elif side is not None:
-            self.behaviour.request(side)
+            stance.request(side)
         if swing is not None:
-            self.behaviour.swing(swing)
+            stance.swing(swing)
         names = self.controller.config.stack.names()
-        if "swing_sole" not in names or (self.behaviour.swing_hz and "swing_leg" not in names):
+        if "swing_sole" not in names or (stance.swing_hz and "swing_leg" not in names):
             reply = self._use_preset(STANCE_PRESET)
-        return {"stance": side or self.behaviour.stance, "swing": self.behaviour.swing_hz, **reply}
+        return {"stance": side or stance.stance, "swing": stance.swing_hz, **reply}
 
     def _standing_stack(self) -> str:
         """Before a reset to standing: a stack that a walking gait brought along (and nobody

@@ -43,10 +43,12 @@ class SessionConfig:
     realism: RealismKnobs = field(default_factory=RealismKnobs)
 
 
-@dataclass
+@dataclass(eq=False, repr=False)
 class SessionParts:
     """What a robot and scene make of a session: built by `build_parts` (on any thread: it
-    touches no running session), swapped in by `Session.install`."""
+    touches no running session), swapped in by `Session.install`. A session is its parts and
+    the state of its run around them: `SessionBase` derives from this class, so the parts are
+    declared here alone."""
 
     config: SessionConfig
     robot: Robot
@@ -56,7 +58,7 @@ class SessionParts:
     frame_placements: FramePlacements
     native_tick: NativeTick
     realism: RealismLayer | NativeRealismLayer
-    behaviour: Behaviour | None = None
+    behaviour: Behaviour  # standing (Balance) until the `gait` command starts another
 
 
 def build_parts(config: SessionConfig) -> SessionParts:
@@ -83,9 +85,10 @@ def build_parts(config: SessionConfig) -> SessionParts:
     gains = dict(description.gains)
     for name, overrides in config.gains.items():
         gains[name] = replace(gains.get(name, TaskGains()), **overrides)
+    standing = Balance(model, robot.q_standing)
     controller = NativeController(
         model,
-        Balance(model, robot.q_standing).references,
+        standing.references,
         ControllerConfig(
             stack=Stack.of(config.stack or description.stack),
             gains=gains,
@@ -100,6 +103,7 @@ def build_parts(config: SessionConfig) -> SessionParts:
     controller.set_hands(tuple(frame for _, frame in description.hands))
     native_tick = NativeTick(plant, controller)
     layer = realism_layer(knobs, model.na, config.timestep)
+    placements = FramePlacements(robot)
     return SessionParts(
-        config, robot, plant, model, controller, FramePlacements(robot), native_tick, layer
+        config, robot, plant, model, controller, placements, native_tick, layer, standing
     )

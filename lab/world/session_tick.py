@@ -145,10 +145,10 @@ class SessionTick(SessionBase):
                     )
                 else:
                     q, v = self._measure()
-                    # sensing, not control
+                    # sensing, not control (an idle behaviour reads none)
                     touching = None if idle else self.plant.feet_touching(TOUCH_FORCE)
                     start = time.perf_counter()
-                    if idle:
+                    if touching is None:
                         out = controller.compute(q, v)
                     else:
                         controller.update(q, v)
