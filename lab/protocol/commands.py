@@ -284,6 +284,15 @@ class GaitCommand(CommandStruct, frozen=True):
     cycle_time: Annotated[float, Meta(gt=0.0, le=CYCLE_TIME_MAX, description="s")] | None = None
     footholds: Annotated[Name, Meta(description="robocentric or raibert")] | None = None
 
+    def options(self) -> dict[str, float | str]:
+        """The walking options given (step_height, cycle_time, footholds), by name."""
+        given = {
+            "step_height": self.step_height,
+            "cycle_time": self.cycle_time,
+            "footholds": self.footholds,
+        }
+        return {key: value for key, value in given.items() if value is not None}
+
 
 class RecordCommand(CommandStruct, frozen=True):
     """Start or stop recording the live session to an MCAP file (`lab serve` picks the file,

@@ -126,12 +126,7 @@ class SessionCommands(SessionTick):
                 self.paused = False
                 return {}
             case cmd.GaitCommand(name=name) as gait:
-                options = {
-                    key: getattr(gait, key)
-                    for key in ("step_height", "cycle_time", "footholds")
-                    if getattr(gait, key) is not None
-                }
-                return self._set_behaviour(name, options)
+                return self._set_behaviour(name, gait.options())
             case cmd.InternalForceCommand(reference=reference, source=source):
                 internal = self.controller.internal_force
                 if source is not None:

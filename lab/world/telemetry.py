@@ -137,7 +137,8 @@ def momentum_gain_report(controller: NativeController) -> list[list[float]] | No
 
 def gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
     """kp, kd and weight of a task, None for those it does not read."""
-    return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}
+    given = {"kp": gains.kp, "kd": gains.kd, "weight": gains.weight}
+    return {key: value if key in used else None for key, value in given.items()}
 
 
 def task_gains_report(controller: NativeController) -> list[dict]:

@@ -10,15 +10,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.controller.model import RobotModel
-from lab.controller.references import References
+from lab.controller.references import References, WalkReferences
 from lab.controller.rows import JacobianRows, PerContactSet
 from lab.controller.tasks.base import Task, TaskGains, TaskRows, no_task_rows
-from lab.controller.walk_references import WalkReferences
 
 
 def has_swing(refs: References) -> bool:
     """Whether the references give the feet swing trajectories (walking references do)."""
-    return isinstance(refs, WalkReferences) and len(refs.foot_position) > 0
+    walk = refs.walking
+    return walk is not None and len(walk.foot_position) > 0
 
 
 def swinging(robot: RobotModel, active: np.ndarray) -> np.ndarray:
