@@ -49,6 +49,14 @@ def _resolve(filename: str, urdf_dir: Path, package_dirs: tuple[Path, ...]) -> P
     return urdf_dir / filename
 
 
+def _attribute(element: ET.Element, name: str) -> str:
+    """URDF attribute `name` of `element`; ValueError naming both when it is missing."""
+    value = element.get(name)
+    if value is None:
+        raise ValueError(f"URDF <{element.tag}> has no attribute {name!r}")
+    return value
+
+
 def _origin(element: ET.Element | None) -> tuple[np.ndarray, np.ndarray]:
     """URDF <origin> as (position, MuJoCo quaternion w, x, y, z)."""
     xyz = np.zeros(3)
@@ -66,8 +74,9 @@ def _strip_geometry(urdf: ET.Element) -> dict[str, list[ET.Element]]:
     for link in urdf.findall("link"):
         for visual in link.findall("visual"):
             link.remove(visual)
-        collisions[link.get("name")] = link.findall("collision")
-        for collision in collisions[link.get("name")]:
+        name = _attribute(link, "name")
+        collisions[name] = link.findall("collision")
+        for collision in collisions[name]:
             link.remove(collision)
     return collisions
 
@@ -80,25 +89,30 @@ def _add_collision(
     package_dirs: tuple[Path, ...],
 ) -> None:
     pos, quat = _origin(collision.find("origin"))
-    shape = collision.find("geometry")[0]
+    geometry = collision.find("geometry")
+    if geometry is None or not len(geometry):
+        raise ValueError("URDF <collision> without a <geometry> shape")
+    shape = geometry[0]
     geom = body.add_geom(pos=pos, quat=quat)
     if shape.tag == "box":
         geom.type = mujoco.mjtGeom.mjGEOM_BOX
-        geom.size = [0.5 * float(s) for s in shape.get("size").split()]
+        geom.size = [0.5 * float(s) for s in _attribute(shape, "size").split()]
     elif shape.tag == "cylinder":
         geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
-        geom.size = [float(shape.get("radius")), 0.5 * float(shape.get("length")), 0.0]
+        radius, length = float(_attribute(shape, "radius")), float(_attribute(shape, "length"))
+        geom.size = [radius, 0.5 * length, 0.0]
     elif shape.tag == "sphere":
         geom.type = mujoco.mjtGeom.mjGEOM_SPHERE
-        geom.size = [float(shape.get("radius")), 0.0, 0.0]
+        geom.size = [float(_attribute(shape, "radius")), 0.0, 0.0]
     elif shape.tag == "mesh":
-        path = _resolve(shape.get("filename"), urdf_dir, package_dirs)
+        path = _resolve(_attribute(shape, "filename"), urdf_dir, package_dirs)
         scale = [float(s) for s in shape.get("scale", "1 1 1").split()]
         name = f"{path.stem}_{len(spec.meshes)}"
         if path.suffix.lower() == ".stl":
             spec.add_mesh(name=name, file=str(path), scale=scale)
         else:  # Collada (HyQ) and others MuJoCo cannot decode: convert with trimesh
             mesh = trimesh.load(path, force="mesh")
+            assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" merges a scene into one
             spec.add_mesh(
                 name=name,
                 uservert=(np.asarray(mesh.vertices) * scale).ravel().tolist(),

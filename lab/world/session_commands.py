@@ -179,16 +179,17 @@ class SessionCommands(SessionTick):
         if len(contacts) != 2 or any(contact.kind != "flat" for contact in contacts):
             raise ValueError(f"stance: robot {self.config.robot!r} is not a biped with flat soles")
         reply: dict = {}
-        stance = self.behaviour
-        if not isinstance(stance, Stance):
+        if isinstance(self.behaviour, Stance):
+            stance = self.behaviour
+            if side is not None:
+                stance.request(side)
+        else:
             self.model.update(*self.plant.state())
             stance = Stance(self.model, self.robot.q_standing)
             if side is not None:
                 stance.request(side)  # raises before anything changes
             self.behaviour = stance
             self.controller.references = stance.references
-        elif side is not None:
-            stance.request(side)
         if swing is not None:
             stance.swing(swing)
         names = self.controller.config.stack.names()
