@@ -20,7 +20,9 @@ import numpy as np
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.rows import FixedRows, no_rows, zeros
-from lab.protocol import TaskGains  # one record for the controller, the protocol and the UI
+
+# One record for the controller, the protocol and the UI; re-exported to the task modules.
+from lab.protocol import TaskGains as TaskGains
 
 ALL_GAINS = ("kp", "kd", "weight")
 

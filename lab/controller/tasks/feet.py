@@ -60,14 +60,17 @@ class SwingFeetTask(Task):
         self._swing = PerContactSet(SwingRows.of)
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        swing = self._swing.get(robot, _not_tracked(refs)) if has_swing(refs) else None
-        if swing is None or not len(swing.coords):
+        walk = refs.walking
+        if walk is None or not len(walk.foot_position):
+            return no_task_rows(robot.nx)
+        swing = self._swing.get(robot, _not_tracked(walk))
+        if not len(swing.coords):
             return no_task_rows(robot.nx)
         feet, jacobian = swing.coords, swing.jacobian
-        e = refs.foot_position.take(feet) - robot.contact_positions.take(feet)
-        de = refs.foot_velocity.take(feet) - jacobian.write(robot).dot(robot.v)
+        e = walk.foot_position.take(feet) - robot.contact_positions.take(feet)
+        de = walk.foot_velocity.take(feet) - jacobian.write(robot).dot(robot.v)
         b = (
-            refs.foot_acceleration.take(feet)
+            walk.foot_acceleration.take(feet)
             + self.gains.kp * e
             + self.gains.kd * de
             - robot.Jc_dot_v[jacobian.index]

@@ -23,9 +23,10 @@ from lab.controller.tasks.posture import leg_joints
 def leg_swinging(refs: References) -> np.ndarray | None:
     """Which contacts' legs swing in joint space (None for references without them)."""
     soles = refs.soles
-    if soles is not None and len(soles.leg_swinging):
-        return soles.leg_swinging & ~refs.contact_active
-    return None
+    if soles is None or not len(soles.leg_swinging):
+        return None
+    swinging: np.ndarray = soles.leg_swinging & ~refs.contact_active
+    return swinging
 
 
 def _swinging_soles(robot: RobotModel, active: np.ndarray) -> JacobianRows:
