@@ -45,7 +45,7 @@ SWING_AMPLITUDE = (0.4, 0.6)  # rad, the hip and knee flexion's excursion from t
 def smooth(s: float) -> float:
     """0 → 1 with zero slope at both ends (a cosine ramp) for s in [0, 1], clamped outside."""
     s = min(max(s, 0.0), 1.0)
-    return 0.5 - 0.5 * np.cos(np.pi * s)
+    return float(0.5 - 0.5 * np.cos(np.pi * s))
 
 
 class Stance(Balance):

@@ -25,7 +25,8 @@ def swinging(robot: RobotModel, active: np.ndarray) -> np.ndarray:
     """Flags of the point feet out of contact: the `swing_feet` task's feet when the references
     have swing trajectories."""
     point = np.array([contact.kind == "point" for contact in robot.contacts])
-    return point & ~np.asarray(active, dtype=bool)
+    flags: np.ndarray = point & ~np.asarray(active, dtype=bool)
+    return flags
 
 
 def _not_tracked(refs: WalkReferences) -> np.ndarray:

@@ -85,8 +85,8 @@ class LegWeights:
         for i, leg in enumerate(legs):
             slots[leg] = i
         swinging_slots = slots.copy()
-        for i in np.flatnonzero(swinging(robot, active)):
-            swinging_slots[legs[i]] = swinging_slot
+        for foot in np.flatnonzero(swinging(robot, active)):
+            swinging_slots[legs[foot]] = swinging_slot
         return cls(weights, slots, swinging_slots)
 
     def rows_of(self, robot: RobotModel, weight: np.ndarray) -> PostureRows:
