@@ -10,7 +10,9 @@ pinocchio reads) and the scene, and is the only place that converts between the 
 - joints are matched by name (ANYmal's order differs between the engines).
 
 What it measures (touch, foot forces, centres of pressure, the terrain's poses) is
-`plant_sensing.py`'s `PlantSensing`, which it derives from. Running choices:
+`plant_sensing.py`'s `PlantSensing`, which it derives from (this file, a little over 400 lines,
+is the running world alone: state in and out, step and check, pushes, drives and payloads).
+Running choices:
 - MuJoCo's automatic reset on a bad state is off (plant_model.py): `step()` instead raises
   `SimulationDiverged` (MuJoCo's bad position / velocity / acceleration warnings, or a
   non-finite state) and the caller decides what state comes next (the session:
