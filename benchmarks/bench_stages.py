@@ -21,7 +21,8 @@ import time
 import numpy as np
 
 from lab.controller.hierarchy import METHODS
-from lab.world.session import TOUCH_FORCE, Session, SessionConfig
+from lab.world.session import Session, SessionConfig
+from lab.world.session_tick import TOUCH_FORCE
 
 WARM_UP_TICKS = 1500
 STAGES = ("state", "touch", "model", "behaviour", "rows", "solve", "torques", "plant step")

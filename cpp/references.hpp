@@ -1,5 +1,5 @@
-// What the behaviour asks of the tasks this tick (mirrors lab/controller/references.py,
-// walk_references.py and tasks/sole.py's SoleReferences). The behaviour owns them in Python;
+// What the behaviour asks of the tasks this tick (mirrors lab/controller/references.py: its
+// References, WalkReferences and SoleReferences). The behaviour owns them in Python;
 // the bindings read the fields `kReferenceFields` lists, the one layout both sides check
 // (tests/kernel/test_kernel.py compares it with the dataclasses' fields). A walking field left
 // empty means what the Python side does for a plain References: flat ground, no swing trajectories,
@@ -41,7 +41,7 @@ struct References {
   // contact transition (Kim 2016 §III-F) keeps tracking its reference while its force ramps.
   Eigen::Array<bool, Eigen::Dynamic, 1> swing_tracked;
 
-  // SoleReferences (tasks/sole.py), or empty: each sole's pose target (world position (n, 3) and
+  // SoleReferences (references.py), or empty: each sole's pose target (world position (n, 3) and
   // rotation (n, 3, 3), row-major flat), the legs swinging in joint space and their trajectory
   // (actuated joints, pinocchio order).
   Eigen::VectorXd sole_position;

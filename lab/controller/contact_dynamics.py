@@ -59,7 +59,8 @@ class ContactDynamics:
 
     def contact_consistent_jacobian(self, J: np.ndarray) -> np.ndarray:
         """J* = J (U N_s)‾ (eq. 33), the task Jacobian over the actuated joints: J B = J* Φ*."""
-        return J @ self.qdd_of_torque @ self.phi_pinv
+        j_star: np.ndarray = J @ self.qdd_of_torque @ self.phi_pinv
+        return j_star
 
 
 def contact_dynamics(

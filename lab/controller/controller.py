@@ -7,6 +7,7 @@ state → RobotModel.update → tasks and constraints become rows, level by leve
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -42,7 +43,9 @@ from lab.controller.stack import Stack
 from lab.controller.tasks import TASK_TYPES, Task, TaskGains
 from lab.controller.tasks.hands import HandsTask
 from lab.controller.tasks.internal_force import InternalForceTask
-from lab.controller.walk_references import WalkReferences
+from lab.controller.tasks.momentum import MomentumTask
+
+_T = TypeVar("_T", bound=Task)
 
 
 @dataclass
@@ -151,12 +154,14 @@ class WholeBodyController:
             for name, task_type in TASK_TYPES.items()
         }
         model = robot.model
+        self._torque_limits = TorqueLimitConstraint(torque_limits)
+        self._joint_limits = JointLimitConstraint(
+            model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
+        )
         self.constraints: dict[str, Constraint] = {
             "friction": FrictionConstraint(config.limits),
-            "torque_limits": TorqueLimitConstraint(torque_limits),
-            "joint_limits": JointLimitConstraint(
-                model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
-            ),
+            "torque_limits": self._torque_limits,
+            "joint_limits": self._joint_limits,
         }
         if any(c.kind == "flat" for c in robot.contacts):
             self.constraints["cop"] = CopConstraint()
@@ -199,17 +204,18 @@ class WholeBodyController:
     def set_hands(self, frames: tuple[str, ...]) -> None:
         """The frames the `hands` task moves, one hand each, in the order of the references' hand
         rows; raises ValueError naming a frame the model lacks, and changes nothing then."""
-        self._hands_task().set_frames(self.robot, tuple(frames))
+        self._task(HandsTask).set_frames(self.robot, tuple(frames))
 
     @property
     def hands(self) -> tuple[str, ...]:
         """The frames the `hands` task moves (`set_hands`)."""
-        return self._hands_task().frames
+        return self._task(HandsTask).frames
 
-    def _hands_task(self) -> HandsTask:
-        hands = self.tasks["hands"]
-        assert isinstance(hands, HandsTask)
-        return hands
+    def _task(self, kind: type[_T]) -> _T:
+        """The controller's task of class `kind` (one of each, TASK_TYPES), typed as it."""
+        task = self.tasks[kind.name]
+        assert isinstance(task, kind)
+        return task
 
     def set_gains(
         self,
@@ -346,7 +352,7 @@ class WholeBodyController:
 
     def torque_limits(self) -> np.ndarray:
         """τ_max of each actuated joint (N m, pinocchio joint order) that `torque_limits` uses."""
-        return self.constraints["torque_limits"].torque_limits
+        return self._torque_limits.torque_limits
 
     def set_torque_limits(self, limits: np.ndarray) -> None:
         """Use new torque bounds τ_max (N m, one per actuated joint) from the next tick on;
@@ -354,12 +360,11 @@ class WholeBodyController:
         limits = np.array(limits, dtype=float)  # a new array: the kernel mirror sees the change
         if limits.shape != (self.robot.na,):
             raise ValueError(f"torque limits need {self.robot.na} values, got {limits.shape}")
-        self.constraints["torque_limits"].torque_limits = limits
+        self._torque_limits.torque_limits = limits
 
     def joint_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper position limits of each actuated joint (rad, m for prismatic)."""
-        constraint = self.constraints["joint_limits"]
-        return constraint.lower, constraint.upper
+        return self._joint_limits.lower, self._joint_limits.upper
 
     def set_joint_limits(self, lower: np.ndarray, upper: np.ndarray) -> None:
         """Use new joint position limits from the next tick on; raises ValueError for a wrong
@@ -367,14 +372,13 @@ class WholeBodyController:
         lower, upper = np.array(lower, dtype=float), np.array(upper, dtype=float)
         if lower.shape != (self.robot.na,) or upper.shape != (self.robot.na,):
             raise ValueError(f"joint limits need {self.robot.na} values each")
-        constraint = self.constraints["joint_limits"]
-        constraint.lower, constraint.upper = lower, upper
+        self._joint_limits.lower, self._joint_limits.upper = lower, upper
 
     @property
     def internal_force(self) -> InternalForceTask:
         """The internal-force task (Kim 2016 eq. 12): its reference, sensed source and the
         values of the last tick."""
-        return self.tasks["internal_force"]
+        return self._task(InternalForceTask)
 
     @property
     def reads_sensing(self) -> bool:
@@ -383,16 +387,17 @@ class WholeBodyController:
         stack = self.config.stack  # frozen: the answer holds until the stack is replaced
         if stack is not self._sensing_stack:
             self._sensing_stack = stack
-            self._reads_sensing = any(InternalForceTask.name in level for level in stack.levels)
+            tasks = (self.tasks[name] for name in stack.names() if name in self.tasks)
+            self._reads_sensing = any(task.READS_SENSING for task in tasks)
         return self._reads_sensing
 
     def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
         """What the sensors measured over the last step: the force of the terrain on each foot
         (n_contacts × 3, N, world) and the joint torques applied (N m), for the feedback of the
-        internal force (Kim eqs. 12–13)."""
-        task = self.internal_force
-        task.measured_forces = np.array(foot_forces, dtype=float)
-        task.applied_torques = np.array(applied_torques, dtype=float)
+        internal force (Kim eqs. 12–13): each task that reads the sensors keeps it."""
+        for task in self.tasks.values():
+            if task.READS_SENSING:
+                task.sense(foot_forces, applied_torques)
 
     def posture_gains(self) -> TaskGains:
         """The posture task's gains (the session's fallback PD uses them)."""
@@ -400,31 +405,31 @@ class WholeBodyController:
 
     def momentum_mode(self) -> str:
         """The momentum task's feedback law: `pd` (Herzog eq. 22) or `lqr` (eqs. 23–26)."""
-        return self.tasks["momentum"].mode
+        return self._task(MomentumTask).mode
 
     def momentum_gain(self) -> np.ndarray | None:
         """K_h (6 × 9) the momentum task applies at the current contact configuration (Herzog eq.
         22 or 24), None while the task is not in the stack."""
-        if "momentum" not in self.config.stack.names():
+        if MomentumTask.name not in self.config.stack.names():
             return None
-        return self.tasks["momentum"].target_gain(self.robot, self.references)
+        return self._task(MomentumTask).target_gain(self.robot, self.references)
 
     def set_momentum_designer(self, submit: Callable[[LqrProblem], GainFuture] | None) -> None:
         """Design the momentum task's LQR gains through `submit` (off the caller's thread: it
         returns a future) or, with None, at once (GainSchedule)."""
-        self.tasks["momentum"].schedule.submit = submit
+        self._task(MomentumTask).schedule.submit = submit
 
     def momentum_gain_in_use(self) -> dict | None:
         """Which LQR K_h the momentum task applies (GainSchedule.in_use); None under `pd` or
         while the task is not in the stack."""
-        task = self.tasks["momentum"]
-        if task.mode == "pd" or "momentum" not in self.config.stack.names():
+        task = self._task(MomentumTask)
+        if task.mode == "pd" or task.name not in self.config.stack.names():
             return None
         return task.schedule.in_use()
 
     def set_momentum_mode(self, mode: str) -> None:
         """Switch the momentum task's feedback law; raises ValueError naming the modes."""
-        self.tasks["momentum"].set_mode(mode)
+        self._task(MomentumTask).set_mode(mode)
 
     def gains(self) -> Mapping[str, TaskGains]:
         """Each task's gains, by task name."""
@@ -448,9 +453,10 @@ def _stacked(
 def _transition_weights(robot: RobotModel, refs: References) -> np.ndarray | None:
     """The load weight w of each row of F whose contact is being loaded or unloaded (NaN
     elsewhere), from a walking behaviour's references; None when they carry none."""
-    if not isinstance(refs, WalkReferences) or len(refs.force_weight) != len(robot.contacts):
+    walk = refs.walking
+    if walk is None or len(walk.force_weight) != len(robot.contacts):
         return None
-    return np.repeat(refs.force_weight, robot.force_dims)
+    return np.repeat(walk.force_weight, robot.force_dims)
 
 
 def _support_mask(robot: RobotModel, active: np.ndarray) -> np.ndarray:

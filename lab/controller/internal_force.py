@@ -29,4 +29,5 @@ def internal_force_map(positions: np.ndarray) -> np.ndarray:
 
 def internal_forces(positions: np.ndarray, forces_on_robot: np.ndarray) -> np.ndarray:
     """F_int = W_int λ (eq. 41) from the forces on the robot (n × 3, world) at `positions`."""
-    return internal_force_map(positions) @ -np.asarray(forces_on_robot).reshape(-1)
+    forces: np.ndarray = internal_force_map(positions) @ -np.asarray(forces_on_robot).reshape(-1)
+    return forces

@@ -48,7 +48,7 @@ class RobotModel:
         self.nx = self.nv + self.nf
 
         # Filled by update(); preallocated so that the tick does not allocate them again.
-        self.q = pin.neutral(model)
+        self.q: np.ndarray = pin.neutral(model)
         self.v = np.zeros(self.nv)
         self.M = np.zeros((self.nv, self.nv))
         self.h = np.zeros(self.nv)
@@ -110,7 +110,8 @@ class RobotModel:
     def arrays(self) -> dict[str, np.ndarray]:
         """The preallocated arrays update() fills, by name: a native kernel's model update fills
         the same ones in place (then call `filled_elsewhere`)."""
-        names = ("q", "v", "M", "h", "Jc", "Jc_dot_v", "com", "com_velocity", "com_drift", "Jcom")
+        names: tuple[str, ...] = ("q", "v", "M", "h", "Jc", "Jc_dot_v", "com", "com_velocity")
+        names += ("com_drift", "Jcom")
         names += ("centroidal_map", "base_rotation", "contact_positions", "contact_rotations")
         return {name: getattr(self, name) for name in names}
 
@@ -199,4 +200,5 @@ class RobotModel:
         """τ = M_a q̈ + h_a − J_aᵀ F, the actuated rows of the dynamics (Herzog eq. 14)."""
         qdd, forces = x[: self.nv], x[self.nv :]
         a = slice(BASE_DOF, None)
-        return self.M[a] @ qdd + self.h[a] - self.Jc[:, a].T @ forces
+        tau: np.ndarray = self.M[a] @ qdd + self.h[a] - self.Jc[:, a].T @ forces
+        return tau

@@ -8,6 +8,9 @@ source of truth for the stack, the gains, the limits and the references, mirrors
 kernel, and picks per tick which kernel runs:
 `config.kernel == "native"` runs the native one when it is built and has every name of the stack
 and the method; otherwise the Python one runs and `kernel_note` says why (never a silent mix).
+What a task holds in Python for the kernel (the momentum task's K_h, the internal force's
+setting) crosses through the task's own declared `to_kernel` / `from_kernel` (tasks/base.py):
+no task is asked for by name here.
 """
 
 import contextlib
@@ -28,7 +31,7 @@ from lab.controller.model import RobotModel
 from lab.controller.qp import QPFailure
 from lab.controller.references import References
 from lab.controller.stack import Stack
-from lab.controller.tasks import TaskGains
+from lab.controller.tasks import Task, TaskGains
 
 try:
     from lab import _kernel
@@ -103,11 +106,13 @@ class NativeOutput(ControlOutput):
 
     @property
     def task_errors(self) -> dict[str, float]:  # type: ignore[override]
-        return self._outcome.task_errors
+        errors: dict[str, float] = self._outcome.task_errors
+        return errors
 
     @property
     def fallback_levels(self) -> tuple[int, ...]:
-        return self._outcome.fallback_levels
+        levels: tuple[int, ...] = self._outcome.fallback_levels
+        return levels
 
     def solve_status(self) -> SolveStatus:
         """ok, or fallback, capped (nullspace) or violated (wbosc) with its level and reason:
@@ -138,11 +143,8 @@ class NativeController(WholeBodyController):
             raise KeyError(f"unknown kernel {config.kernel!r} (kernels: {', '.join(KERNELS)})")
         self._native: _kernel.Kernel | None = None
         self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
-        self._has_momentum = False  # whether the stack has the momentum task
-        self._has_internal_force = False  # and the internal-force task
-        self._momentum_pd: tuple | None = None  # (kp, kd) of the PD K_h the kernel holds
-        self._momentum_lqr: np.ndarray | None = None  # the scheduled K_h the kernel holds
-        self._internal_force_setting: tuple | None = None  # (reference, source) in the kernel
+        self._kernel_inputs: list[Task] = []  # the stack's tasks with KERNEL_INPUTS
+        self._python_before_solve = ""  # a stack task's PYTHON_BEFORE_SOLVE ('' for none)
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
@@ -156,6 +158,12 @@ class NativeController(WholeBodyController):
         # the (method, formulation) last set in the kernel (empty before the first solve)
         self._native_method: tuple[str, str] = ("", "")
         self._tau, self._x = np.zeros(robot.na), np.zeros(robot.nx)  # the kernel writes these
+
+    @property
+    def _built(self) -> "_kernel.Kernel":
+        """The native kernel, where it is known to be built (a native tick, a mirror call)."""
+        assert self._native is not None
+        return self._native
 
     # ----------------------------------------------------------------------------- settings
     @property
@@ -209,10 +217,13 @@ class NativeController(WholeBodyController):
 
     def _mirror_stack(self, stack: Stack) -> None:
         try:
-            self._native.set_stack(stack.as_lists())
+            self._built.set_stack(stack.as_lists())
             self._unsupported = ""
-            self._has_momentum = "momentum" in stack.names()
-            self._has_internal_force = "internal_force" in stack.names()
+            tasks = [self.tasks[name] for name in stack.names() if name in self.tasks]
+            self._kernel_inputs = [task for task in tasks if task.KERNEL_INPUTS]
+            self._python_before_solve = next(
+                (task.PYTHON_BEFORE_SOLVE for task in tasks if task.PYTHON_BEFORE_SOLVE), ""
+            )
         except KeyError as error:  # a task written in Python only: the Python kernel runs it
             self._unsupported = error.args[0]
 
@@ -233,7 +244,7 @@ class NativeController(WholeBodyController):
         """Copy a task's gains into the kernel; a task written in Python only (the kernel raises
         KeyError for it) runs on the Python kernel, whose stack check says so."""
         with contextlib.suppress(KeyError):
-            self._native.set_gains(task, gains.kp, gains.kd, gains.weight)
+            self._built.set_gains(task, gains.kp, gains.kd, gains.weight)
 
     # ----------------------------------------------------------------------------- the tick
     def _runs_native(self) -> bool:
@@ -246,7 +257,7 @@ class NativeController(WholeBodyController):
         if not self._runs_native():
             super().update(q, v)
             return
-        self._native.update(q, v)
+        self._built.update(q, v)
         self.robot.filled_elsewhere()
 
     def solve(self) -> ControlOutput:
@@ -270,8 +281,8 @@ class NativeController(WholeBodyController):
     def _native_tick(self, q: np.ndarray | None, v: np.ndarray | None) -> "NativeOutput":
         """One crossing: references in, the model update at (q, v) if given, the solve, τ and x
         into the preallocated arrays; the rest stays in the kernel's outcome until read."""
-        native = self._native
-        if self._has_momentum and q is not None:  # its gain schedule reads this tick's state
+        native = self._built
+        if self._python_before_solve and q is not None:  # it reads this tick's model update
             native.update(q, v)
             self.robot.filled_elsewhere()
             q = v = None
@@ -286,12 +297,11 @@ class NativeController(WholeBodyController):
         """Why the server's native tick (lab/world/native_tick.py: plant, behaviour and
         controller in one crossing) cannot run this controller ('' when it can): the native
         kernel does not run the stack, or the momentum task's gain schedule, which runs in
-        Python, must read each tick's model update before the solve."""
+        Python, must read each tick's model update before the solve (a task's
+        PYTHON_BEFORE_SOLVE)."""
         if self._native is None or not self._runs_native():
             return self.kernel_note or f"kernel {self.config.kernel!r} was asked for"
-        if self._has_momentum:
-            return "the momentum task's gain schedule runs in Python between update and solve"
-        return ""
+        return self._python_before_solve
 
     @property
     def native_kernel(self) -> "_kernel.Kernel | None":
@@ -300,18 +310,16 @@ class NativeController(WholeBodyController):
 
     def prepare_native_tick(self) -> None:
         """Before a native tick's crossing: mirror what changed since the last (limits, method,
-        the momentum gain, the internal force's setting) and mark the tick native."""
-        native = self._native
+        what the stack's tasks hold in Python: `to_kernel`) and mark the tick native."""
+        native = self._built  # a native tick runs only where the kernel is built
         self._sync_limits()
         method = (self.config.method, self.config.formulation)
         if self._native_method != method:  # Python strs: no crossing to compare
             native.set_method(method[0])
             native.set_formulation(method[1])
             self._native_method = method
-        if self._has_momentum:
-            self._sync_momentum_gain()
-        if self._has_internal_force:
-            self._sync_internal_force()
+        for task in self._kernel_inputs:
+            task.to_kernel(native, self.robot, self.references)
         self.ran = self.ran_on("native")
 
     def finish_native_tick(
@@ -322,63 +330,26 @@ class NativeController(WholeBodyController):
         stopped at its cap."""
         self.kernel_ran = "native"
         self._outcome = outcome
-        if self._has_internal_force:  # what telemetry reads of Kim eq. 12's feedback
-            task = self.tasks["internal_force"]
-            task.sensed, task.command = (
-                outcome.internal_force_sensed,
-                outcome.internal_force_command,
-            )
+        for task in self._kernel_inputs:  # what telemetry reads of them (Kim eq. 12's feedback)
+            task.from_kernel(outcome)
         if not outcome.ok:
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
         if outcome.capped:  # as nullspace.py's search warns, for the session to show
             warnings.warn(outcome.message, ActiveSetCapWarning, stacklevel=3)
         return NativeOutput(tau.copy(), x.copy(), self.robot.nv, outcome)
 
-    def _sync_momentum_gain(self) -> None:
-        """Hand the kernel the momentum task's K_h when it changes: the design (PD, LQR) and
-        the interpolation across a contact switch stay in Python (momentum.py) and advance
-        tick by tick as on the Python kernel; an unchanged K_h does not cross."""
-        task, refs = self.tasks["momentum"], self.references
-        if task.mode == "pd":
-            pd = (task.gains.kp, task.gains.kd)
-            if pd != self._momentum_pd:
-                self._native.set_momentum_gain(task.gain(self.robot, refs))
-                self._momentum_pd, self._momentum_lqr = pd, None
-            return
-        held = self._momentum_lqr
-        if held is not None and held is task.schedule.current and task.settled(self.robot, refs):
-            return
-        gain = task.gain(self.robot, refs)
-        self._native.set_momentum_gain(gain)
-        self._momentum_pd, self._momentum_lqr = None, gain
-
-    def _sync_internal_force(self) -> None:
-        """Hand the kernel the internal force's reference and sensed source when they change
-        (the session's `internal_force` command sets them on the Python task); the feedback of
-        Kim eq. 12 runs in the kernel on what `set_sensing` handed over."""
-        task = self.tasks["internal_force"]
-        setting = (task.reference, task.source)
-        if setting != self._internal_force_setting:
-            self._native.set_internal_force(*setting)
-            self._internal_force_setting = setting
-
     def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
         """As WholeBodyController.set_sensing, mirrored into the kernel."""
         super().set_sensing(foot_forces, applied_torques)
         if self._native is not None:
-            task = self.tasks["internal_force"]
-            self._native.set_sensing(task.measured_forces, task.applied_torques)
+            forces = np.array(foot_forces, dtype=float)
+            self._native.set_sensing(forces, np.array(applied_torques, dtype=float))
 
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
-        config, constraints = self.config, self.constraints
-        limits, joint_limits = config.limits, constraints["joint_limits"]
-        arrays = (
-            constraints["torque_limits"].torque_limits,
-            joint_limits.lower,
-            joint_limits.upper,
-        )
+        config, limits = self.config, self.config.limits
+        arrays = (self.torque_limits(), *self.joint_limits())
         numbers = (limits.friction, limits.normal_min, limits.normal_max, config.level_weight_ratio)
         synced = self._synced
         if (
@@ -389,20 +360,23 @@ class NativeController(WholeBodyController):
             and synced[1] == numbers
         ):
             return
-        self._native.set_torque_limits(arrays[0])
-        self._native.set_joint_limits(arrays[1], arrays[2])
-        self._native.set_contact_limits(*numbers[:3])
-        self._native.set_level_weight_ratio(numbers[3])
+        native = self._built
+        native.set_torque_limits(arrays[0])
+        native.set_joint_limits(arrays[1], arrays[2])
+        native.set_contact_limits(*numbers[:3])
+        native.set_level_weight_ratio(numbers[3])
         self._synced = (arrays, numbers)
 
     @property
     def kernel_seconds(self) -> tuple[float, float] | None:
         """Seconds the native kernel's last model update and last solve took, measured inside
         it (no Python around them); None when the last tick ran on the Python kernel."""
-        return self._native.seconds if self.kernel_ran == "native" else None
+        return self._built.seconds if self.kernel_ran == "native" else None
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
-        if self.kernel_ran == "native":
-            return self._outcome.task_errors
+        outcome = self._outcome
+        if self.kernel_ran == "native" and outcome is not None:
+            errors: dict[str, float] = outcome.task_errors
+            return errors
         return super().task_errors()

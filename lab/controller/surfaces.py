@@ -24,7 +24,8 @@ class HalfCylinder:
     def normal(self, point: np.ndarray) -> np.ndarray:
         """Outward unit normal of the surface nearest `point` (world)."""
         n = np.array([0.0, point[1], point[2] - self.axis_height])
-        return n / np.linalg.norm(n)
+        unit: np.ndarray = n / np.linalg.norm(n)
+        return unit
 
 
 def _sized_for_anymal() -> HalfCylinder:

@@ -22,6 +22,9 @@ from lab.protocol.commands import (
     PUSH_FORCE_MAX,
     READ_ONLY_VERBS,
     RECORD_ACTIONS,
+    REPLAY_COMMANDS,
+    SEEK_T_MAX,
+    SPEED_MAX,
     STACK_MAX_LEVELS,
     STACK_MAX_TASKS,
     STEP_HEIGHT_MAX,
@@ -47,10 +50,13 @@ from lab.protocol.commands import (
     RealismCommand,
     RecordCommand,
     ReleaseCommand,
+    ReplayCommand,
     ResetCommand,
     ResumeCommand,
     RobotCommand,
     SceneCommand,
+    SeekCommand,
+    SpeedCommand,
     StackCommand,
     StanceCommand,
     TakeCommand,
@@ -69,7 +75,12 @@ from lab.protocol.keys import (
     lab_id_of,
 )
 from lab.protocol.records import ContactKind, ContactSpec, TaskGains
-from lab.protocol.validation import RENAMED_FIELDS, CommandError, parse_command
+from lab.protocol.validation import (
+    RENAMED_FIELDS,
+    CommandError,
+    parse_command,
+    parse_replay_command,
+)
 
 __all__ = [
     "ALL_LABS_ALIVE",
@@ -91,6 +102,9 @@ __all__ = [
     "READ_ONLY_VERBS",
     "RECORD_ACTIONS",
     "RENAMED_FIELDS",
+    "REPLAY_COMMANDS",
+    "SEEK_T_MAX",
+    "SPEED_MAX",
     "STACK_MAX_LEVELS",
     "STACK_MAX_TASKS",
     "STEP_HEIGHT_MAX",
@@ -121,10 +135,13 @@ __all__ = [
     "RealismCommand",
     "RecordCommand",
     "ReleaseCommand",
+    "ReplayCommand",
     "ResetCommand",
     "ResumeCommand",
     "RobotCommand",
     "SceneCommand",
+    "SeekCommand",
+    "SpeedCommand",
     "StackCommand",
     "StanceCommand",
     "TakeCommand",
@@ -133,4 +150,5 @@ __all__ = [
     "default_lab_id",
     "lab_id_of",
     "parse_command",
+    "parse_replay_command",
 ]

@@ -4,7 +4,9 @@ ranges as msgspec constraints), and the command ranges they are built from.
 A payload is decoded and validated in one step by `lab.protocol.validation.parse_command`;
 whether a name exists in the running session (robot, scene, task, link, method, solver, gait)
 is the session's business. A struct's `VERB` is the last chunk of its key, `lab/<id>/cmd/<verb>`.
-Adding a verb: a struct here, listed in `Command`, and its handler in the session.
+Adding a verb: a struct here, listed in `Command`, and its handler in the session. A served
+recording (`lab replay --serve`) takes the verbs of `ReplayCommand`. Over 400 lines: every verb
+of the protocol is here, the one page a client reads.
 """
 
 import math
@@ -38,6 +40,8 @@ STEP_HEIGHT_MAX = 0.5  # m, 0 < step_height <= max (the behaviour checks it agai
 CYCLE_TIME_MAX = 5.0  # s, 0 < cycle_time <= max
 SWING_HZ_MAX = 1.0  # Hz, 0 <= stance swing <= max (Herzog's leg swing: 0.25 Hz)
 FLOOR_SECONDS_MIN, FLOOR_SECONDS_MAX = 0.5, 10.0  # s, the `floor` command's range
+SPEED_MAX = 100.0  # times the recorded pace: a served recording's `speed`
+SEEK_T_MAX = 1e9  # s, |t| of a served recording's `seek` (then clamped to the recording)
 
 LIMITS: dict[str, float] = {
     "vx": VX_MAX,
@@ -284,6 +288,15 @@ class GaitCommand(CommandStruct, frozen=True):
     cycle_time: Annotated[float, Meta(gt=0.0, le=CYCLE_TIME_MAX, description="s")] | None = None
     footholds: Annotated[Name, Meta(description="robocentric or raibert")] | None = None
 
+    def options(self) -> dict[str, float | str]:
+        """The walking options given (step_height, cycle_time, footholds), by name."""
+        given = {
+            "step_height": self.step_height,
+            "cycle_time": self.cycle_time,
+            "footholds": self.footholds,
+        }
+        return {key: value for key, value in given.items() if value is not None}
+
 
 class RecordCommand(CommandStruct, frozen=True):
     """Start or stop recording the live session to an MCAP file (`lab serve` picks the file,
@@ -403,6 +416,30 @@ Command = (
 )
 COMMANDS: dict[str, type[CommandStruct]] = {cls.VERB: cls for cls in get_args(Command)}
 VERBS: tuple[str, ...] = tuple(COMMANDS)
+
+
+# ------------------------------------------------------------------ a served recording's verbs
+class SpeedCommand(CommandStruct, frozen=True):
+    """A served recording (`lab replay --serve`) only: play at `factor` times the recorded
+    pace."""
+
+    VERB: ClassVar[str] = "speed"
+    factor: Annotated[float, Meta(gt=0.0, le=SPEED_MAX, description="times the recorded pace")]
+
+
+class SeekCommand(CommandStruct, frozen=True):
+    """A served recording (`lab replay --serve`) only: jump to `t` (clamped to the recording);
+    the newest telemetry and drawing state at or before it are published at once."""
+
+    VERB: ClassVar[str] = "seek"
+    t: Annotated[
+        float, Meta(ge=-SEEK_T_MAX, le=SEEK_T_MAX, description="s of the recording's sim time")
+    ]
+
+
+# What a served recording answers to: the playback's verbs; every other is refused (read-only).
+ReplayCommand = InfoCommand | PauseCommand | ResumeCommand | SpeedCommand | SeekCommand
+REPLAY_COMMANDS: dict[str, type[CommandStruct]] = {cls.VERB: cls for cls in get_args(ReplayCommand)}
 
 # Verbs any client may send while another holds the control lock: they change nothing in the
 # world (a recording watches it).

@@ -11,7 +11,7 @@ from typing import Any
 
 import msgspec
 
-from lab.protocol.commands import COMMANDS
+from lab.protocol.commands import COMMANDS, REPLAY_COMMANDS
 from lab.protocol.events import Event
 from lab.protocol.messages import InfoReply, Reply, State, Telemetry
 
@@ -59,8 +59,9 @@ def _not_null(definitions: dict[str, Any]) -> dict[str, Any]:
 def schema_section() -> str:
     """The generated part of docs/protocol.md: one JSON Schema per channel, each with its
     definitions (a struct's docstring is its description)."""
-    verbs = list(COMMANDS)
-    payloads, command_defs = _components(list(COMMANDS.values()))
+    every = {**COMMANDS, **REPLAY_COMMANDS}  # a served recording's verbs after the session's
+    verbs = list(every)
+    payloads, command_defs = _components(list(every.values()))
     replies, reply_defs = _components([Reply, InfoReply])
     (telemetry,), telemetry_defs = _components([Telemetry])
     (state,), state_defs = _components([State])
@@ -69,7 +70,8 @@ def schema_section() -> str:
         _block(
             "Command payloads",
             "`lab/<id>/cmd/<verb>`: the payload of each verb (`properties`), defined by "
-            "`lab/protocol/commands.py`.",
+            "`lab/protocol/commands.py`; `speed` and `seek` are a served recording's only "
+            "(`lab replay --serve`: `ReplayCommand`).",
             {
                 "$id": "lab/cmd",
                 "type": "object",

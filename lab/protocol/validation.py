@@ -13,7 +13,15 @@ from typing import TypeVar
 import msgspec
 from msgspec import inspect
 
-from lab.protocol.commands import COMMANDS, NAME_MAX_LEN, VERBS, Command
+from lab.protocol.commands import (
+    COMMANDS,
+    NAME_MAX_LEN,
+    REPLAY_COMMANDS,
+    VERBS,
+    Command,
+    CommandStruct,
+    ReplayCommand,
+)
 
 # verb -> {old field name: its name now}: an old spelling is rejected naming the new word
 RENAMED_FIELDS: dict[str, dict[str, str]] = {"hierarchy": {"hierarchy": "method"}}
@@ -41,18 +49,34 @@ def parse_command(verb: str, payload: object) -> Command:
         for old, new in RENAMED_FIELDS.get(verb, {}).items():
             if old in payload:
                 raise CommandError(f"{verb}: field {old!r} is now called {new!r}")
-    cls = COMMANDS[verb]
+    command: Command = _convert(verb, payload, COMMANDS[verb])  # type: ignore[assignment]
+    return command
+
+
+def parse_replay_command(verb: str, payload: object) -> ReplayCommand:
+    """Validate `payload` for `verb` into its struct as a served recording takes it
+    (`REPLAY_COMMANDS`: its playback's verbs); raise CommandError naming the verb, the field and
+    what was wrong, or that a recording is read-only for any other verb."""
+    if not isinstance(verb, str) or verb not in REPLAY_COMMANDS:
+        shown = verb[:NAME_MAX_LEN] if isinstance(verb, str) else repr(verb)[:NAME_MAX_LEN]
+        known = ", ".join(REPLAY_COMMANDS)
+        raise CommandError(f"{shown}: a recording is read-only (replay commands: {known})")
+    command: ReplayCommand = _convert(verb, payload, REPLAY_COMMANDS[verb])  # type: ignore[assignment]
+    return command
+
+
+def _convert(verb: str, payload: object, cls: type[CommandStruct]) -> CommandStruct:
+    """`payload` validated into struct `cls` (msgspec, one step); CommandError otherwise."""
     if isinstance(payload, Mapping):  # an optional field is left out, never null
         for key, value in payload.items():
             if value is None and key in cls.__struct_fields__:
                 raise CommandError(f"{verb}: field '{key}' must be {_expected(cls, key)}, got null")
     try:
-        command: Command = msgspec.convert(payload, cls)  # type: ignore[assignment]
+        return msgspec.convert(payload, cls)
     except msgspec.ValidationError as error:
         raise CommandError(
             f"{verb}: {_explain(cls, payload, str(error))}"[:ERROR_MAX_LEN]
         ) from None
-    return command
 
 
 def _explain(cls: type, payload: object, error: str) -> str:

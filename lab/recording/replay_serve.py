@@ -4,39 +4,46 @@ The recorded telemetry, drawing states and events go out on `lab/<id>/telemetry`
 and `.../events` (the lab id `--lab-id`, by default `<host>-replay`) at their recorded pace
 (times the speed), so the browser UI, `lab.client` scripts and plots follow a recording as they
 follow the sim. Commands on `lab/<id>/cmd/<verb>` steer the
-playback: `info`, `pause`, `resume`, `speed {factor}`, `seek {t}`; every other verb is refused
-(a recording is read-only). docs/recording.md and docs/protocol.md.
+playback: `info`, `pause`, `resume`, `speed {factor}`, `seek {t}` (lab.protocol's `ReplayCommand`
+structs, validated by `parse_replay_command` off the loop); every other verb is refused (a
+recording is read-only). docs/recording.md and docs/protocol.md.
 """
 
 import bisect
 import json
-import math
 import signal
 import subprocess
 import sys
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import assert_never, cast
 
 import zenoh
 
-from lab.protocol import LabIdError, default_lab_id
+from lab.protocol import (
+    SPEED_MAX,
+    CommandError,
+    InfoCommand,
+    LabIdError,
+    PauseCommand,
+    ReplayCommand,
+    ResumeCommand,
+    SeekCommand,
+    SpeedCommand,
+    default_lab_id,
+    parse_replay_command,
+)
 from lab.recording.record_replay import Message, Recording, RecordingError, read_recording
 from lab.runtime.serve import stop_process
 from lab.runtime.transport import Request, ServerTransport, server_config
 
-SPEED_MAX = 100.0  # times real time
 STEP_S = 0.005  # wall time between two publishing steps
 # s of wall time: a paused or ended playback publishes its newest telemetry and state again this
 # often, so that a page opened later (or a UI process started after a short recording ended)
 # shows where the playback is instead of "Waiting for telemetry".
 HOLD_REFRESH_S = 0.5
 PLAYED_KINDS = ("telemetry", "state", "events")
-VERBS = ("info", "pause", "resume", "speed", "seek")
-
-
-class ReplayError(ValueError):
-    """A playback command that was refused; the message names the verb and the field."""
 
 
 @dataclass
@@ -97,20 +104,6 @@ class Player:
         }
 
 
-def _as_sent(verb: str, payload: object) -> object:
-    """The intake's validation for a replay: none (`ReplayServer.handle` checks each verb)."""
-    return payload
-
-
-def _number(verb: str, payload: object, name: str) -> float:
-    if not isinstance(payload, dict) or set(payload) != {name}:
-        raise ReplayError(f"{verb}: expected {{{name!r}: number}}, got {payload!r}"[:300])
-    value = payload[name]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ReplayError(f"{verb}: {name} must be a finite number, got {value!r}"[:300])
-    return float(value)
-
-
 class ReplayServer:
     """Serves one recording on a transport until stopped."""
 
@@ -127,30 +120,33 @@ class ReplayServer:
         self.transport = transport
 
     def handle(self, verb: str, payload: object) -> dict[str, object]:
-        """Apply one playback command; the reply is the protocol's `{ok, ...}`."""
-        player = self.player
+        """Validate and apply one playback command; the reply is the protocol's `{ok, ...}`
+        (a refused one changes nothing)."""
         try:
-            if verb not in VERBS:
-                raise ReplayError(
-                    f"{verb}: a recording is read-only (replay commands: {', '.join(VERBS)})"
-                )
-            if verb in ("pause", "resume", "info") and payload not in ({}, None):
-                raise ReplayError(f"{verb}: takes no fields, got {payload!r}"[:300])
-            if verb == "speed":
-                factor = _number(verb, payload, "factor")
-                if not 0.0 < factor <= SPEED_MAX:
-                    raise ReplayError(f"speed: factor must be in (0, {SPEED_MAX:g}], got {factor}")
-                player.speed = factor
-            elif verb == "seek":
-                shown = player.seek(_number(verb, payload, "t"))
-                self._publish(shown)
-            elif verb in ("pause", "resume"):
-                player.paused = verb == "pause"
-        except ReplayError as error:
+            command = parse_replay_command(verb, {} if payload is None else payload)
+        except CommandError as error:
             return {"ok": False, "error": str(error)}
+        return self.execute(command)
+
+    def execute(self, command: ReplayCommand) -> dict[str, object]:
+        """Apply one playback command already validated (`parse_replay_command`)."""
+        player = self.player
+        match command:
+            case SpeedCommand(factor=factor):
+                player.speed = factor
+            case SeekCommand(t=t):
+                self._publish(player.seek(t))
+            case PauseCommand():
+                player.paused = True
+            case ResumeCommand():
+                player.paused = False
+            case InfoCommand():
+                pass
+            case _:  # a replay command without a case here: mypy names it
+                assert_never(command)
         status = {"file": self.path, **player.status(), "cut_short": self.cut_short}
         reply: dict[str, object] = {"ok": True, "replay": status}
-        if verb == "info":  # the recorded session's info, and what it ran (its configuration)
+        if isinstance(command, InfoCommand):  # the recorded session's info, and what it ran
             reply = {**self.recorded_info, **reply, "recorded": self.config}
             reply |= {"paused": player.paused, "t": player.position}
         return reply
@@ -182,8 +178,8 @@ class ReplayServer:
     def _answer(self, request: Request) -> None:
         if request.error is not None:
             reply: dict[str, object] = {"ok": False, "error": request.error}
-        else:
-            reply = self.handle(request.verb, request.payload)
+        else:  # the intake validated it: `parse_replay_command`'s struct
+            reply = self.execute(cast(ReplayCommand, request.command))
         self.transport.reply(request, reply)
 
     def _publish(self, messages: list[Message]) -> None:
@@ -218,7 +214,7 @@ def replay_serve_main(
         print(f"lab replay: {path}: {recording.cut_short}", file=sys.stderr)
     try:
         transport = ServerTransport(
-            server_config(port), lab_id or default_lab_id("replay"), validate=_as_sent
+            server_config(port), lab_id or default_lab_id("replay"), validate=parse_replay_command
         )
     except zenoh.ZError as error:
         print(f"lab replay: Zenoh: {error}", file=sys.stderr)

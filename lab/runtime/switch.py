@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from lab.runtime.intake import Request
 from lab.world.memory import release_free_memory
-from lab.world.session import SessionConfig, SessionParts, build_parts
+from lab.world.session_parts import SessionConfig, SessionParts, build_parts
 
 
 @dataclass(frozen=True)

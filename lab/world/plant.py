@@ -1,8 +1,7 @@
 """The MuJoCo world of one robot, spoken to in pinocchio conventions.
 
-`MujocoPlant` loads the robot's URDF into an `MjSpec` (the same file pinocchio reads), welds the
-locked joints at their reference angle, adds a free joint, one torque motor per actuated joint and
-the scene, and is the only place that converts between the engines:
+`MujocoPlant` runs the model `plant_model.py` builds from the robot's URDF (the same file
+pinocchio reads) and the scene, and is the only place that converts between the engines:
 
 - q = [base position (world), quaternion (x, y, z, w), joints in pinocchio order]
   vs MuJoCo qpos = [position, quaternion (w, x, y, z), joints in MuJoCo order];
@@ -10,26 +9,14 @@ the scene, and is the only place that converts between the engines:
   vs MuJoCo qvel = [linear velocity (world frame), angular velocity (body frame), joints];
 - joints are matched by name (ANYmal's order differs between the engines).
 
-Physics choices (documented in the report of issue 2):
-- URDF joint damping, friction and armature are zeroed, and inertias are taken from the URDF only
-  (never from geoms), so MuJoCo's rigid-body dynamics equal pinocchio's.
-- Static (fixed-joint) bodies are fused into their parent, which also merges dummy inertia links
-  such as ANYmal's massless `base` + `base_inertia` into one valid body.
-- Visual geometry is dropped (the browser draws meshes itself). Collision geometry is kept for fall
-  detection: primitives as they are, STL meshes by file, Collada meshes (HyQ) converted with
-  trimesh. The collision geometry of each foot link is replaced by the contact shape: a sphere of
-  the contact radius centred on the contact frame, or a box whose bottom face is the sole
-  rectangle. Self-collision is off (robot geoms only collide with terrain), so overlapping URDF
-  boxes (ANYmal's base and thighs) never fight.
-- Timestep 1 ms, `implicitfast` integrator (semi-implicit Euler for the rigid body here, since no
-  joint damping is modelled, and it stays stable if damping or velocity-dependent actuators are
-  added), Newton solver with elliptic friction cones (the physical cone; the controller uses an
-  inner pyramid of it), default soft-contact parameters: stable standing under torque control with
-  millimetre penetration.
-- MuJoCo's automatic reset on a bad state (`mjDSBL_AUTORESET`) is off: it would silently put the
-  robot at the model's origin and the clock at 0. `step()` instead raises `SimulationDiverged`
-  (MuJoCo's bad position / velocity / acceleration warnings, or a non-finite state) and the
-  caller decides what state comes next (the session: docs/architecture.md, "Faults").
+What it measures (touch, foot forces, centres of pressure, the terrain's poses) is
+`plant_sensing.py`'s `PlantSensing`, which it derives from (this file, a little over 400 lines,
+is the running world alone: state in and out, step and check, pushes, drives and payloads).
+Running choices:
+- MuJoCo's automatic reset on a bad state is off (plant_model.py): `step()` instead raises
+  `SimulationDiverged` (MuJoCo's bad position / velocity / acceleration warnings, or a
+  non-finite state) and the caller decides what state comes next (the session:
+  docs/architecture.md, "Faults").
 - A scene's moving terrain (a rolling platform, a balance board: `lab.scenes.terrain`) is
   driven by its script before every step (`moving_terrain`); its joints come after the robot's
   in qpos and qvel. Terrain is every geom not on the robot's body tree.
@@ -41,25 +28,17 @@ Physics choices (documented in the report of issue 2):
   integrates it implicitly, so any damping is stable.
 """
 
-import functools
 import math
-import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pinocchio as pin
-import trimesh
 
 from lab.robot import Robot
 from lab.scenes import scene_bodies
-from lab.scenes.terrain import (
-    ROBOT_CONAFFINITY,
-    ROBOT_CONTYPE,
-    ScriptedJoints,
-    add_scene,
-    scripted_joint_name,
-)
+from lab.scenes.terrain import ScriptedJoints
+from lab.world.plant_model import build_spec, mute_shank_meshes, shorten_shanks
+from lab.world.plant_sensing import PlantSensing
 
 try:  # the per-tick exchange with MuJoCo in C (cpp/plant); without it the Python path runs
     from lab import _plant
@@ -69,7 +48,6 @@ if _plant is not None and _plant.mujoco_version != mujoco.mj_versionString():
     _plant = None  # built against another MuJoCo than the one imported: its structs may differ
 
 PAYLOAD_CUBE_SIDE = 0.1  # m: a payload is a solid cube of this side (its own inertia)
-SOLE_HALF_THICKNESS = 0.01  # m, half height of the box that stands for a flat foot
 # MuJoCo's checks of a bad state: a position, velocity or acceleration that is NaN, inf or beyond
 # 1e10 (mjMAXVAL). With the automatic reset off they count, and the state stays as it is.
 BAD_STATE_WARNINGS = {
@@ -94,267 +72,7 @@ class SimulationDiverged(ArithmeticError):
         self.time = time
 
 
-def _resolve(filename: str, urdf_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
-    if filename.startswith("package://"):
-        relative = filename.removeprefix("package://")
-        for root in package_dirs:
-            if (root / relative).is_file():
-                return root / relative
-        raise FileNotFoundError(f"mesh {filename} not found under {package_dirs}")
-    return urdf_dir / filename
-
-
-def _origin(element: ET.Element | None) -> tuple[np.ndarray, np.ndarray]:
-    """URDF <origin> as (position, MuJoCo quaternion w, x, y, z)."""
-    xyz = np.zeros(3)
-    rpy = np.zeros(3)
-    if element is not None:
-        xyz = np.array([float(x) for x in element.get("xyz", "0 0 0").split()])
-        rpy = np.array([float(x) for x in element.get("rpy", "0 0 0").split()])
-    x, y, z, w = pin.Quaternion(pin.rpy.rpyToMatrix(rpy)).coeffs()
-    return xyz, np.array([w, x, y, z])
-
-
-def _strip_geometry(urdf: ET.Element) -> dict[str, list[ET.Element]]:
-    """Remove visual and collision elements; return the collision elements by link name."""
-    collisions: dict[str, list[ET.Element]] = {}
-    for link in urdf.findall("link"):
-        for visual in link.findall("visual"):
-            link.remove(visual)
-        collisions[link.get("name")] = link.findall("collision")
-        for collision in collisions[link.get("name")]:
-            link.remove(collision)
-    return collisions
-
-
-def _add_collision(
-    spec: mujoco.MjSpec,
-    body: mujoco.MjsBody,
-    collision: ET.Element,
-    urdf_dir: Path,
-    package_dirs: tuple[Path, ...],
-) -> None:
-    pos, quat = _origin(collision.find("origin"))
-    shape = collision.find("geometry")[0]
-    geom = body.add_geom(pos=pos, quat=quat)
-    if shape.tag == "box":
-        geom.type = mujoco.mjtGeom.mjGEOM_BOX
-        geom.size = [0.5 * float(s) for s in shape.get("size").split()]
-    elif shape.tag == "cylinder":
-        geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
-        geom.size = [float(shape.get("radius")), 0.5 * float(shape.get("length")), 0.0]
-    elif shape.tag == "sphere":
-        geom.type = mujoco.mjtGeom.mjGEOM_SPHERE
-        geom.size = [float(shape.get("radius")), 0.0, 0.0]
-    elif shape.tag == "mesh":
-        path = _resolve(shape.get("filename"), urdf_dir, package_dirs)
-        scale = [float(s) for s in shape.get("scale", "1 1 1").split()]
-        name = f"{path.stem}_{len(spec.meshes)}"
-        if path.suffix.lower() == ".stl":
-            spec.add_mesh(name=name, file=str(path), scale=scale)
-        else:  # Collada (HyQ) and others MuJoCo cannot decode: convert with trimesh
-            mesh = trimesh.load(path, force="mesh")
-            spec.add_mesh(
-                name=name,
-                uservert=(np.asarray(mesh.vertices) * scale).ravel().tolist(),
-                userface=np.asarray(mesh.faces).ravel().tolist(),
-            )
-        geom.type = mujoco.mjtGeom.mjGEOM_MESH
-        geom.meshname = name
-    else:
-        raise ValueError(f"unsupported URDF collision geometry <{shape.tag}>")
-
-
-def _weld(spec: mujoco.MjSpec, joint: mujoco.MjsJoint, angle: float) -> None:
-    """Turn `joint` (a hinge) into a weld at `angle`: rotate its body and delete the joint."""
-    body = joint.parent
-    turn = np.zeros(4)
-    mujoco.mju_axisAngle2Quat(turn, np.asarray(joint.axis, dtype=float), angle)
-    if np.linalg.norm(joint.pos) > 0.0:
-        raise ValueError(f"cannot weld joint {joint.name!r}: its axis is off the body origin")
-    quat = np.zeros(4)
-    mujoco.mju_mulQuat(quat, np.asarray(body.quat, dtype=float), turn)
-    body.quat = quat
-    spec.delete(joint)
-
-
-def _placement(body: mujoco.MjsBody) -> pin.SE3:
-    """Pose of `body` in its parent body."""
-    w, x, y, z = body.quat
-    return pin.SE3(pin.Quaternion(w, x, y, z).normalized().matrix(), np.asarray(body.pos, float))
-
-
-def _inertia(body: mujoco.MjsBody) -> pin.Inertia:
-    """Spatial inertia of `body` alone, in its frame (URDF data as parsed by MuJoCo)."""
-    if np.isnan(body.ipos[0]):  # no <inertial>
-        return pin.Inertia.Zero()
-    if np.isnan(body.fullinertia[0]):  # principal moments in the `iquat` frame
-        about_com = np.diag(body.inertia)
-    else:
-        xx, yy, zz, xy, xz, yz = body.fullinertia
-        about_com = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-    w, x, y, z = body.iquat
-    rotation = pin.Quaternion(w, x, y, z).normalized().matrix()
-    rotated = rotation @ about_com @ rotation.T
-    return pin.Inertia(body.mass, np.asarray(body.ipos, float), 0.5 * (rotated + rotated.T))
-
-
-def _fold_static_inertias(spec: mujoco.MjSpec) -> None:
-    """Move the inertia of every jointless body into its nearest moving ancestor.
-
-    This is how pinocchio builds its bodies from fixed URDF links; done before compiling, it also
-    removes the degenerate inertias MuJoCo rejects on fixed links (ANYmal's cameras, Talos' wrist
-    sensors, HyQ's massless base link) without changing total mass or centre of mass.
-    """
-    totals: dict[str, tuple[mujoco.MjsBody, pin.Inertia]] = {}
-    for body in spec.bodies:
-        if body.name == "world":
-            continue
-        anchor, placement = body, pin.SE3.Identity()
-        while not anchor.joints:
-            placement = _placement(anchor) * placement
-            anchor = anchor.parent
-        moving, total = totals.get(anchor.name, (anchor, pin.Inertia.Zero()))
-        totals[anchor.name] = (moving, total + placement.act(_inertia(body)))
-        if body is not anchor:
-            body.mass = 0.0
-            body.fullinertia = [np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]  # unset: no inertial
-            body.explicitinertial = False
-    for body, total in totals.values():
-        inertia = total.inertia
-        body.mass = total.mass
-        body.ipos = total.lever
-        body.iquat = [1.0, 0.0, 0.0, 0.0]
-        body.fullinertia = [*np.diag(inertia), inertia[0, 1], inertia[0, 2], inertia[1, 2]]
-
-
-def build_spec(
-    robot: Robot, scene: str, timestep: float, terrain_seed: int | None = None
-) -> mujoco.MjSpec:
-    """The MuJoCo world: robot from its URDF (see module docstring), motors and scene (its
-    random terrain drawn with `terrain_seed`, lab.scenes.scene_geoms)."""
-    desc = robot.description
-    urdf = ET.parse(desc.urdf_path).getroot()
-    collisions = _strip_geometry(urdf)
-    spec = mujoco.MjSpec.from_string(ET.tostring(urdf, encoding="unicode"))
-    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-    spec.compiler.balanceinertia = False
-    spec.compiler.fusestatic = True
-    spec.compiler.discardvisual = True
-    spec.option.timestep = timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-
-    for name, angle in robot.locked_positions.items():
-        _weld(spec, spec.joint(name), angle)
-    for joint in spec.joints:
-        joint.damping = [0.0, 0.0, 0.0]
-        joint.frictionloss = 0.0
-        joint.armature = 0.0
-        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
-    root = spec.worldbody.first_body()
-    root.add_freejoint(name="root_joint")
-    _fold_static_inertias(spec)
-
-    foot_links = set(robot.foot_links)
-    for link, elements in collisions.items():
-        if link in foot_links:
-            continue
-        for collision in elements:
-            _add_collision(
-                spec, spec.body(link), collision, desc.urdf_path.parent, desc.package_dirs
-            )
-    for contact, link, offset in zip(
-        robot.contacts, robot.foot_links, robot.foot_offsets, strict=True
-    ):
-        body = spec.body(link)
-        body.add_site(name=contact.name, pos=offset)
-        if contact.kind == "point":
-            body.add_geom(
-                name=contact.name,
-                type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                size=[contact.radius, 0, 0],
-                pos=offset,
-            )
-        else:
-            body.add_geom(
-                name=contact.name,
-                type=mujoco.mjtGeom.mjGEOM_BOX,
-                size=[contact.half_length, contact.half_width, SOLE_HALF_THICKNESS],
-                pos=[offset[0], offset[1], offset[2] + SOLE_HALF_THICKNESS],
-            )
-    for geom in spec.geoms:
-        geom.contype = ROBOT_CONTYPE
-        geom.conaffinity = ROBOT_CONAFFINITY
-
-    for name, limit in zip(robot.joint_names, robot.torque_limits, strict=True):
-        spec.add_actuator(
-            name=name,
-            target=name,
-            trntype=mujoco.mjtTrn.mjTRN_JOINT,
-            ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            ctrlrange=[-limit, limit],
-        )
-    add_scene(spec, scene, desc.friction, terrain_seed)
-    return spec
-
-
-ROUND_SHANKS = (int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_CAPSULE))
-
-
-def _shorten_shanks(m: mujoco.MjModel, foot_geoms: np.ndarray) -> None:
-    """End each cylinder or capsule of a foot's body one foot radius before the foot centre.
-
-    HyQ's shank cylinder runs exactly to the foot-sphere centre: with the few millimetres a soft
-    contact sinks, its rim touched the floor in stance and counted as a fall. Only geometry that
-    overlaps the foot sphere is trimmed; the robot's mass and inertia do not come from geoms.
-    """
-    for foot in foot_geoms:
-        body, centre, radius = m.geom_bodyid[foot], m.geom_pos[foot], m.geom_size[foot][0]
-        for g in np.flatnonzero(m.geom_bodyid == body):
-            if g == foot or m.geom_type[g] not in ROUND_SHANKS:
-                continue
-            axis = np.zeros(9)
-            mujoco.mju_quat2Mat(axis, m.geom_quat[g])
-            axis = axis.reshape(3, 3)[:, 2]
-            half = m.geom_size[g][1]
-            offset = centre - m.geom_pos[g]
-            along = float(axis @ offset)  # foot centre along the axis
-            across = float(np.linalg.norm(offset - along * axis))  # and away from it
-            end = np.sign(along) * half
-            reach = radius - (abs(along) - half)  # how far the end pokes into the sphere
-            if reach > 0.0 and across < m.geom_size[g][0] + radius:
-                cut = min(reach, half)
-                m.geom_size[g][1] = half - cut / 2
-                m.geom_pos[g] -= np.sign(end) * axis * cut / 2
-
-
-def _mute_shank_meshes(m: mujoco.MjModel, foot_geoms: np.ndarray) -> None:
-    """Take out of collision each mesh of a point foot's body that reaches into the foot sphere.
-
-    Bolt's shank mesh ends in the foot: its hull's rim touched the floor whenever a stance leg
-    leaned (stepping sideways), and counted as a fall. The foot sphere stays the contact; the
-    robot's mass and inertia do not come from geoms.
-    """
-    for foot in foot_geoms:
-        if m.geom_type[foot] != mujoco.mjtGeom.mjGEOM_SPHERE:
-            continue
-        body, centre, radius = m.geom_bodyid[foot], m.geom_pos[foot], m.geom_size[foot][0]
-        for g in np.flatnonzero(m.geom_bodyid == body):
-            mesh = m.geom_dataid[g]
-            if g == foot or m.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH or mesh < 0:
-                continue
-            rotation = np.zeros(9)
-            mujoco.mju_quat2Mat(rotation, m.geom_quat[g])
-            start, count = m.mesh_vertadr[mesh], m.mesh_vertnum[mesh]
-            vertices = m.mesh_vert[start : start + count] @ rotation.reshape(3, 3).T
-            if np.min(np.linalg.norm(vertices + m.geom_pos[g] - centre, axis=1)) < radius:
-                m.geom_contype[g] = m.geom_conaffinity[g] = 0
-
-
-class MujocoPlant:
+class MujocoPlant(PlantSensing):
     """One robot in one MuJoCo scene; every argument and result in pinocchio conventions."""
 
     def __init__(
@@ -385,8 +103,8 @@ class MujocoPlant:
         self.foot_geom_ids = np.array([m.geom(c.name).id for c in robot.contacts])
         foot_of_geom = np.full(m.ngeom, -1)
         foot_of_geom[self.foot_geom_ids] = np.arange(len(robot.contacts))
-        _shorten_shanks(m, self.foot_geom_ids)
-        _mute_shank_meshes(m, self.foot_geom_ids)
+        shorten_shanks(m, self.foot_geom_ids)
+        mute_shank_meshes(m, self.foot_geom_ids)
         # Per geom, as lists for the per-contact loops: is it terrain (not on the robot's tree:
         # the world's geoms and a scene's moving bodies), which foot is it (or −1).
         robot_root = m.body_rootid[self.base_body_id]
@@ -692,111 +410,3 @@ class MujocoPlant:
     def clear_push(self) -> None:
         self.mj_data.xfrc_applied[:] = 0.0
         self._point_pushes.clear()
-
-    def _terrain_contacts(self) -> list[tuple[int, int, int, float]]:
-        """(contact, foot or −1, first constraint row or −1, sign) of each contact of the last step
-        between the robot and the terrain. The sign is +1 where the robot's geom is geom2: the
-        contact force acts from geom1 onto geom2. A plain loop: a step has a handful of
-        contacts, fewer than the numpy calls that would replace it cost. Computed once per step:
-        the touch sensing, the measured forces and the fall check all read it."""
-        if self._contacts_step == self._steps:
-            return self._contacts
-        d = self.mj_data
-        terrain, foot_of = self._terrain_list, self._foot_of_geom_list
-        geoms, rows = d.contact.geom[: d.ncon].tolist(), d.contact.efc_address[: d.ncon].tolist()
-        found = []
-        for i, ((g1, g2), row) in enumerate(zip(geoms, rows, strict=True)):
-            if terrain[g1] != terrain[g2]:  # one side is the robot
-                robot_geom, sign = (g2, 1.0) if terrain[g1] else (g1, -1.0)
-                found.append((i, foot_of[robot_geom], row, sign))
-        self._contacts, self._contacts_step = found, self._steps
-        return found
-
-    def non_foot_ground_contact(self) -> bool:
-        """Does any robot geom other than the feet touch the terrain?"""
-        if self._native is not None:
-            return self._native.non_foot_ground_contact()
-        return any(foot < 0 for _, foot, _, _ in self._terrain_contacts())
-
-    def feet_touching(self, min_normal_force: float) -> np.ndarray:
-        """Which feet press on the terrain with a normal force above `min_normal_force` (N).
-
-        The touch sensor of haptic touchdown: cheaper than `foot_forces`, it reads only each
-        contact's normal force (the first constraint force of an elliptic-cone contact).
-        """
-        if self._native is not None and min_normal_force >= 0.0:
-            return self._native.foot_normal_forces() > min_normal_force
-        efc_force = self.mj_data.efc_force
-        touching = np.zeros(len(self._forces), dtype=bool)
-        for _, foot, row, _ in self._terrain_contacts():
-            if foot >= 0 and row >= 0 and efc_force[row] > min_normal_force:
-                touching[foot] = True
-        return touching
-
-    def foot_pressure_centres(self) -> np.ndarray:
-        """Measured centre of pressure of each foot (n_contacts, 3), m, world frame: its contact
-        points weighted by their normal forces; NaN for a foot that does not press."""
-        total = np.zeros(len(self._forces))
-        moment = np.zeros((len(self._forces), 3))
-        efc_force, points = self.mj_data.efc_force, self.mj_data.contact.pos
-        for i, foot, row, _ in self._terrain_contacts():
-            if foot >= 0 and row >= 0 and efc_force[row] > 0.0:
-                total[foot] += efc_force[row]
-                moment[foot] += efc_force[row] * points[i]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return moment / total[:, None]
-
-    def foot_forces(self) -> np.ndarray:
-        """Measured terrain force on each foot (n_contacts, 3), N, world frame.
-
-        Computed once per step: the session, the metrics and the telemetry all ask for it.
-        """
-        if self._forces_step == self._steps:
-            return self._forces.copy()
-        self._forces_step = self._steps
-        if self._native is not None:
-            self._native.foot_forces(self._forces)
-            return self._forces.copy()
-        self._forces[:] = 0.0
-        efc_force, frames = self.mj_data.efc_force, self.mj_data.contact.frame
-        for i, foot, row, sign in self._terrain_contacts():
-            if foot >= 0 and row >= 0:
-                # Elliptic cones: a contact's first three constraint forces are its normal and two
-                # tangential components in the contact frame, whose rows are the frame's axes.
-                self._forces[foot] += sign * efc_force[row : row + 3].dot(frames[i].reshape(3, 3))
-        return self._forces.copy()
-
-    # ------------------------------------------------------------------ named reads for metrics
-    @property
-    def timestep(self) -> float:
-        """The MuJoCo step, s."""
-        return float(self.mj_model.opt.timestep)
-
-    def scene_body_poses(self) -> dict[str, list[float]]:
-        """Each moving terrain body's world pose, [x, y, z, qw, qx, qy, qz] (none in a static
-        scene)."""
-        return self.moving_terrain.poses(self.mj_data)
-
-    @functools.cached_property
-    def _scripted_joints(self) -> list[tuple[str, int]]:
-        """(name, qpos address) of each scripted joint of the moving terrain, body by body."""
-        names = [
-            scripted_joint_name(b.name, k)
-            for b in self.moving_terrain.bodies
-            for k in range(len(b.joints))
-        ]
-        return [(name, int(self.mj_model.joint(name).qposadr[0])) for name in names]
-
-    def scripted_joint_positions(self) -> dict[str, float]:
-        """Each scripted joint of the moving terrain by name (`scripted_joint_name`), body by
-        body: m for a slide, rad for a hinge."""
-        qpos = self.mj_data.qpos
-        return {name: float(qpos[address]) for name, address in self._scripted_joints}
-
-    def terrain_frame(self) -> tuple[np.ndarray, np.ndarray]:
-        """Position and rotation (world) of the scene's first moving body; the world's own
-        frame in a static scene."""
-        if not self.moving_terrain.body_ids:
-            return np.zeros(3), np.eye(3)
-        body, d = self.moving_terrain.body_ids[0], self.mj_data
-        return d.xpos[body].copy(), d.xmat[body].reshape(3, 3).copy()

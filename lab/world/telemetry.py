@@ -15,6 +15,7 @@ from lab.controller.hierarchy.solution import SolveStatus
 from lab.controller.model import RobotModel
 from lab.controller.native import NativeController
 from lab.protocol import TaskGains
+from lab.realism.layer import NativeRealismLayer, RealismLayer
 from lab.robot import FramePlacements, Robot
 from lab.world.plant import MujocoPlant
 
@@ -37,9 +38,14 @@ class ConfigView(Protocol):
 
 
 class SessionView(Protocol):
-    """The parts of a `Session` the messages read."""
+    """The parts of a `Session` the messages read (read-only: a message changes nothing)."""
 
-    config: ConfigView
+    @property
+    def config(self) -> ConfigView: ...
+
+    @property
+    def realism(self) -> RealismLayer | NativeRealismLayer: ...
+
     robot: Robot
     frame_placements: FramePlacements
     plant: MujocoPlant
@@ -51,9 +57,13 @@ class SessionView(Protocol):
     divergences: int
     qp_ok: bool
     qp_failures: int
-    solution: HierarchySolution | None
-    status: SolveStatus
     control_us: float
+
+    @property
+    def solution(self) -> HierarchySolution | None: ...
+
+    @property
+    def status(self) -> SolveStatus: ...
 
     def recent_warnings(self) -> list[dict]: ...
 
@@ -61,7 +71,9 @@ class SessionView(Protocol):
 
     forces: np.ndarray
     velocity: np.ndarray
-    pushes: Mapping[str, PushView]
+
+    @property
+    def pushes(self) -> Mapping[str, PushView]: ...
 
     @property
     def time(self) -> float: ...
@@ -137,7 +149,8 @@ def momentum_gain_report(controller: NativeController) -> list[list[float]] | No
 
 def gain_fields(gains: TaskGains, used: tuple[str, ...]) -> dict[str, float | None]:
     """kp, kd and weight of a task, None for those it does not read."""
-    return {key: getattr(gains, key) if key in used else None for key in ("kp", "kd", "weight")}
+    given = {"kp": gains.kp, "kd": gains.kd, "weight": gains.weight}
+    return {key: value if key in used else None for key, value in given.items()}
 
 
 def task_gains_report(controller: NativeController) -> list[dict]:

@@ -11,8 +11,8 @@ from lab.controller.controller import ControllerConfig, WholeBodyController
 from lab.controller.hierarchy.wbosc import WboscStackError
 from lab.controller.internal_force import internal_force_map, internal_forces
 from lab.controller.model import RobotModel
+from lab.controller.references import WalkReferences
 from lab.controller.stack import Stack
-from lab.controller.walk_references import WalkReferences
 from lab.description import load_description
 from lab.robot import build_robot
 from lab.world.session import Session, SessionConfig

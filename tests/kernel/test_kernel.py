@@ -26,10 +26,8 @@ from lab.controller.native import (
     native_available,
     send_references,
 )
-from lab.controller.references import References
+from lab.controller.references import References, SoleReferences, WalkReferences
 from lab.controller.stack import Stack
-from lab.controller.tasks.sole import SoleReferences
-from lab.controller.walk_references import WalkReferences
 from lab.description import ROBOT_NAMES, load_description
 from lab.experiments.scenario import load_scenario, run_scenario
 from lab.robot import build_robot

@@ -18,7 +18,7 @@ from lab.controller.behaviours.stance import Stance
 from lab.controller.controller import ControlOutput, WholeBodyController
 from lab.controller.model import RobotModel
 from lab.controller.native import NOT_BUILT, NativeController, native_available, send_references
-from lab.controller.tasks.sole import SoleReferences
+from lab.controller.references import SoleReferences
 from lab.stack_presets import load_stack_preset
 from lab.world.session import Session, SessionConfig
 from tests.helpers.controllers import disturbed_state

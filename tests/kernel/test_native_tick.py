@@ -12,7 +12,8 @@ import pytest
 from lab.realism.knobs import RealismKnobs, knobs_from, preset
 from lab.realism.layer import RealismLayer
 from lab.world.native_tick import HAS_SERVER_TICK
-from lab.world.session import FALL_CHECK_PERIOD, Session, SessionConfig
+from lab.world.session import Session, SessionConfig
+from lab.world.session_tick import FALL_CHECK_PERIOD
 
 pytestmark = pytest.mark.skipif(not HAS_SERVER_TICK, reason="lab._kernel has no ServerTick")
 

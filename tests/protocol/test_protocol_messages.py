@@ -14,6 +14,7 @@ from lab.controller import hierarchy
 from lab.controller.qp import QPFailure
 from lab.protocol import (
     COMMANDS,
+    REPLAY_COMMANDS,
     VERBS,
     CommandError,
     CommandStruct,
@@ -35,11 +36,14 @@ from lab.protocol import (
     ResumeCommand,
     RobotCommand,
     SceneCommand,
+    SeekCommand,
+    SpeedCommand,
     StackCommand,
     StanceCommand,
     TakeCommand,
     VelocityCommand,
     parse_command,
+    parse_replay_command,
 )
 from lab.protocol.events import EVENT_KINDS, decode_event
 from lab.protocol.messages import InfoReply, Reply, State, Telemetry, decode
@@ -74,6 +78,14 @@ EXAMPLES: dict[str, CommandStruct] = {
     "realism": RealismCommand(preset="typical", command_delay=2, actuator="sea"),
     "payload": PayloadCommand("base", 10.0, (0.0, 0.0, 0.15)),
 }
+# One valid command of each verb a served recording takes (`lab replay --serve`).
+REPLAY_EXAMPLES: dict[str, CommandStruct] = {
+    "info": InfoCommand(),
+    "pause": PauseCommand(),
+    "resume": ResumeCommand(),
+    "speed": SpeedCommand(2.5),
+    "seek": SeekCommand(0.25),
+}
 # A value no field of any command takes.
 WRONG = {"a": [1]}
 
@@ -84,6 +96,42 @@ def test_every_verb_has_one_struct_and_round_trips_through_json() -> None:
         assert verb == command.VERB and isinstance(command, COMMANDS[verb])
         payload = json.loads(msgspec.json.encode(command))  # what a client sends
         assert parse_command(verb, payload) == command, verb
+
+
+def test_every_replay_verb_has_one_struct_and_round_trips_through_json() -> None:
+    assert set(REPLAY_EXAMPLES) == set(REPLAY_COMMANDS)
+    for verb, command in REPLAY_EXAMPLES.items():
+        assert verb == command.VERB and isinstance(command, REPLAY_COMMANDS[verb])
+        payload = json.loads(msgspec.json.encode(command))  # what a client sends
+        assert parse_replay_command(verb, payload) == command, verb
+
+
+@pytest.mark.parametrize(
+    ("verb", "payload", "message"),
+    [
+        ("speed", {"factor": 0}, "speed: field 'factor' = 0 is out of range (0, 100]"),
+        ("speed", {"factor": 250.0}, "speed: field 'factor' = 250 is out of range (0, 100]"),
+        ("speed", {"factor": math.nan}, "speed: field 'factor' must be finite, got nan"),
+        ("speed", {"factor": True}, "speed: field 'factor' must be a number, got bool"),
+        ("speed", {"rate": 2}, "speed: unknown field(s) 'rate' (expected factor)"),
+        ("seek", {"t": "soon"}, "seek: field 't' must be a number, got str"),
+        ("seek", {"t": math.inf}, "seek: field 't' must be finite, got inf"),
+        ("seek", {}, "seek: field 't' is missing"),
+        ("seek", [0.5], "seek: payload must be a JSON object, got list"),
+        ("pause", {"now": True}, "pause: unknown field(s) 'now' (expected no fields)"),
+        (
+            "push",
+            {"body": "base"},
+            "push: a recording is read-only (replay commands: info, pause, resume, speed, seek)",
+        ),
+    ],
+)
+def test_a_served_recording_names_the_verb_the_field_and_what_was_wrong(
+    verb: str, payload: object, message: str
+) -> None:
+    with pytest.raises(CommandError) as error:
+        parse_replay_command(verb, payload)
+    assert str(error.value) == message
 
 
 @pytest.mark.parametrize("verb", VERBS)

@@ -14,13 +14,8 @@ import pytest
 from lab.controller import hierarchy
 from lab.controller.hierarchy.nullspace import ActiveSetCapWarning
 from lab.controller.qp import QPFailure
-from lab.world.session import (
-    FALL_CONTACT_S,
-    LIMP_DAMPING_SPEED,
-    WARNING_HOLD_S,
-    Session,
-    SessionConfig,
-)
+from lab.world.session import WARNING_HOLD_S, Session, SessionConfig
+from lab.world.session_tick import FALL_CONTACT_S, LIMP_DAMPING_SPEED
 
 
 @pytest.fixture(scope="module")

@@ -43,12 +43,33 @@ class Behaviour(Protocol):
     and telemetry read of it beyond the references is declared here, never probed:
     `BehaviourDefaults` gives the plain answers."""
 
-    name: str
-    references: References
-    lifts_feet: bool  # swings feet: the stack needs the swing_feet task to carry them
-    kernel_ran: str  # which kernel ran the last update: native, python or none (native.py)
-    # The stack preset it brings onto a stack without swing_feet; None: the lab's walking one.
-    stack_preset: str | None
+    # Read, never set, through this protocol: a behaviour may declare a narrower type (a
+    # stance's SoleReferences, a twin's KernelRan).
+    @property
+    def name(self) -> str:
+        """The gait name it is built under (BEHAVIOURS)."""
+        ...
+
+    @property
+    def references(self) -> References:
+        """The references it owns and updates."""
+        ...
+
+    @property
+    def lifts_feet(self) -> bool:
+        """Whether it swings feet: the stack needs the swing_feet task to carry them."""
+        ...
+
+    @property
+    def kernel_ran(self) -> str:
+        """Which kernel ran the last update: native, python or none (native.py)."""
+        ...
+
+    @property
+    def stack_preset(self) -> str | None:
+        """The stack preset it brings onto a stack without swing_feet; None: the lab's walking
+        one."""
+        ...
 
     @property
     def idle(self) -> bool:

@@ -57,8 +57,7 @@ from lab.controller.behaviours.pipm import (
 from lab.controller.behaviours.swing import swing_reference
 from lab.controller.behaviours.walking import YAW_ACCELERATION_LIMIT, rate_limited
 from lab.controller.model import RobotModel
-from lab.controller.references import References
-from lab.controller.walk_references import WalkReferences
+from lab.controller.references import References, WalkReferences
 
 try:
     from lab._kernel import BipedStepping as NativeBipedStepping

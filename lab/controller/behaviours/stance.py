@@ -24,8 +24,8 @@ import numpy as np
 
 from lab.controller.behaviours.balance import Balance
 from lab.controller.model import BASE_DOF, RobotModel
+from lab.controller.references import SoleReferences
 from lab.controller.tasks.posture import leg_joints
-from lab.controller.tasks.sole import SoleReferences
 from lab.protocol import SWING_HZ_MAX
 
 try:
@@ -45,7 +45,7 @@ SWING_AMPLITUDE = (0.4, 0.6)  # rad, the hip and knee flexion's excursion from t
 def smooth(s: float) -> float:
     """0 → 1 with zero slope at both ends (a cosine ramp) for s in [0, 1], clamped outside."""
     s = min(max(s, 0.0), 1.0)
-    return 0.5 - 0.5 * np.cos(np.pi * s)
+    return float(0.5 - 0.5 * np.cos(np.pi * s))
 
 
 class Stance(Balance):
@@ -54,21 +54,22 @@ class Stance(Balance):
 
     name = "stance"
     lifts_feet = False  # the stance preset brings `swing_sole`, not the walking one
+    references: SoleReferences  # Balance's, with a pose target per sole
 
     def __init__(self, robot: RobotModel, q_standing: np.ndarray) -> None:
         """Start in double support from the robot's current state (the model is up to date)."""
         super().__init__(robot, q_standing)
         base = self.references
-        self.references = SoleReferences(
+        self.references = refs = SoleReferences(
             **{f.name: getattr(base, f.name) for f in fields(base)},
             sole_position=robot.contact_positions.copy(),
             sole_rotation=robot.contact_rotations.copy(),
+            leg_swinging=np.zeros(len(robot.contacts), dtype=bool),
+            leg_position=robot.joint_positions.copy(),
+            leg_velocity=np.zeros(robot.na),
+            leg_acceleration=np.zeros(robot.na),
         )
-        self.references.normal_force_max = np.full(len(robot.contacts), NORMAL_MAX)
-        self.references.leg_swinging = np.zeros(len(robot.contacts), dtype=bool)
-        self.references.leg_position = robot.joint_positions.copy()
-        self.references.leg_velocity = np.zeros(robot.na)
-        self.references.leg_acceleration = np.zeros(robot.na)
+        refs.normal_force_max = np.full(len(robot.contacts), NORMAL_MAX)
         self._flexion = [flexion_joints(robot, i) for i in range(len(robot.contacts))]
         self._bend = np.sign(q_standing[7:])  # the side each joint bends to in the crouch
         self.swing_hz = 0.0  # asked for; 0: hold the lifted sole

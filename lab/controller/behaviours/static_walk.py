@@ -22,8 +22,8 @@ import pinocchio as pin
 from lab.controller.behaviours.base import NoOptions
 from lab.controller.behaviours.native import NativeTwin
 from lab.controller.model import RobotModel
+from lab.controller.references import WORLD_UP, WalkReferences
 from lab.controller.surfaces import HALF_CYLINDER, HalfCylinder
-from lab.controller.walk_references import WORLD_UP, WalkReferences
 
 try:
     from lab._kernel import StaticWalk as NativeStaticWalk

@@ -37,8 +37,7 @@ from lab.controller.behaviours.leg_posture import LegPostureReference
 from lab.controller.behaviours.native import NativeTwin
 from lab.controller.behaviours.swing import swing_reference
 from lab.controller.model import RobotModel
-from lab.controller.references import References
-from lab.controller.walk_references import WalkReferences
+from lab.controller.references import References, WalkReferences
 
 try:
     from lab._kernel import Walking as NativeWalking

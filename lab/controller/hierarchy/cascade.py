@@ -276,4 +276,5 @@ def _smallest_in_optimal_set(
     over = rate > h
     if over.any():
         w = w * min(1.0, float(np.min(h[over] / rate[over])))
-    return u + N @ w
+    smallest: np.ndarray = u + N @ w
+    return smallest

@@ -65,4 +65,4 @@ class HierarchyProblem:
     @property
     def nx(self) -> int:
         """Size of x = [q̈, F]."""
-        return self.dynamics_A.shape[1]
+        return int(self.dynamics_A.shape[1])

@@ -5,16 +5,24 @@ A motion task asks an operational-space acceleration `J q̈ + J̇v = a_des` with
 `a_des = a_ref + kp e + kd ė` (Raiola eqs. 7–9); a force task asks F directly. Each task class
 declares in `GAINS` which of kp, kd and weight it reads (the others keep their defaults and the
 UI hides them).
+
+A task also declares what the controller must do for it beyond building its rows, so that no
+controller asks for a task by name: whether it reads the sensors (`READS_SENSING`, `sense`),
+whether it holds inputs in Python that the native kernel needs each tick (`KERNEL_INPUTS`,
+`to_kernel`, `from_kernel`), and what of it runs in Python between the kernel's model update and
+its solve (`PYTHON_BEFORE_SOLVE`).
 """
 
-from typing import ClassVar, NamedTuple
+from typing import ClassVar, NamedTuple, Protocol
 
 import numpy as np
 
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.rows import FixedRows, no_rows, zeros
-from lab.protocol import TaskGains  # one record for the controller, the protocol and the UI
+
+# One record for the controller, the protocol and the UI; re-exported to the task modules.
+from lab.protocol import TaskGains as TaskGains
 
 ALL_GAINS = ("kp", "kd", "weight")
 
@@ -33,12 +41,39 @@ def no_task_rows(nx: int) -> TaskRows:
     return TaskRows(*no_rows(nx), zeros(0))
 
 
+class KernelInputs(Protocol):
+    """The native kernel's setters of what tasks hold in Python (lab._kernel.Kernel)."""
+
+    def set_momentum_gain(self, gain: np.ndarray) -> None:
+        """The momentum task's K_h (6 × 9)."""
+
+    def set_internal_force(self, reference: float, source: str) -> None:
+        """The internal-force task's F_int,ref (N) and sensed source."""
+
+
+class KernelReport(Protocol):
+    """What a native tick reports of the values tasks show (lab._kernel.TickOutcome)."""
+
+    internal_force_sensed: np.ndarray
+    internal_force_command: np.ndarray
+
+
 class Task:
     """Base class: a named producer of equality rows. Subclasses set `name`, `GAINS` and
-    implement `rows`."""
+    implement `rows`; a task that needs more of the controller declares it (module
+    docstring)."""
 
     name: str = ""
     GAINS: ClassVar[tuple[str, ...]] = ALL_GAINS  # the gains `rows` reads (weight always)
+    # The rows read what `sense` hands over: the session measures the foot forces only then.
+    READS_SENSING: ClassVar[bool] = False
+    # The task holds inputs in Python that `to_kernel` hands the native kernel before each of
+    # its ticks, and takes back what the tick computed of them with `from_kernel`.
+    KERNEL_INPUTS: ClassVar[bool] = False
+    # What of the task runs in Python between the native kernel's model update and its solve
+    # ('' for nothing): the update and the solve are then two crossings, and the server's
+    # one-crossing tick (lab/world/native_tick.py) cannot run the task.
+    PYTHON_BEFORE_SOLVE: ClassVar[str] = ""
 
     def __init__(self, gains: TaskGains | None = None) -> None:
         self.gains = gains or TaskGains()
@@ -47,6 +82,19 @@ class Task:
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         """This tick's rows at the state of the last `robot.update`, tracking `refs`."""
         raise NotImplementedError
+
+    def sense(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
+        """What the sensors measured over the last step (a READS_SENSING task keeps it): the
+        terrain's force on each foot (n_contacts × 3, N, world) and the joint torques applied
+        (N m)."""
+
+    def to_kernel(self, kernel: KernelInputs, robot: RobotModel, refs: References) -> None:
+        """Hand `kernel` this tick's inputs held in Python (a KERNEL_INPUTS task), at the state
+        of the last `robot.update`."""
+
+    def from_kernel(self, report: KernelReport) -> None:
+        """Take what the native tick computed of the values this task shows (a KERNEL_INPUTS
+        task)."""
 
     def _matrix(self, robot: RobotModel, n: int) -> tuple[np.ndarray, np.ndarray]:
         """The task's n rows over x (zero until written) and a read-only view to hand out, for

@@ -10,22 +10,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.controller.model import RobotModel
-from lab.controller.references import References
+from lab.controller.references import References, WalkReferences
 from lab.controller.rows import JacobianRows, PerContactSet
 from lab.controller.tasks.base import Task, TaskGains, TaskRows, no_task_rows
-from lab.controller.walk_references import WalkReferences
 
 
 def has_swing(refs: References) -> bool:
     """Whether the references give the feet swing trajectories (walking references do)."""
-    return isinstance(refs, WalkReferences) and len(refs.foot_position) > 0
+    walk = refs.walking
+    return walk is not None and len(walk.foot_position) > 0
 
 
 def swinging(robot: RobotModel, active: np.ndarray) -> np.ndarray:
     """Flags of the point feet out of contact: the `swing_feet` task's feet when the references
     have swing trajectories."""
     point = np.array([contact.kind == "point" for contact in robot.contacts])
-    return point & ~np.asarray(active, dtype=bool)
+    flags: np.ndarray = point & ~np.asarray(active, dtype=bool)
+    return flags
 
 
 def _not_tracked(refs: WalkReferences) -> np.ndarray:
@@ -60,14 +61,17 @@ class SwingFeetTask(Task):
         self._swing = PerContactSet(SwingRows.of)
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        swing = self._swing.get(robot, _not_tracked(refs)) if has_swing(refs) else None
-        if swing is None or not len(swing.coords):
+        walk = refs.walking
+        if walk is None or not len(walk.foot_position):
+            return no_task_rows(robot.nx)
+        swing = self._swing.get(robot, _not_tracked(walk))
+        if not len(swing.coords):
             return no_task_rows(robot.nx)
         feet, jacobian = swing.coords, swing.jacobian
-        e = refs.foot_position.take(feet) - robot.contact_positions.take(feet)
-        de = refs.foot_velocity.take(feet) - jacobian.write(robot).dot(robot.v)
+        e = walk.foot_position.take(feet) - robot.contact_positions.take(feet)
+        de = walk.foot_velocity.take(feet) - jacobian.write(robot).dot(robot.v)
         b = (
-            refs.foot_acceleration.take(feet)
+            walk.foot_acceleration.take(feet)
             + self.gains.kp * e
             + self.gains.kd * de
             - robot.Jc_dot_v[jacobian.index]

@@ -8,6 +8,8 @@ dynamics (`torques`, eq. 13: what Hume's series-elastic torque sensors give). Wi
 two point feet in support the task has no rows. The error is F_int,ref − F_int,act (N).
 """
 
+from typing import ClassVar
+
 import numpy as np
 
 from lab.controller.contact_dynamics import contact_dynamics
@@ -15,7 +17,14 @@ from lab.controller.internal_force import internal_force_map, internal_forces
 from lab.controller.model import RobotModel
 from lab.controller.references import References
 from lab.controller.rows import contact_rows
-from lab.controller.tasks.base import Task, TaskGains, TaskRows, no_task_rows
+from lab.controller.tasks.base import (
+    KernelInputs,
+    KernelReport,
+    Task,
+    TaskGains,
+    TaskRows,
+    no_task_rows,
+)
 
 SENSED_SOURCES = ("contacts", "torques")
 
@@ -26,6 +35,8 @@ class InternalForceTask(Task):
 
     name = "internal_force"
     GAINS = ("kp", "weight")
+    READS_SENSING: ClassVar[bool] = True  # F_int,act, Kim eq. 12's feedback
+    KERNEL_INPUTS: ClassVar[bool] = True  # its reference and source, set by a command
 
     def __init__(self, gains: TaskGains | None = None) -> None:
         super().__init__(gains)
@@ -35,12 +46,32 @@ class InternalForceTask(Task):
         self.applied_torques: np.ndarray | None = None  # τ applied over the last step (N m)
         self.sensed = np.zeros(0)  # F_int,act at the last `rows`
         self.command = np.zeros(0)  # F_int,cmd at the last `rows`
+        self._kernel_setting: tuple[float, str] | None = None  # (reference, source) it holds
 
     def set_source(self, source: str) -> None:
         """Sense the internal force from `contacts` or `torques`; raises ValueError otherwise."""
         if source not in SENSED_SOURCES:
             raise ValueError(f"unknown source {source!r} (sources: {', '.join(SENSED_SOURCES)})")
         self.source = source
+
+    def sense(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
+        """Keep the foot forces and applied torques measured over the last step (Kim eqs.
+        12–13)."""
+        self.measured_forces = np.array(foot_forces, dtype=float)
+        self.applied_torques = np.array(applied_torques, dtype=float)
+
+    def to_kernel(self, kernel: KernelInputs, robot: RobotModel, refs: References) -> None:
+        """Hand the kernel the reference and the sensed source when they change (the
+        `internal_force` command sets them here); eq. 12's feedback runs in the kernel on the
+        sensing the controller hands it."""
+        setting = (self.reference, self.source)
+        if setting != self._kernel_setting:
+            kernel.set_internal_force(*setting)
+            self._kernel_setting = setting
+
+    def from_kernel(self, report: KernelReport) -> None:
+        """Take the native tick's F_int,act and F_int,cmd (telemetry shows them)."""
+        self.sensed, self.command = report.internal_force_sensed, report.internal_force_command
 
     def feedback(
         self, robot: RobotModel, refs: References

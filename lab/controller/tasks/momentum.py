@@ -9,6 +9,7 @@ the CoG error and the momentum errors [Δc; Δh_lin; Δh_ang]
 """
 
 from collections.abc import Callable
+from typing import ClassVar
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from lab.controller.momentum import (
     pd_gain,
 )
 from lab.controller.references import References
-from lab.controller.tasks.base import Task, TaskGains, TaskRows
+from lab.controller.tasks.base import KernelInputs, Task, TaskGains, TaskRows
 
 
 class MomentumTask(Task):
@@ -31,12 +32,18 @@ class MomentumTask(Task):
     are read in `pd` mode only)."""
 
     name = "momentum"
+    KERNEL_INPUTS: ClassVar[bool] = True  # K_h, designed in Python
+    PYTHON_BEFORE_SOLVE: ClassVar[str] = (
+        "the momentum task's gain schedule runs in Python between update and solve"
+    )
 
     def __init__(self, gains: TaskGains | None = None) -> None:
         super().__init__(gains)
         self.mode = "lqr"
         self.cost = LQR_COSTS[self.mode]
         self.schedule = GainSchedule()
+        self._kernel_pd: tuple[float, float] | None = None  # (kp, kd) of the PD K_h it holds
+        self._kernel_lqr: np.ndarray | None = None  # the scheduled K_h the kernel holds
 
     def set_mode(self, mode: str) -> None:
         """`pd` (eq. 22), or `lqr` / `lqr_talos` (eqs. 23–26 with the printed cost or the one
@@ -72,6 +79,23 @@ class MomentumTask(Task):
         """Whether this tick's LQR K_h is the last tick's (GainSchedule.settled)."""
         active = refs.contact_active
         return self.schedule.settled(active.tobytes(), contact_arms(robot, active))
+
+    def to_kernel(self, kernel: KernelInputs, robot: RobotModel, refs: References) -> None:
+        """Hand the kernel K_h when it changes: the design (PD, LQR) and the interpolation
+        across a contact switch stay here and advance tick by tick as on the Python kernel; an
+        unchanged K_h does not cross."""
+        if self.mode == "pd":
+            pd = (self.gains.kp, self.gains.kd)
+            if pd != self._kernel_pd:
+                kernel.set_momentum_gain(self.gain(robot, refs))
+                self._kernel_pd, self._kernel_lqr = pd, None
+            return
+        held = self._kernel_lqr
+        if held is not None and held is self.schedule.current and self.settled(robot, refs):
+            return
+        gain = self.gain(robot, refs)
+        kernel.set_momentum_gain(gain)
+        self._kernel_pd, self._kernel_lqr = None, gain
 
     def _problem(self, robot: RobotModel, active: np.ndarray) -> Callable[[], LqrProblem]:
         return lambda: lqr_problem(robot, active, self.cost)

@@ -17,10 +17,9 @@ None of them tracks a reference: they have no error and read only their weight.
 import numpy as np
 
 from lab.controller.model import BASE_DOF, RobotModel
-from lab.controller.references import References
+from lab.controller.references import References, surface_normals
 from lab.controller.rows import contact_rows, selection, zeros
 from lab.controller.tasks.base import Task, TaskRows, no_task_rows
-from lab.controller.walk_references import WalkReferences, surface_normals
 
 
 class ForceTask(Task):
@@ -122,14 +121,15 @@ class ForceInterpolationTask(Task):
     GAINS = ("weight",)
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        if not isinstance(refs, WalkReferences) or len(refs.force_weight) == 0:
+        walk = refs.walking
+        if walk is None or len(walk.force_weight) == 0:
             return no_task_rows(robot.nx)
-        changing = np.isfinite(refs.force_weight) & refs.contact_active
+        changing = np.isfinite(walk.force_weight) & refs.contact_active
         if not np.any(changing):
             return no_task_rows(robot.nx)
         optimal = quasi_static_forces(robot, refs.contact_active)
         index = contact_rows(robot, changing)
         A = np.zeros((len(index), robot.nx))
         A[np.arange(len(index)), robot.nv + index] = 1.0
-        w = np.repeat(refs.force_weight[changing], robot.force_dims[changing])
+        w = np.repeat(walk.force_weight[changing], robot.force_dims[changing])
         return TaskRows(A, w * optimal[index], zeros(0))

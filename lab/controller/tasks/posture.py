@@ -16,7 +16,6 @@ from lab.controller.references import References
 from lab.controller.rows import PerContactSet, read_only, selection, zeros
 from lab.controller.tasks.base import Task, TaskGains, TaskRows
 from lab.controller.tasks.feet import has_swing, swinging
-from lab.controller.walk_references import WalkReferences
 
 
 class PostureTask(Task):
@@ -86,8 +85,8 @@ class LegWeights:
         for i, leg in enumerate(legs):
             slots[leg] = i
         swinging_slots = slots.copy()
-        for i in np.flatnonzero(swinging(robot, active)):
-            swinging_slots[legs[i]] = swinging_slot
+        for foot in np.flatnonzero(swinging(robot, active)):
+            swinging_slots[legs[foot]] = swinging_slot
         return cls(weights, slots, swinging_slots)
 
     def rows_of(self, robot: RobotModel, weight: np.ndarray) -> PostureRows:
@@ -121,11 +120,11 @@ class MovingPostureTask(Task):
         n_legs = len(legs.weights) - 2
         reference_velocity = zeros(robot.na)
         leg_weight: np.ndarray | float = 1.0
-        if isinstance(refs, WalkReferences):
-            if len(refs.posture_velocity) == robot.na:
-                reference_velocity = refs.posture_velocity
-            if len(refs.posture_weight) == n_legs:
-                leg_weight = refs.posture_weight
+        if (walk := refs.walking) is not None:
+            if len(walk.posture_velocity) == robot.na:
+                reference_velocity = walk.posture_velocity
+            if len(walk.posture_weight) == n_legs:
+                leg_weight = walk.posture_weight
         # Each joint's weight: its leg's load ramp, 0 on a swinging leg, 1 outside the legs.
         legs.weights[:n_legs] = leg_weight
         weight = legs.weights[legs.swinging_slots if has_swing(refs) else legs.slots]

@@ -3,14 +3,12 @@
 For each flat foot the references leave out of support, J q̈ + J̇ v = a with the Cartesian PD of
 §5.4 in the sole frame (pinocchio LOCAL, as the contact rows of flat feet):
 a = [Rᵀ kp (p_ref − p) − kd v; kp log₃(Rᵀ R_ref) − kd ω]. References without sole targets
-(`SoleReferences`) and feet in support give no rows.
+(`References.soles`) and feet in support give no rows.
 
 `swing_leg` is the same foot's motion in joint space, as Herzog's leg-swing experiment does it
 (§5.4, Fig. 11): the joints of a leg the references mark `leg_swinging` track a trajectory,
 q̈ = q̈_ref + kp (q_ref − q) + kd (q̇_ref − q̇), and `swing_sole` leaves that foot alone.
 """
-
-from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -22,26 +20,13 @@ from lab.controller.tasks.base import Task, TaskGains, TaskRows, no_task_rows
 from lab.controller.tasks.posture import leg_joints
 
 
-@dataclass
-class SoleReferences(References):
-    """References with a pose target per sole (world position, m, and rotation), read for the
-    flat feet out of support."""
-
-    sole_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    sole_rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
-    # Per contact: its leg (out of support) follows the joint trajectory below, not its sole pose.
-    leg_swinging: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-    # Joint trajectory of the swinging legs (actuated joints, pinocchio order; rad, /s, /s²).
-    leg_position: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    leg_velocity: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    leg_acceleration: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-
 def leg_swinging(refs: References) -> np.ndarray | None:
     """Which contacts' legs swing in joint space (None for references without them)."""
-    if isinstance(refs, SoleReferences) and len(refs.leg_swinging):
-        return refs.leg_swinging & ~refs.contact_active
-    return None
+    soles = refs.soles
+    if soles is None or not len(soles.leg_swinging):
+        return None
+    swinging: np.ndarray = soles.leg_swinging & ~refs.contact_active
+    return swinging
 
 
 def _swinging_soles(robot: RobotModel, active: np.ndarray) -> JacobianRows:
@@ -60,7 +45,8 @@ class SwingSoleTask(Task):
         self._rows = PerContactSet(_swinging_soles)
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        if not isinstance(refs, SoleReferences) or not len(refs.sole_position):
+        soles = refs.soles
+        if soles is None or not len(soles.sole_position):
             return no_task_rows(robot.nx)
         held = refs.contact_active  # feet in support, or whose leg swings in joint space
         swinging = leg_swinging(refs)
@@ -75,8 +61,8 @@ class SwingSoleTask(Task):
         local = np.zeros(6 * len(feet))  # the same in the sole frame, as J's rows
         for k, i in enumerate(feet):
             R = robot.contact_rotations[i]
-            error[6 * k : 6 * k + 3] = refs.sole_position[i] - robot.contact_positions[i]
-            error[6 * k + 3 : 6 * k + 6] = pin.log3(R.T @ refs.sole_rotation[i])
+            error[6 * k : 6 * k + 3] = soles.sole_position[i] - robot.contact_positions[i]
+            error[6 * k + 3 : 6 * k + 6] = pin.log3(R.T @ soles.sole_rotation[i])
             local[6 * k : 6 * k + 3] = R.T @ error[6 * k : 6 * k + 3]
             local[6 * k + 3 : 6 * k + 6] = error[6 * k + 3 : 6 * k + 6]
         b = -robot.Jc_dot_v.take(rows.index) + self.gains.kp * local - self.gains.kd * velocity
@@ -94,16 +80,15 @@ class SwingLegTask(Task):
         self._legs: list[np.ndarray] | None = None
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
-        swinging = leg_swinging(refs)
-        if swinging is None or not swinging.any():
+        swinging, soles = leg_swinging(refs), refs.soles
+        if swinging is None or soles is None or not swinging.any():
             return no_task_rows(robot.nx)
-        assert isinstance(refs, SoleReferences)
         if self._legs is None:
             self._legs = leg_joints(robot)
         joints = np.concatenate([self._legs[i] for i in np.flatnonzero(swinging)])
         A = np.zeros((len(joints), robot.nx))
         A[np.arange(len(joints)), BASE_DOF + joints] = 1.0
-        e = refs.leg_position[joints] - robot.joint_positions[joints]
-        de = refs.leg_velocity[joints] - robot.joint_velocities[joints]
-        b = refs.leg_acceleration[joints] + self.gains.kp * e + self.gains.kd * de
+        e = soles.leg_position[joints] - robot.joint_positions[joints]
+        de = soles.leg_velocity[joints] - robot.joint_velocities[joints]
+        b = soles.leg_acceleration[joints] + self.gains.kp * e + self.gains.kd * de
         return TaskRows(A, b, e)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from lab.controller.walk_references import surface_normals
+from lab.controller.references import surface_normals
 
 if TYPE_CHECKING:
     from lab.world.session import Session

@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from lab.world.session import Push, Session
+    from lab.world.session import Session
+    from lab.world.session_base import Push
 
 
 @dataclass

@@ -1,0 +1,109 @@
+"""What a session is built from and what it builds: `SessionConfig` (robot, scene, the
+controller's initial choices, realism) and `SessionParts` (robot, plant, model, controller, the
+native tick, the realism layer), made by `build_parts` on any thread (lab/runtime/switch.py builds
+a switch's parts beside the loop) and swapped into a running session by `Session.install`.
+"""
+
+from dataclasses import dataclass, field, replace
+
+from lab.controller.behaviours import Balance, Behaviour
+from lab.controller.constraints import ContactLimits
+from lab.controller.controller import ControllerConfig
+from lab.controller.model import RobotModel
+from lab.controller.native import NativeController
+from lab.controller.stack import Stack
+from lab.description import load_description, robot_names
+from lab.protocol import TaskGains
+from lab.realism.knobs import RealismKnobs
+from lab.realism.layer import NativeRealismLayer, RealismLayer, realism_layer
+from lab.realism.model_error import perturbed_model
+from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
+from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
+from lab.world.native_tick import NativeTick
+from lab.world.plant import MujocoPlant
+
+
+@dataclass
+class SessionConfig:
+    """What a session is built from: robot, scene, and the controller's initial choices (None =
+    the robot's default). Commands change the controller's own `ControllerConfig`, the one
+    source of truth while the session runs; a rebuild reads it back (`Session._live_config`)."""
+
+    robot: str = "anymal"
+    scene: str = "flat"
+    method: str = "cascade"  # hierarchy method: cascade | weighted | nullspace
+    solver: str = "daqp"
+    formulation: str = "qdd_force"  # `nullspace` only: its optimization vector (Hutter 2014 §4)
+    stack: list[list[str]] | None = None
+    gains: dict[str, dict[str, float]] = field(default_factory=dict)
+    timestep: float = 1e-3
+    kernel: str | None = None  # native | python; None: the robot's, else native when built
+    terrain_seed: int | None = None  # of a scene with random terrain (rough); None: its own
+    # sensors, delays, actuators, drive limits and model error (lab/realism); default ideal
+    realism: RealismKnobs = field(default_factory=RealismKnobs)
+
+
+@dataclass(eq=False, repr=False)
+class SessionParts:
+    """What a robot and scene make of a session: built by `build_parts` (on any thread: it
+    touches no running session), swapped in by `Session.install`. A session is its parts and
+    the state of its run around them: `SessionBase` derives from this class, so the parts are
+    declared here alone."""
+
+    config: SessionConfig
+    robot: Robot
+    plant: MujocoPlant
+    model: RobotModel
+    controller: NativeController
+    frame_placements: FramePlacements
+    native_tick: NativeTick
+    realism: RealismLayer | NativeRealismLayer
+    behaviour: Behaviour  # standing (Balance) until the `gait` command starts another
+
+
+def build_parts(config: SessionConfig) -> SessionParts:
+    """Plant, model and controller for `config`; raises KeyError or ValueError on bad names."""
+    if config.robot not in (known := robot_names()):
+        raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
+    if config.scene not in SCENES:
+        raise KeyError(f"unknown scene {config.scene!r} (scenes: {', '.join(SCENES)})")
+    made_for = SCENE_ROBOTS.get(config.scene, (config.robot,))
+    if config.robot not in made_for:
+        raise ValueError(
+            f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
+            f"not {config.robot!r}"
+        )
+    description = load_description(config.robot)
+    robot = build_robot(description)
+    if config.scene in START_RISE:  # one foot starts on a block
+        robot = with_raised_contact(robot, *START_RISE[config.scene])
+    plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
+    knobs = config.realism
+    plant.set_drive_limits(knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction)
+    # the controller's model: the simulator's, or a copy with model error (lab/realism)
+    model = RobotModel(perturbed_model(robot.model, *knobs.model_error), robot.contacts)
+    gains = dict(description.gains)
+    for name, overrides in config.gains.items():
+        gains[name] = replace(gains.get(name, TaskGains()), **overrides)
+    standing = Balance(model, robot.q_standing)
+    controller = NativeController(
+        model,
+        standing.references,
+        ControllerConfig(
+            stack=Stack.of(config.stack or description.stack),
+            gains=gains,
+            method=config.method,
+            solver=config.solver,
+            formulation=config.formulation,
+            limits=ContactLimits(friction=description.friction),
+            kernel=config.kernel or description.kernel or "native",
+        ),
+        robot.torque_limits,
+    )
+    controller.set_hands(tuple(frame for _, frame in description.hands))
+    native_tick = NativeTick(plant, controller)
+    layer = realism_layer(knobs, model.na, config.timestep)
+    placements = FramePlacements(robot)
+    return SessionParts(
+        config, robot, plant, model, controller, placements, native_tick, layer, standing
+    )
