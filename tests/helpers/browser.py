@@ -6,6 +6,7 @@ playwright is imported inside the page helpers: a test module skips itself when 
 (`pytest.importorskip`), after importing this one."""
 
 import io
+import math
 import shutil
 import subprocess
 import sys
@@ -186,3 +187,44 @@ def wait_drawn(page, robot: str) -> None:
     expect(status).to_be_visible(timeout=PAGE_TIMEOUT_MS)
     expect(page.get_by_text("Loading")).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
     assert wait_dark_pixels(page, lambda n: n > 300, timeout=60.0) > 300
+
+
+def slider_box(pg, label: str):
+    """The number box beside a viser slider (the slider's label points at the slider)."""
+    slider = pg.locator("label", has_text=label).first.get_attribute("for")
+    return pg.locator(f"[id='{slider}']").locator("xpath=..").locator("input:not([type=hidden])")
+
+
+class Pushes:
+    """Every push the server reports in telemetry, as (|force| N, longest remaining s)."""
+
+    def __init__(self, lab: LabClient) -> None:
+        self.seen: dict[float, float] = {}
+        lab.subscribe_telemetry(self._record)
+
+    def _record(self, tel: dict) -> None:
+        for push in tel["pushes"]:
+            norm = round(math.hypot(*push["force"]), 6)
+            self.seen[norm] = max(self.seen.get(norm, 0.0), push["remaining"])
+
+    def wait(self, norm: float, timeout: float = 20.0) -> float:
+        """The longest remaining time seen of a push of `norm` N."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if round(norm, 6) in self.seen:
+                time.sleep(0.3)  # later messages of the same push
+                return self.seen[round(norm, 6)]
+            time.sleep(0.05)
+        raise AssertionError(f"no push of {norm} N reached the server; seen {self.seen}")
+
+
+def ui_alive(page, serve: LabServe) -> None:
+    """The UI process serves HTTP, streams to the page (a new frame arrives within
+    UI_ACTION_TIMEOUT_S: polled, not a fixed wait), and logged no error of its own."""
+    assert serves_http(serve.ui_port)
+    n0 = len(page.ws_frames)
+    end = time.monotonic() + UI_ACTION_TIMEOUT_S
+    while len(page.ws_frames) <= n0 and time.monotonic() < end:
+        page.wait_for_timeout(100)  # lets playwright dispatch the websocket events
+    assert len(page.ws_frames) > n0, "the page gets no more updates"
+    assert "UI error" not in event_log(page), event_log(page)

@@ -2,7 +2,9 @@
 page shared by the tests in file order: Bolt steps under `biped_step` picked in the Gait
 dropdown and Kim 2016's live plots draw (uPlot's own y ranging gave the CoM phase portraits a NaN
 scale: no points, no y axis; `lab/ui/plot_range.py`); then a Reset stands it on its default
-stack, and the split wedges' set-up from the page holds it, across a Reset too."""
+stack, and the split wedges' set-up from the page holds it, across a Reset too; last, a push
+from the page reaches the server (the robot and scene walk of test_ui_browser.py leaves Bolt
+and split_wedges to this file)."""
 
 import time
 from collections.abc import Iterator
@@ -12,6 +14,7 @@ import pytest
 
 from lab.client import LabClient
 from lab.description import load_description
+from lab.ui.panel import default_push_newtons
 from tests.helpers.browser import (
     CHROMIUM,
     CHROMIUM_ARGS,
@@ -19,9 +22,12 @@ from tests.helpers.browser import (
     UI_ACTION_TIMEOUT_S,
     VIEWPORT,
     LabServe,
+    Pushes,
     choose,
     console_errors,
     press,
+    slider_box,
+    ui_alive,
     wait_drawn,
 )
 
@@ -75,6 +81,9 @@ def page(serve: LabServe, lab: LabClient):
         pg = browser.new_page(viewport=VIEWPORT)
         pg.set_default_timeout(PAGE_TIMEOUT_MS)
         pg.console_errors = console_errors(pg)
+        frames: list[float] = []
+        pg.on("websocket", lambda ws: ws.on("framereceived", lambda _: frames.append(0.0)))
+        pg.ws_frames = frames
         serve.wait_ui()
         pg.goto(serve.url)
         pg.get_by_text("You hold control").wait_for()
@@ -122,6 +131,7 @@ def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(page, lab) 
     stood = lab.wait_telemetry(lambda m: m["t"] > 2.5 or m["fell"], timeout=120.0)
     assert not stood["fell"]
     choose(page, "Scene", "split_wedges")
+    lab.wait_telemetry(lambda m: m["scene"] == "split_wedges", timeout=60.0)
     page.get_by_text("Scene split_wedges was made for this set-up").first.wait_for()
     press(page, "Use it")
     mass = lab.command("info")["mass"]
@@ -132,8 +142,28 @@ def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(page, lab) 
     assert held["internal_force"]["reference"] == pytest.approx(0.51 * mass * 9.81, 0.01)
     page.get_by_text("Internal force (Kim 2016)").first.wait_for()
     page.get_by_text("Internal force between the feet").first.wait_for()  # its chart
+    wait_drawn(page, "bolt")  # on the wedges, the dialog closed
     press(page, "Reset")
     lab.wait_telemetry(lambda m: m["t"] < 0.5, timeout=60.0, since_last_read=True)
     after = lab.wait_telemetry(lambda m: m["t"] > 2.0 or m["fell"], timeout=120.0)
     assert not after["fell"] and after["hierarchy"]["method"] == "wbosc", after["t"]
     assert not page.console_errors, page.console_errors
+
+
+def test_bolts_page_says_how_it_stands_and_its_default_push_reaches_the_server(
+    page, lab: LabClient, serve: LabServe
+) -> None:
+    """The page says how Bolt stands, offers a push of its share of Bolt's weight, and the push
+    sent from the page arrives; the UI still serves, streams and logged no UI error, and nothing
+    on this page raised: no console error, no traceback from `lab serve`."""
+    page.get_by_text("Bolt stands on its two point feet").first.wait_for()
+    box = slider_box(page, "Magnitude [N]")
+    wanted = str(int(default_push_newtons(lab.command("info")["mass"])))
+    playwright_api.expect(box).to_have_value(wanted, timeout=PAGE_TIMEOUT_MS)
+    pushes = Pushes(lab)
+    press(page, "forward")
+    pushes.wait(float(box.input_value()))
+    ui_alive(page, serve)
+    assert not page.console_errors, page.console_errors[:5]
+    output = serve.log.read_text(errors="replace")
+    assert "Traceback" not in output, output[-4000:]
