@@ -1,7 +1,7 @@
 """Suite-wide collection order: the browser tests first, then the whole scenario runs.
 
 `./dev test` runs the suite on two pytest-xdist workers, one test file at a time per worker
-(`--dist loadfile`, in collection order). The browser file and the whole scenario runs
+(`--dist loadfile`, in collection order). The browser files and the whole scenario runs
 (tests/helpers/scenario_runs.py) are the longest; started first, they run beside the other files
 instead of alone after them.
 """

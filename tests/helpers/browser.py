@@ -1,12 +1,20 @@
-"""Helpers for the browser tests: a `lab serve` process with its UI on free loopback ports, and
-Debian's headless Chromium driven by playwright (never a downloaded browser)."""
+"""Helpers for the browser tests: a `lab serve` process with its UI on free loopback ports,
+Debian's headless Chromium driven by playwright (never a downloaded browser), and what a test
+does in the page (press a button, pick from a dropdown, wait until the robot is drawn).
 
+playwright is imported inside the page helpers: a test module skips itself when it is missing
+(`pytest.importorskip`), after importing this one."""
+
+import io
+import math
 import shutil
 import subprocess
 import sys
 import time
 import urllib.request
 from pathlib import Path
+
+import numpy as np
 
 from lab.client import LabClient
 from tests.helpers.ports import free_port
@@ -90,3 +98,133 @@ class LabServe:
         except subprocess.TimeoutExpired:
             self.process.kill()
             self.process.wait()
+
+
+VIEWPORT = {"width": 1400, "height": 800}  # plots | 3-D view | controls
+PAGE_TIMEOUT_MS = 60_000
+# s: from a click in the page to its effect in telemetry or `info`. A second or less when idle;
+# generous because on a loaded 2-core machine the browser and the UI process share what is left.
+UI_ACTION_TIMEOUT_S = 30.0
+# ms: a robot's view is built (status line "Loading …") in a second or two from the mesh cache,
+# but converting the meshes on a cold cache took ANYmal 40 s on a busy 2-core machine.
+LOAD_TIMEOUT_MS = 180_000
+OPEN_DROPDOWN_TRIES = 3
+OPEN_DROPDOWN_WAIT_MS = 20_000
+
+
+def dark_pixels(pg) -> int:
+    """Pixels of the 3-D view (its canvas, between the plots and the control panel) darker than
+    the floor and grid lines: the robot's meshes and their shadows."""
+    from PIL import Image
+
+    box = pg.locator("canvas").first.bounding_box()  # viser's 3-D canvas comes first
+    shot = np.asarray(Image.open(io.BytesIO(pg.screenshot())).convert("L"))
+    view = shot[150:, int(box["x"]) : int(box["x"] + box["width"])]
+    return int((view < 90).sum())
+
+
+def wait_dark_pixels(pg, predicate, timeout: float = 30.0) -> int:
+    """Poll `dark_pixels` until `predicate` holds (viser fades new meshes in) or time is up."""
+    end = time.monotonic() + timeout
+    n = dark_pixels(pg)
+    while not predicate(n) and time.monotonic() < end:
+        pg.wait_for_timeout(500)
+        n = dark_pixels(pg)
+    return n
+
+
+def console_errors(pg) -> list[str]:
+    """The page's console errors and uncaught exceptions, collected from now on."""
+    errors: list[str] = []
+    pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    pg.on("pageerror", lambda e: errors.append(f"uncaught: {e}"))
+    return errors
+
+
+def press(pg, button: str) -> None:
+    """Click a panel button by its DOM click event: a mouse click waits for a rendered frame,
+    which a software-rendered page on a loaded machine may not produce for a minute."""
+    pg.get_by_role("button", name=button, exact=True).dispatch_event("click")
+
+
+def open_dropdown(pg, label: str, wanted) -> None:
+    """Open dropdown `label` until locator `wanted` (one of its options) shows. A click that
+    lands while the panel re-renders leaves the dropdown closed (seen in a fresh-clone run and
+    under a CPU hog: the options never appeared), so the dropdown is clicked again, at most
+    OPEN_DROPDOWN_TRIES times. (A DOM click event does not open viser's dropdowns: it takes a
+    mouse click.)"""
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    for _ in range(OPEN_DROPDOWN_TRIES - 1):
+        pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
+        try:
+            wanted.wait_for(timeout=OPEN_DROPDOWN_WAIT_MS)
+            return
+        except PlaywrightTimeout:
+            continue
+    pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
+    wanted.wait_for()
+
+
+def choose(pg, label: str, option: str) -> None:
+    """Open dropdown `label` and pick `option`."""
+    wanted = pg.get_by_role("option", name=option, exact=True)
+    open_dropdown(pg, label, wanted)
+    wanted.click(no_wait_after=True)
+
+
+def event_log(pg) -> str:
+    """The text of the page's event log."""
+    return pg.get_by_text("Events, newest first").first.locator("xpath=..").inner_text()
+
+
+def wait_drawn(page, robot: str) -> None:
+    """The status line names `robot` (from live telemetry, no longer loading) and the view shows
+    a robot."""
+    from playwright.sync_api import expect
+
+    status = page.get_by_text(f"{robot} on", exact=False).first
+    expect(status).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+    expect(page.get_by_text("Loading")).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
+    assert wait_dark_pixels(page, lambda n: n > 300, timeout=60.0) > 300
+
+
+def slider_box(pg, label: str):
+    """The number box beside a viser slider (the slider's label points at the slider)."""
+    slider = pg.locator("label", has_text=label).first.get_attribute("for")
+    return pg.locator(f"[id='{slider}']").locator("xpath=..").locator("input:not([type=hidden])")
+
+
+class Pushes:
+    """Every push the server reports in telemetry, as (|force| N, longest remaining s)."""
+
+    def __init__(self, lab: LabClient) -> None:
+        self.seen: dict[float, float] = {}
+        lab.subscribe_telemetry(self._record)
+
+    def _record(self, tel: dict) -> None:
+        for push in tel["pushes"]:
+            norm = round(math.hypot(*push["force"]), 6)
+            self.seen[norm] = max(self.seen.get(norm, 0.0), push["remaining"])
+
+    def wait(self, norm: float, timeout: float = 20.0) -> float:
+        """The longest remaining time seen of a push of `norm` N."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if round(norm, 6) in self.seen:
+                time.sleep(0.3)  # later messages of the same push
+                return self.seen[round(norm, 6)]
+            time.sleep(0.05)
+        raise AssertionError(f"no push of {norm} N reached the server; seen {self.seen}")
+
+
+def ui_alive(page, serve: LabServe) -> None:
+    """The UI process serves HTTP, streams to the page (a new frame arrives within
+    UI_ACTION_TIMEOUT_S: polled, not a fixed wait), and logged no error of its own."""
+    assert serves_http(serve.ui_port)
+    n0 = len(page.ws_frames)
+    end = time.monotonic() + UI_ACTION_TIMEOUT_S
+    while len(page.ws_frames) <= n0 and time.monotonic() < end:
+        page.wait_for_timeout(100)  # lets playwright dispatch the websocket events
+    assert len(page.ws_frames) > n0, "the page gets no more updates"
+    assert "UI error" not in event_log(page), event_log(page)

@@ -4,7 +4,10 @@ The test modules `test_scenario_runs_<k>.py` each run one group, so that `./dev 
 pytest-xdist workers (`--dist loadfile`: a whole module per worker) share the runs. The groups
 balance CPU_S, the processor seconds each scenario's whole run took (`time.process_time()`
 around `run_scenario`, every scenario in one process, native kernel, 2026-12-03: 298 s in all;
-processor time, not wall time, so that a busy machine measures the same weights).
+processor time, not wall time, so that a busy machine measures the same weights). The five
+added since (b1_z1 and talos_arms reaches, anymal_push_lateral_typical) were measured so on
+2026-12-04 under load 25-50, scaled by 0.78, the ratio of the 2026-12-03 times to those measured
+beside them of the 25 standing and push scenarios (323 s in all with them).
 A scenario not in the table counts as NEW_SCENARIO_S_PER_SIM_S per simulated second, so a new
 file joins a group, never no group.
 """
@@ -34,6 +37,7 @@ CPU_S: dict[str, float] = {
     "anymal_crawl_trot_crawl_s1": 2.6,
     "anymal_crawl_trot_crawl_s3": 2.8,
     "anymal_push_lateral": 0.6,
+    "anymal_push_lateral_typical": 0.7,
     "anymal_stand_cascade": 1.5,
     "anymal_stand_weighted": 1.4,
     "anymal_trot_flat": 4.3,
@@ -45,6 +49,8 @@ CPU_S: dict[str, float] = {
     "b1_stand_cascade": 1.4,
     "b1_stand_weighted": 1.4,
     "b1_trot_steered_s3": 6.3,
+    "b1_z1_reach_circle_stand": 2.7,
+    "b1_z1_reach_circle_trot": 3.9,
     "bolt_push_recovery": 1.4,
     "bolt_step_in_place": 2.5,
     "bolt_walk_planner": 13.6,
@@ -109,6 +115,8 @@ CPU_S: dict[str, float] = {
     "solo12_stand_weighted": 1.4,
     "solo12_trot_strafe": 2.0,
     "solo12_trot_turn": 2.1,
+    "talos_arms_reach_circle": 13.1,
+    "talos_arms_reach_two_hands": 4.7,
     "talos_arms_single_support": 4.1,
     "talos_arms_stand_table2_lqr": 2.6,
     "talos_push_lateral": 0.7,

@@ -24,7 +24,9 @@ from tests.helpers.native_ticks import scripted_state, tick_native_and_mixed
 pytest.importorskip("lab._kernel", reason="the native kernel is not built (./dev builds it)")
 
 TOL = 1e-9  # relative to 1 + |value|: the same steps, another float order
-DT = 0.002  # s between scripted ticks
+# s between scripted ticks: the shortest phase scripted here (the crawl's 0.25 s force ramps)
+# still gets 60 ticks, the swings and transitions 125-250
+DT = 0.004
 # The state between ticks of the behaviours here, as their Python classes name it.
 SCALAR_STATE = ("start", "step", "stance", "_from", "_started", "_pending", "_swing")
 SCALAR_STATE += ("_periods_done",)
@@ -85,9 +87,9 @@ def run_three(
     speed: float = 0.0,
 ) -> tuple:
     """Three behaviours made by `make` on robot `name`, given the same scripted state each tick
-    (native_ticks.scripted_state): one runs every tick in Python, one natively, one alternating;
-    `script(tick, behaviours)` acts on all three before a tick. Asserts they agree every tick;
-    returns the Python one and the references' history (one state_of per tick)."""
+    (native_ticks.scripted_state), DT s apart: one runs every tick in Python, one natively, one
+    alternating; `script(tick, behaviours)` acts on all three before a tick. Asserts they agree
+    every tick; returns the Python one and the references' history (one state_of per tick)."""
     r = robot(name)
     model = RobotModel(r.model, r.contacts)
     model.update(*scripted_state(r.q_standing, 0.0, speed))
@@ -129,7 +131,7 @@ def test_talos_squats_agree_through_a_change_of_period(gait: str, forward: float
     again): references equal every tick; the CoG reference swings by the amplitude."""
 
     def script(tick: int, behaviours: tuple) -> None:
-        if tick == 1000:
+        if tick == round(2.0 / DT):  # s
             for squat in behaviours:
                 squat.configure(cycle_time=1.5)
 
@@ -144,9 +146,12 @@ def test_talos_stance_switches_and_swings_alike_in_both_kernels() -> None:
     """Talos: to the left sole, a 1 Hz swing of the lifted leg stopped after a period, then
     straight to the right sole (through double support): the transitions' CoG, force bounds,
     contacts, sole targets and the swing's joint references agree every tick; the right sole
-    rises LIFT_HEIGHT and lands again, the left one rises last."""
-    requests = {0: ("request", "left"), 1400: ("swing", 1.0), 2000: ("swing", 0.0)}
-    requests[2700] = ("request", "right")
+    rises LIFT_HEIGHT and lands again, the left one rises last. Each transition takes 2.5 s
+    (SHIFT_S + UNLOAD_S + LIFT_S); the script leaves 0.1-0.2 s between one's end and the next
+    request (times in s from the start)."""
+    at = {0.0: ("request", "left"), 2.6: ("swing", 1.0), 3.0: ("swing", 0.0)}
+    at[3.8] = ("request", "right")  # the swing ends at 3.6 s, a period after it began
+    requests = {round(t / DT): request for t, request in at.items()}
 
     def script(tick: int, behaviours: tuple) -> None:
         if tick in requests:
@@ -154,13 +159,13 @@ def test_talos_stance_switches_and_swings_alike_in_both_kernels() -> None:
             for stance in behaviours:
                 getattr(stance, verb)(value)
 
-    stance, history = run_three("talos", Stance, 10.6, script)
+    stance, history = run_three("talos", Stance, 9.0, script)
     right, left = (stance.names.index(side) for side in ("right", "left"))
     rise = np.array([h["sole_position"][:, 2] - stance._ground[:, 2] for h in history])
     assert rise[:, right].max() == pytest.approx(LIFT_HEIGHT)
-    assert rise[1300, right] == pytest.approx(LIFT_HEIGHT)  # lifted on the left sole
-    assert rise[3300, right] == pytest.approx(0.0, abs=1e-12)  # landed on the way to the right
-    assert rise[-1, left] == pytest.approx(LIFT_HEIGHT)
+    assert rise[round(2.55 / DT), right] == pytest.approx(LIFT_HEIGHT)  # on the left sole
+    assert rise[round(5.0 / DT), right] == pytest.approx(0.0, abs=1e-12)  # landed at 4.8 s
+    assert rise[-1, left] == pytest.approx(LIFT_HEIGHT)  # lifted from 6.3 s to 8.8 s
     swung = np.array([h["leg_swinging"] for h in history])
     assert swung[:, right].any() and not swung[-1].any()
     assert stance.stance == "right" and not stance.busy

@@ -1,8 +1,8 @@
 """Fuzzing through the wire (hypothesis): generated commands (tests/runtime/test_fuzz.py's strategy:
 every verb, plausible and wild fields, any JSON, garbage, huge and deep payloads) sent over real
 Zenoh to a live loop serving a session. Every query gets an answer, `{ok: true, ...}` or
-`{ok: false, error}`; nothing crashes; the loop still ticks afterwards. 2,000 examples in the
-suite, 10,000 under the `slow` marker.
+`{ok: false, error}`; nothing crashes; the loop still ticks afterwards. 2,000 examples in
+`./dev test`, 10,000 in the `long` run (`./dev test -m long`: pyproject.toml's markers).
 
 The queries go out under 64 client ids in turn (the query's attachment), so that the per-client
 rate limit (100 commands/s) leaves most of them to the parser and the session; the limit and
@@ -116,7 +116,7 @@ def test_two_thousand_generated_commands_through_zenoh_each_get_an_answer() -> N
     assert counts["ok"] + counts["error"] == 2000
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_ten_thousand_generated_commands_through_zenoh_each_get_an_answer() -> None:
     with live_server("solo12") as server:
         counts = _fuzz(server, 10_000)

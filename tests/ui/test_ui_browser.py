@@ -4,7 +4,6 @@ One server and one browser are shared by the tests in file order (ANYmal first, 
 numbers, then a switch to every robot and every scene the dropdowns offer, ANYmal on flat last).
 """
 
-import math
 import re
 import subprocess
 import sys
@@ -21,20 +20,31 @@ from lab.recording.record_replay import read_recording
 from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.stack_presets import load_stack_preset
 from lab.ui.panel import default_push_newtons
-from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LabServe, serves_http
+from tests.helpers.browser import (
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    LOAD_TIMEOUT_MS,
+    PAGE_TIMEOUT_MS,
+    UI_ACTION_TIMEOUT_S,
+    VIEWPORT,
+    LabServe,
+    Pushes,
+    choose,
+    console_errors,
+    event_log,
+    open_dropdown,
+    press,
+    serves_http,
+    slider_box,
+    ui_alive,
+    wait_dark_pixels,
+    wait_drawn,
+)
 from tests.helpers.ports import free_port
 
 playwright_api = pytest.importorskip("playwright.sync_api")
 
 pytestmark = pytest.mark.browser
-PAGE_TIMEOUT_MS = 60_000
-# s: from a click in the page to its effect in telemetry or `info`. A second or less when idle;
-# generous because on a loaded 2-core machine the browser and the UI process share what is left.
-UI_ACTION_TIMEOUT_S = 30.0
-VIEWPORT = {"width": 1400, "height": 800}  # plots | 3-D view | controls
-# ms: a robot's view is built (status line "Loading …") in a second or two from the mesh cache,
-# but converting the meshes on a cold cache took ANYmal 40 s on a busy 2-core machine.
-LOAD_TIMEOUT_MS = 180_000
 
 
 @pytest.fixture(scope="module")
@@ -79,64 +89,8 @@ def page(browser, serve: LabServe, lab: LabClient):
     context.close()
 
 
-def dark_pixels(pg) -> int:
-    """Pixels of the 3-D view (its canvas, between the plots and the control panel) darker than
-    the floor and grid lines: the robot's meshes and their shadows."""
-    import io
-
-    from PIL import Image
-
-    box = pg.locator("canvas").first.bounding_box()  # viser's 3-D canvas comes first
-    shot = np.asarray(Image.open(io.BytesIO(pg.screenshot())).convert("L"))
-    view = shot[150:, int(box["x"]) : int(box["x"] + box["width"])]
-    return int((view < 90).sum())
-
-
-def wait_dark_pixels(pg, predicate, timeout: float = 30.0) -> int:
-    """Poll `dark_pixels` until `predicate` holds (viser fades new meshes in) or time is up."""
-    end = time.monotonic() + timeout
-    n = dark_pixels(pg)
-    while not predicate(n) and time.monotonic() < end:
-        pg.wait_for_timeout(500)
-        n = dark_pixels(pg)
-    return n
-
-
-def console_errors(pg) -> list[str]:
-    """The page's console errors and uncaught exceptions, collected from now on."""
-    errors: list[str] = []
-    pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-    pg.on("pageerror", lambda e: errors.append(f"uncaught: {e}"))
-    return errors
-
-
-def press(pg, button: str) -> None:
-    """Click a panel button by its DOM click event: a mouse click waits for a rendered frame,
-    which a software-rendered page on a loaded machine may not produce for a minute."""
-    pg.get_by_role("button", name=button, exact=True).dispatch_event("click")
-
-
-OPEN_DROPDOWN_TRIES = 3
 CLICK_TRIES = 3
 CLICK_WAIT_MS = 20_000
-OPEN_DROPDOWN_WAIT_MS = 20_000
-
-
-def open_dropdown(pg, label: str, wanted) -> None:
-    """Open dropdown `label` until locator `wanted` (one of its options) shows. A click that
-    lands while the panel re-renders leaves the dropdown closed (seen in a fresh-clone run and
-    under a CPU hog: the options never appeared), so the dropdown is clicked again, at most
-    OPEN_DROPDOWN_TRIES times. (A DOM click event does not open viser's dropdowns: it takes a
-    mouse click.)"""
-    for _ in range(OPEN_DROPDOWN_TRIES - 1):
-        pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
-        try:
-            wanted.wait_for(timeout=OPEN_DROPDOWN_WAIT_MS)
-            return
-        except playwright_api.TimeoutError:
-            continue
-    pg.get_by_label(label, exact=True).first.click(no_wait_after=True)
-    wanted.wait_for()
 
 
 def choose_task(pg, task: str) -> None:
@@ -145,13 +99,6 @@ def choose_task(pg, task: str) -> None:
     that could act on the task chosen before, or be overwritten by the fields' update."""
     choose(pg, "Task", task)
     pg.get_by_text(f"[{task}]").first.wait_for()
-
-
-def choose(pg, label: str, option: str) -> None:
-    """Open dropdown `label` and pick `option`."""
-    wanted = pg.get_by_role("option", name=option, exact=True)
-    open_dropdown(pg, label, wanted)
-    wanted.click(no_wait_after=True)
 
 
 def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
@@ -373,12 +320,6 @@ def test_the_balance_buttons_send_the_momentum_law_and_a_refused_stance_says_why
     assert lab.command("info")["gait"] == "stand"
 
 
-def slider_box(pg, label: str):
-    """The number box beside a viser slider (the slider's label points at the slider)."""
-    slider = pg.locator("label", has_text=label).first.get_attribute("for")
-    return pg.locator(f"[id='{slider}']").locator("xpath=..").locator("input:not([type=hidden])")
-
-
 def text_box(pg, label: str):
     """A viser text box: its label's `for` names no element, so go through the label's row."""
     row = pg.locator("label").filter(has_text=re.compile(f"^{label}$")).first
@@ -403,36 +344,9 @@ def type_number(box, text: str) -> None:
     time.sleep(1.0)  # a user's pause between typing and clicking
 
 
-class Pushes:
-    """Every push the server reports in telemetry, as (|force| N, longest remaining s)."""
-
-    def __init__(self, lab: LabClient) -> None:
-        self.seen: dict[float, float] = {}
-        lab.subscribe_telemetry(self._record)
-
-    def _record(self, tel: dict) -> None:
-        for push in tel["pushes"]:
-            norm = round(math.hypot(*push["force"]), 6)
-            self.seen[norm] = max(self.seen.get(norm, 0.0), push["remaining"])
-
-    def wait(self, norm: float, timeout: float = 20.0) -> float:
-        """The longest remaining time seen of a push of `norm` N."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if round(norm, 6) in self.seen:
-                time.sleep(0.3)  # later messages of the same push
-                return self.seen[round(norm, 6)]
-            time.sleep(0.05)
-        raise AssertionError(f"no push of {norm} N reached the server; seen {self.seen}")
-
-
 @pytest.fixture(scope="module")
 def pushes(lab: LabClient) -> Pushes:
     return Pushes(lab)
-
-
-def event_log(pg) -> str:
-    return pg.get_by_text("Events, newest first").first.locator("xpath=..").inner_text()
 
 
 def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: Pushes) -> None:
@@ -562,24 +476,6 @@ def test_the_record_button_records_the_live_session_to_mcap(page, lab, serve) ->
     assert sum(m.kind == "telemetry" for m in messages) > 20  # 100 Hz for > 0.5 s
 
 
-def ui_alive(page, serve: LabServe) -> None:
-    """The UI process serves HTTP, streams to the page, and logged no error of its own."""
-    assert serves_http(serve.ui_port)
-    n0 = len(page.ws_frames)
-    page.wait_for_timeout(1500)
-    assert len(page.ws_frames) > n0, "the page gets no more updates"
-    assert "UI error" not in event_log(page), event_log(page)
-
-
-def wait_drawn(page, robot: str) -> None:
-    """The status line names `robot` (from live telemetry, no longer loading) and the view shows
-    a robot."""
-    status = page.get_by_text(f"{robot} on", exact=False).first
-    playwright_api.expect(status).to_be_visible(timeout=PAGE_TIMEOUT_MS)
-    playwright_api.expect(page.get_by_text("Loading")).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
-    assert wait_dark_pixels(page, lambda n: n > 300, timeout=60.0) > 300
-
-
 def offered(page, label: str) -> list[str]:
     """The options of dropdown `label`, as the page lists them."""
     open_dropdown(page, label, page.get_by_role("option").first)
@@ -618,19 +514,34 @@ def for_anymal(scene: str) -> bool:
     return "anymal" in SCENE_ROBOTS.get(scene, ("anymal",))
 
 
+# What the walk below leaves to another test that checks the same of it (drawn after the switch,
+# its push, the UI alive), and which.
+CHECKED_ELSEWHERE = {
+    ("Robot", "bolt"): "tests/ui/test_bolt_browser.py: Bolt's page drawn, its note, its default "
+    "push sent from the page and received, the UI alive",
+    ("Scene", "split_wedges"): "tests/ui/test_bolt_browser.py: the switch from the page, Bolt "
+    "drawn on the wedges",
+    ("Scene", "balance_board_lateral"): "balance_board: the same floor and one hinged board "
+    "(lab/scenes/balance_board.py, only its axis differs), drawn by the same TerrainView code",
+}
+
+
 def test_every_robot_and_scene_switches_draws_takes_a_push_and_the_ui_lives(
     page, lab: LabClient, serve: LabServe, pushes: Pushes, subtests
 ) -> None:
     """One page walks every robot the Robot dropdown offers (ANYmal last) and then every scene
-    of the Scene dropdown with ANYmal (flat last; not the scenes made for another robot's feet):
-    one server and page for all, the switches being what is tested."""
+    of the Scene dropdown with ANYmal (flat last; not the scenes made for another robot's feet),
+    but those CHECKED_ELSEWHERE: one server and page for all, the switches being what is
+    tested."""
     info = lab.command("info")
     assert (info["robots"], info["scenes"]) == (list(ROBOT_NAMES), list(SCENES))
     robots, scenes = offered(page, "Robot"), offered(page, "Scene")
     assert (robots, scenes) == (list(ROBOT_NAMES), list(SCENES))
+    assert {value for _, value in CHECKED_ELSEWHERE} <= {*robots, *scenes}
     walk = [("Robot", r, r) for r in robots if r != "anymal"] + [("Robot", "anymal", "anymal")]
     walk += [("Scene", s, "anymal") for s in scenes if s != "flat" and for_anymal(s)]
     walk += [("Scene", "flat", "anymal")]
+    walk = [step for step in walk if step[:2] not in CHECKED_ELSEWHERE]
     for dropdown, value, robot in walk:
         with subtests.test(dropdown=dropdown, value=value):
             switch_draw_push(page, lab, serve, pushes, dropdown, value, robot)
@@ -839,50 +750,3 @@ def test_lab_replay_serve_starts_the_page_with_floor_timeline_and_controls_greye
         context.close()
         replay.terminate()
         replay.wait()
-
-
-def test_bolt_on_the_split_wedges_from_the_page_holds_across_a_reset(browser, tmp_path) -> None:
-    """Reset after stepping stands, on the default stack. Picking Kim's split wedges offers the
-    set-up they were made for; *Use it* installs WBOSC with the internal force (0.51 m g, K_F 1)
-    and shows its controls and chart, and Bolt holds on the wedges, across a Reset too (it fell
-    on every Reset)."""
-    serve = LabServe(tmp_path / "serve.log", "--robot", "bolt")
-    context = browser.new_context(viewport=VIEWPORT)
-    try:
-        with serve.client() as lab:
-            serve.wait_ui()
-            pg = context.new_page()
-            pg.set_default_timeout(PAGE_TIMEOUT_MS)
-            errors = console_errors(pg)
-            pg.goto(serve.url)
-            pg.get_by_text("You hold control").wait_for()
-            wait_drawn(pg, "bolt")
-            default = lab.command("info")["stack"]
-            choose(pg, "Gait", "biped_step")  # brings kim_stepping, which has no CoM task
-            lab.wait_telemetry(lambda m: m["gait"] == "biped_step", timeout=UI_ACTION_TIMEOUT_S)
-            press(pg, "Reset")  # back to standing on a stack that stands: Bolt fell at 1.4 s
-            stand = lab.wait_telemetry(lambda m: m["gait"] == "stand", timeout=60.0)
-            assert stand["stack"] == default, stand["stack"]
-            stood = lab.wait_telemetry(lambda m: m["t"] > 2.5 or m["fell"], timeout=120.0)
-            assert not stood["fell"]
-            choose(pg, "Scene", "split_wedges")
-            pg.get_by_text("Scene split_wedges was made for this set-up").first.wait_for()
-            press(pg, "Use it")
-            mass = lab.command("info")["mass"]
-            held = lab.wait_telemetry(
-                lambda m: (
-                    m["hierarchy"]["method"] == "wbosc" and m["internal_force"]["reference"] > 0.0
-                ),
-                timeout=UI_ACTION_TIMEOUT_S,
-            )
-            assert held["internal_force"]["reference"] == pytest.approx(0.51 * mass * 9.81, 0.01)
-            pg.get_by_text("Internal force (Kim 2016)").first.wait_for()
-            pg.get_by_text("Internal force between the feet").first.wait_for()  # its chart
-            press(pg, "Reset")
-            lab.wait_telemetry(lambda m: m["t"] < 0.5, timeout=60.0, since_last_read=True)
-            after = lab.wait_telemetry(lambda m: m["t"] > 2.0 or m["fell"], timeout=120.0)
-            assert not after["fell"] and after["hierarchy"]["method"] == "wbosc", after["t"]
-            assert not errors, errors
-    finally:
-        context.close()
-        serve.stop()
