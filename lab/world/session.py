@@ -32,16 +32,17 @@ from lab.controller.momentum import MOMENTUM_MODES, GainFuture, LqrProblem
 from lab.controller.native import KERNELS, NativeController
 from lab.controller.qp import SOLVERS
 from lab.controller.stack import Stack, StackError
-from lab.description import ROBOT_NAMES, load_description, robot_names
+from lab.description import ROBOT_NAMES, robot_names
 from lab.protocol import TaskGains
 from lab.realism.contact_estimate import estimated_contact_forces
 from lab.realism.knobs import PRESET_NAMES as REALISM_PRESETS
 from lab.realism.knobs import RealismKnobs, knobs_from, preset
 from lab.realism.layer import NativeRealismLayer, RealismLayer, realism_layer
 from lab.realism.model_error import perturbed_model
-from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
-from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
+from lab.robot import FramePlacements, Robot
+from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
+from lab.world.compiled import CompiledWorld, WorldKey, compile_world, world_key
 from lab.world.memory import release_free_memory
 from lab.world.native_tick import NativeTick, TickStatus
 from lab.world.plant import MujocoPlant, SimulationDiverged
@@ -151,8 +152,12 @@ class SessionParts:
     behaviour: Behaviour | None = None
 
 
-def build_parts(config: SessionConfig) -> SessionParts:
-    """Plant, model and controller for `config`; raises KeyError or ValueError on bad names."""
+def build_parts(
+    config: SessionConfig, world: Callable[[WorldKey], CompiledWorld] = compile_world
+) -> SessionParts:
+    """Plant, model and controller for `config`; raises KeyError or ValueError on bad names.
+    `world` makes the robot and MuJoCo's model (lab/world/compiled.py): at once by default,
+    in a worker process with a cache for a switch beside the loop (lab/runtime/switch.py)."""
     if config.robot not in (known := robot_names()):
         raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
     if config.scene not in SCENES:
@@ -163,11 +168,11 @@ def build_parts(config: SessionConfig) -> SessionParts:
             f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
             f"not {config.robot!r}"
         )
-    description = load_description(config.robot)
-    robot = build_robot(description)
-    if config.scene in START_RISE:  # one foot starts on a block
-        robot = with_raised_contact(robot, *START_RISE[config.scene])
-    plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
+    compiled = world(world_key(config.robot, config.scene, config.timestep, config.terrain_seed))
+    robot, description = compiled.robot, compiled.robot.description
+    plant = MujocoPlant(
+        robot, config.scene, config.timestep, config.terrain_seed, mj_model=compiled.mj_model
+    )
     knobs = config.realism
     plant.set_drive_limits(knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction)
     # the controller's model: the simulator's, or a copy with model error (lab/realism)
