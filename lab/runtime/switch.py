@@ -8,15 +8,20 @@ freed there, and the C heap's free memory is returned to the system (lab/world/m
 One switch at a time: another one while a switch is under way is refused, naming it.
 
 While it builds, the thread shares the GIL with the loop: the loop's `switch_interval_s`
-(LoopConfig) bounds how long the loop waits for it.
+(LoopConfig) bounds how long the loop waits for it while the thread runs Python, but a C call
+keeps the GIL to its end. So the longest ones, the robot's URDF and MuJoCo's compile, run in a
+worker process and are kept per robot and scene (world_cache.py); the rest (the controller's
+model, the native kernel, the plant's data) is short calls (docs/reliability.md).
 """
 
+import functools
 import queue
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from lab.runtime.intake import Request
+from lab.runtime.world_cache import WorldCache
 from lab.world.memory import release_free_memory
 from lab.world.session import SessionConfig, SessionParts, build_parts
 
@@ -33,8 +38,11 @@ class Built:
 class Switcher:
     """Builds session parts for one switch at a time on its own thread (see the module)."""
 
-    def __init__(self, build: Callable[[SessionConfig], SessionParts] = build_parts) -> None:
-        self._build = build
+    def __init__(self, build: Callable[[SessionConfig], SessionParts] | None = None) -> None:
+        """`build` makes a switch's parts; by default `build_parts` with its robot and MuJoCo
+        model from the worker process and its cache (`worlds`)."""
+        self.worlds = WorldCache()
+        self._build = build or functools.partial(build_parts, world=self.worlds.world)
         self._jobs: queue.SimpleQueue[tuple[Request, SessionConfig] | SessionParts | None] = (
             queue.SimpleQueue()
         )
@@ -65,6 +73,7 @@ class Switcher:
         """Finish what is queued, then stop the thread."""
         self._jobs.put(None)
         self._thread.join()
+        self.worlds.close()
 
     def _run(self) -> None:
         while (job := self._jobs.get()) is not None:

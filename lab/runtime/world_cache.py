@@ -1,0 +1,92 @@
+"""Compiled worlds for robot and scene switches: built in a worker process, kept per key.
+
+A switch is built beside the loop (switch.py), but on a thread of the sim process its long C
+calls keep the GIL the loop needs: MuJoCo's `MjSpec.compile` alone took 350 ms on Solo12, one
+call, and the 1 kHz loop stood still for it (issue 25, docs/reliability.md). The robot and
+MuJoCo's model (lab/world/compiled.py) are made from a `WorldKey` alone and pickle, so one
+worker process builds them and sends them back pickled; unpickling them (MuJoCo loads its
+binary model, pinocchio its serialization) takes a few milliseconds. The pickles are kept per
+key (the last MAX_WORLDS), so a switch back to a robot and scene costs that load alone.
+
+The worker starts with the first world asked for (a lab that never switches starts none) and
+is started again after it died; a build that fails there raises its own error here.
+"""
+
+import multiprocessing
+import os
+import pickle
+from collections import OrderedDict
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+
+from lab.world.compiled import CompiledWorld, WorldKey, compile_world
+
+MAX_WORLDS = 8  # pickled worlds kept (Solo12's 7.5 MB, most of it meshes)
+# The worker's niceness above the sim process's: on a 2-core machine its imports and MuJoCo's
+# compile (which uses threads of its own) would otherwise take CPU time from the loop.
+WORKER_NICE = 10
+
+
+def _lower_priority() -> None:
+    """The worker's initializer: run at WORKER_NICE."""
+    os.nice(WORKER_NICE)
+
+
+def _pickled_world(key: WorldKey) -> bytes:
+    """In the worker: the world of `key`, pickled."""
+    return pickle.dumps(compile_world(key), protocol=pickle.HIGHEST_PROTOCOL)
+
+
+class WorldCache:
+    """Worlds built in one worker process and kept per key (module docstring); used by one
+    thread at a time (the switcher's)."""
+
+    def __init__(self, max_worlds: int = MAX_WORLDS) -> None:
+        self.max_worlds = max_worlds
+        self._pool: ProcessPoolExecutor | None = None
+        self._worlds: OrderedDict[WorldKey, bytes] = OrderedDict()
+        self.built = 0  # worlds the worker built
+        self.hits = 0  # worlds served from the cache
+
+    def world(self, key: WorldKey) -> CompiledWorld:
+        """The world of `key`, a new copy each call (a plant changes its MjModel): from the
+        cache, else built by the worker (its KeyError or ValueError raised here)."""
+        pickled = self._worlds.get(key)
+        if pickled is None:
+            pickled = self._build(key)
+            self.built += 1
+            self._worlds[key] = pickled
+            while len(self._worlds) > self.max_worlds:
+                self._worlds.popitem(last=False)
+        else:
+            self.hits += 1
+            self._worlds.move_to_end(key)
+        return pickle.loads(pickled)
+
+    def _pool_started(self) -> ProcessPoolExecutor:
+        if self._pool is None:
+            # forkserver: the worker is not a fork of the threaded sim process
+            context = multiprocessing.get_context("forkserver")
+            self._pool = ProcessPoolExecutor(
+                max_workers=1, mp_context=context, initializer=_lower_priority
+            )
+        return self._pool
+
+    def _build(self, key: WorldKey) -> bytes:
+        pool = self._pool_started()
+        try:
+            return pool.submit(_pickled_world, key).result()
+        except BrokenProcessPool:  # the worker died (killed, crashed): the next build starts one
+            pool.shutdown(wait=False)
+            self._pool = None
+            raise
+
+    def worker_pid(self) -> int:
+        """The worker process's id (it starts if it had not)."""
+        return self._pool_started().submit(os.getpid).result()
+
+    def close(self) -> None:
+        """Stop the worker, if one started."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
