@@ -9,9 +9,9 @@ One switch at a time: another one while a switch is under way is refused, naming
 
 While it builds, the thread shares the GIL with the loop: the loop's `switch_interval_s`
 (LoopConfig) bounds how long the loop waits for it while the thread runs Python, but a C call
-keeps the GIL to its end. So the longest ones, the robot's URDF and MuJoCo's compile, run in a
-worker process and are kept per robot and scene (world_cache.py); the rest (the controller's
-model, the native kernel, the plant's data) is short calls (docs/reliability.md).
+keeps the GIL to its end unless it releases it. So the robot and MuJoCo's model are built in a
+worker process and kept per robot and scene (world_cache.py); what is left here is calls of a
+few milliseconds at most, the native kernel's set-up without the GIL (docs/reliability.md).
 """
 
 import functools
@@ -42,6 +42,8 @@ class Switcher:
         """`build` makes a switch's parts; by default `build_parts` with its robot and MuJoCo
         model from the worker process and its cache (`worlds`)."""
         self.worlds = WorldCache()
+        if build is None:
+            self.worlds.start()  # the first switch need not wait for the worker's start
         self._build = build or functools.partial(build_parts, world=self.worlds.world)
         self._jobs: queue.SimpleQueue[tuple[Request, SessionConfig] | SessionParts | None] = (
             queue.SimpleQueue()

@@ -1,15 +1,18 @@
 """Compiled worlds for robot and scene switches: built in a worker process, kept per key.
 
-A switch is built beside the loop (switch.py), but on a thread of the sim process its long C
-calls keep the GIL the loop needs: MuJoCo's `MjSpec.compile` alone took 350 ms on Solo12, one
-call, and the 1 kHz loop stood still for it (issue 25, docs/reliability.md). The robot and
-MuJoCo's model (lab/world/compiled.py) are made from a `WorldKey` alone and pickle, so one
-worker process builds them and sends them back pickled; unpickling them (MuJoCo loads its
-binary model, pinocchio its serialization) takes a few milliseconds. The pickles are kept per
-key (the last MAX_WORLDS), so a switch back to a robot and scene costs that load alone.
+A switch is built beside the loop (switch.py), on a thread of the sim process that shares the
+GIL and the machine's cores with the loop. The robot and MuJoCo's model (lab/world/compiled.py)
+are most of that work and are made from a `WorldKey` alone, so one worker process builds them
+and sends them back pickled: pinocchio's URDF parser (which keeps the GIL: 2-16 ms of CPU per
+robot) and MuJoCo's compile (which releases it, but processes a robot's
+meshes on threads of its own: 0.5-1.4 s the first time in a process, Solo12 at load 25) run
+there. Loading a pickled world here costs ~20 ms of CPU for Solo12 (7.4 MB, mostly meshes;
+MuJoCo loads its binary model without the GIL, pinocchio its model with it: 1.4-2.5 ms). The
+pickles are kept per key (the last MAX_WORLDS), so a switch back to a robot and scene costs
+that load alone (docs/reliability.md, "Robot switches").
 
-The worker starts with the first world asked for (a lab that never switches starts none) and
-is started again after it died; a build that fails there raises its own error here.
+The worker starts with `start` (the switcher's, as `lab serve` starts) or the first world asked
+for, and again after it died; a build that fails there raises its own error here.
 """
 
 import multiprocessing
@@ -22,14 +25,6 @@ from concurrent.futures.process import BrokenProcessPool
 from lab.world.compiled import CompiledWorld, WorldKey, compile_world
 
 MAX_WORLDS = 8  # pickled worlds kept (Solo12's 7.5 MB, most of it meshes)
-# The worker's niceness above the sim process's: on a 2-core machine its imports and MuJoCo's
-# compile (which uses threads of its own) would otherwise take CPU time from the loop.
-WORKER_NICE = 10
-
-
-def _lower_priority() -> None:
-    """The worker's initializer: run at WORKER_NICE."""
-    os.nice(WORKER_NICE)
 
 
 def _pickled_world(key: WorldKey) -> bytes:
@@ -67,9 +62,7 @@ class WorldCache:
         if self._pool is None:
             # forkserver: the worker is not a fork of the threaded sim process
             context = multiprocessing.get_context("forkserver")
-            self._pool = ProcessPoolExecutor(
-                max_workers=1, mp_context=context, initializer=_lower_priority
-            )
+            self._pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
         return self._pool
 
     def _build(self, key: WorldKey) -> bytes:
@@ -80,6 +73,11 @@ class WorldCache:
             pool.shutdown(wait=False)
             self._pool = None
             raise
+
+    def start(self) -> None:
+        """Start the worker now (its imports take seconds on a busy machine), not with the
+        first world asked for."""
+        self._pool_started().submit(os.getpid)
 
     def worker_pid(self) -> int:
         """The worker process's id (it starts if it had not)."""

@@ -2,10 +2,8 @@
 
 What a robot and a scene make before any session state exists, from a `WorldKey` alone: the
 robot built from its URDF (lab/robot.py; one foot raised where the scene starts it on a block)
-and MuJoCo's model compiled from the spec `build_spec` makes of it and the scene. Both are made
-by long C calls that keep the GIL (measured, issue 25: Solo12's `MjSpec.compile` ~350 ms,
-pinocchio's URDF parser 6-34 ms) and both pickle (pinocchio's serialization, MuJoCo's binary
-model, MJB), so `lab serve` builds them in a worker process and keeps them per key
+and MuJoCo's model compiled from the spec `build_spec` makes of it and the scene. It is most of
+a switch's work and pickles, so `lab serve` builds it in a worker process and keeps it per key
 (lab/runtime/world_cache.py); a session built in-process calls `compile_world` itself. The
 world is the same either way (tests/runtime/test_switch.py).
 """
