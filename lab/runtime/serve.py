@@ -245,7 +245,7 @@ def serve_main(argv: list[str]) -> int:
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
-        switcher=(switcher := Switcher()),
+        switcher=(switcher := Switcher(nice=args.nice)),
     )
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):

@@ -2,9 +2,9 @@
 
 A switch is built beside the loop (switch.py), on a thread of the sim process that shares the
 GIL and the machine's cores with the loop. The robot and MuJoCo's model (lab/world/compiled.py)
-are most of that work and are made from a `WorldKey` alone, so one worker process builds them
-and sends them back pickled: pinocchio's URDF parser (which keeps the GIL: 2-16 ms of CPU per
-robot) and MuJoCo's compile (which releases it, but processes a robot's
+are most of that work and are made from a `WorldKey` alone, so one worker process, at lower
+priority, builds them and sends them back pickled: pinocchio's URDF parser (which keeps the
+GIL: 2-16 ms of CPU per robot) and MuJoCo's compile (which releases it, but processes a robot's
 meshes on threads of its own: 0.5-1.4 s the first time in a process, Solo12 at load 25) run
 there. Loading a pickled world here costs ~20 ms of CPU for Solo12 (7.4 MB, mostly meshes;
 MuJoCo loads its binary model without the GIL, pinocchio its model with it: 1.4-2.5 ms). The
@@ -25,6 +25,17 @@ from concurrent.futures.process import BrokenProcessPool
 from lab.world.compiled import CompiledWorld, WorldKey, compile_world
 
 MAX_WORLDS = 8  # pickled worlds kept (Solo12's 7.5 MB, most of it meshes)
+
+
+# The worker's niceness: on a 2-core machine its imports and MuJoCo's compile (threads of its
+# own) took the loop's CPU. At 0 a robot's first switch left the loop 1.5-5 s gaps at load 33-41
+# (benchmarks/bench_switch.py); at +10, 51 ms at load 25, the first switch's reply after 20 s.
+WORKER_NICE = 10
+
+
+def _lower_priority() -> None:
+    """The worker's initializer: run at WORKER_NICE."""
+    os.nice(WORKER_NICE)
 
 
 def _pickled_world(key: WorldKey) -> bytes:
@@ -62,7 +73,9 @@ class WorldCache:
         if self._pool is None:
             # forkserver: the worker is not a fork of the threaded sim process
             context = multiprocessing.get_context("forkserver")
-            self._pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
+            self._pool = ProcessPoolExecutor(
+                max_workers=1, mp_context=context, initializer=_lower_priority
+            )
         return self._pool
 
     def _build(self, key: WorldKey) -> bytes:
