@@ -3,8 +3,8 @@
 What a robot and a scene make before any session state exists, from a `WorldKey` alone: the
 robot built from its URDF (lab/robot.py; one foot raised where the scene starts it on a block)
 and MuJoCo's model compiled from the spec `build_spec` makes of it and the scene. It is most of
-a switch's work and pickles, so `lab serve` builds it in a worker process and keeps it per key
-(lab/runtime/world_cache.py); a session built in-process calls `compile_world` itself. The
+a switch's work and pickles, so a switch can build it in a worker process and keep it per key
+(lab/runtime/world_cache.py, opt-in); otherwise `compile_world` builds it in-process. The
 world is the same either way (tests/runtime/test_switch.py).
 """
 

@@ -157,7 +157,7 @@ def build_parts(
 ) -> SessionParts:
     """Plant, model and controller for `config`; raises KeyError or ValueError on bad names.
     `world` makes the robot and MuJoCo's model (lab/world/compiled.py): at once by default,
-    in a worker process with a cache for a switch beside the loop (lab/runtime/switch.py)."""
+    or in a worker process with a cache (lab/runtime/world_cache.py)."""
     if config.robot not in (known := robot_names()):
         raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
     if config.scene not in SCENES:
