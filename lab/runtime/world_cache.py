@@ -11,8 +11,9 @@ MuJoCo loads its binary model without the GIL, pinocchio its model with it: 1.4-
 pickles are kept per key (the last MAX_WORLDS), so a switch back to a robot and scene costs
 that load alone (docs/reliability.md, "Robot switches").
 
-The worker starts with `start` (the switcher's, as `lab serve` starts) or the first world asked
-for, and again after it died; a build that fails there raises its own error here.
+The worker starts with `start` (a `Switcher(worker=True)`'s, when its thread starts) or the
+first world asked for, and again after it died; a build that fails there raises its own error
+here. It is opt-in: its first builds stalled the loop on a busy machine (docs/reliability.md).
 """
 
 import multiprocessing
@@ -25,11 +26,10 @@ from concurrent.futures.process import BrokenProcessPool
 from lab.world.compiled import CompiledWorld, WorldKey, compile_world
 
 MAX_WORLDS = 8  # pickled worlds kept (Solo12's 7.5 MB, most of it meshes)
-
-
-# The worker's niceness: on a 2-core machine its imports and MuJoCo's compile (threads of its
-# own) took the loop's CPU. At 0 a robot's first switch left the loop 1.5-5 s gaps at load 33-41
-# (benchmarks/bench_switch.py); at +10, 51 ms at load 25, the first switch's reply after 20 s.
+# The worker's niceness: its imports and MuJoCo's compile (threads of its own) share the
+# machine's cores with the loop. Started by the first switch at +10: the loop's longest gap
+# 51 ms at load 25 (the reply after 20 s); started with the switcher at 0 or +10: 3-5 s at
+# load 33-45 (benchmarks/bench_switch.py, docs/reliability.md).
 WORKER_NICE = 10
 
 
