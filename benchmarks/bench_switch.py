@@ -1,14 +1,26 @@
 """What a robot switch costs the realtime loop (not a test): the loop at 1 kHz (SCHED_OTHER)
-switching between two robots every `--every` s, with the switch built beside the loop
-(lab/runtime/switch.py, as `lab serve` does) or on the loop's thread (as before); prints, for
-each, the ticks skipped, the on-time fraction and the worst lateness over the run, and the
-resident memory before and after.
+switching between robots every `--every` s, in one run for each way of building the switch:
 
-    .venv/bin/python benchmarks/bench_switch.py [--switches 10] [--every 2] [--robots solo12,bolt]
+- `worker`: the robot and MuJoCo's model built in a worker process and kept per robot and
+  scene (lab/runtime/world_cache.py), the rest of the session's parts on a thread beside the
+  loop, swapped in between two ticks (`Switcher(worker=True)`);
+- `thread`: the whole build on the thread beside the loop, as `lab serve` does
+  (lab/runtime/switch.py);
+- `loop`: the whole build on the loop's own thread (a loop without a switcher: fast mode).
+
+For each it prints one JSON line: per switch the robot, whether its world was compiled or came
+from the cache, the periods the loop skipped from the command to its reply and the longest
+interval between two ticks meanwhile; over the run the same interval outside switches (the
+machine's own noise), the longest tick's work, the longest pause of the garbage collector (it
+stops every thread), the on-time fraction and the resident memory.
+
+    .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
+        [--modes worker,thread,loop]
 """
 
 import argparse
 import json
+import os
 import sys
 import threading
 import time
@@ -20,6 +32,8 @@ from lab.runtime.loop import LoopConfig, SimLoop
 from lab.runtime.switch import Switcher
 from lab.world.session import Session, SessionConfig
 
+MODES = ("worker", "thread", "loop")
+
 
 def rss_mb() -> float:
     for line in Path("/proc/self/status").read_text().splitlines():
@@ -29,20 +43,61 @@ def rss_mb() -> float:
 
 
 class Switching:
-    """A transport that asks for a switch to the next robot every `every` s, `count` times."""
+    """A transport that asks for a switch to the next robot every `every` s, `count` times,
+    and times the loop: `receive` is called once a tick, so the interval between two calls is
+    the interval between two ticks. A switch counts from the tick that sent it to the first
+    tick after its reply (the loop counts what it skipped after the tick that swapped it in)."""
 
-    def __init__(self, robots: list[str], every: float, count: int, stop: threading.Event) -> None:
-        self.robots, self.every, self.left, self.stop = robots, every, count, stop
+    def __init__(
+        self, robots: list[str], every: float, count: int, stop: threading.Event, cache: bool
+    ) -> None:
+        """`cache`: whether a robot's world is kept after its first build (mode `worker`)."""
+        self.robots, self.every, self.count, self.stop = robots, every, count, stop
+        self.cache = cache
+        self.loop: SimLoop | None = None
         self.next_at = time.monotonic() + every
-        self.waiting = False
+        self.switch: dict | None = None  # the switch under way, if any
+        self.built: set[str] = set()  # robots whose world the worker built
         self.errors: list[str] = []
+        self.switches: list[dict] = []
+        self.last_tick: float | None = None
+        self.longest_outside = 0.0  # between two ticks while no switch is under way (s)
 
     def receive(self) -> Request | None:
-        if self.waiting or time.monotonic() < self.next_at:
+        now = time.monotonic()
+        gap = 0.0 if self.last_tick is None else now - self.last_tick
+        self.last_tick = now
+        switch = self.switch
+        if switch is None:
+            self.longest_outside = max(self.longest_outside, gap)
+        else:
+            switch["longest_gap"] = max(switch["longest_gap"], gap)
+            if "reply_s" in switch:  # the first tick after the reply: the switch is over
+                self._finish(switch)
             return None
-        name = self.robots[self.left % len(self.robots)]
-        self.waiting = True
+        if now < self.next_at:
+            return None
+        name = self.robots[(len(self.switches) + 1) % len(self.robots)]
+        cold = name not in self.built or not self.cache
+        self.built.add(name)
+        self.switch = {"robot": name, "cold": cold, "sent": now, "longest_gap": 0.0}
+        self.switch["skipped_before"] = self.loop.stats.skipped
         return Request("robot", {"name": name}, None, None, RobotCommand(name))
+
+    def _finish(self, switch: dict) -> None:
+        self.switches.append(
+            {
+                "robot": switch["robot"],
+                "world": "compiled" if switch["cold"] else "cached",
+                "reply_ms": round((switch["reply_s"] - switch["sent"]) * 1e3, 1),
+                "skipped": self.loop.stats.skipped - switch["skipped_before"],
+                "longest_gap_ms": round(switch["longest_gap"] * 1e3, 2),
+            }
+        )
+        self.switch = None
+        self.next_at = self.last_tick + self.every
+        if len(self.switches) == self.count:
+            self.stop.set()
 
     def rejections(self) -> tuple[int, str, str]:
         return (0, "", "")
@@ -50,52 +105,58 @@ class Switching:
     def reply(self, request: Request, body: dict) -> None:
         if not body.get("ok"):
             self.errors.append(str(body))
-        self.waiting, self.left = False, self.left - 1
-        self.next_at = time.monotonic() + self.every
-        if self.left == 0:
-            self.stop.set()
+        self.switch["reply_s"] = time.monotonic()
 
     def publish_telemetry(self, message: dict) -> None: ...
     def publish_state(self, message: dict) -> None: ...
     def publish_event(self, message: dict) -> None: ...
 
 
-def run(beside: bool, robots: list[str], every: float, count: int) -> dict:
+def run(mode: str, robots: list[str], every: float, count: int) -> dict:
     session = Session(SessionConfig(robot=robots[0]))
     stop = threading.Event()
-    transport = Switching(robots, every, count, stop)
-    switcher = Switcher() if beside else None
+    transport = Switching(robots, every, count, stop, cache=mode == "worker")
+    switcher = {"worker": lambda: Switcher(worker=True), "thread": Switcher}.get(mode)
+    switcher = switcher() if switcher is not None else None
     loop = SimLoop(session, transport, LoopConfig(sched="other"), switcher=switcher)
+    transport.loop = loop
     before = rss_mb()
     loop.run(stop)
     if switcher is not None:
         switcher.close()
-    stats = loop.stats
+    stats, switches = loop.stats, transport.switches
     return {
-        "built": "beside the loop" if beside else "on the loop",
+        "built": mode,
+        "load_average": [round(x, 1) for x in os.getloadavg()],
         "error": None if loop.error is None else repr(loop.error),
         "refused": transport.errors,
         "ticks": stats.ticks,
         "skipped": stats.skipped,
-        "on_time_fraction": round(stats.on_time / max(1, stats.ticks), 4),
-        "lateness_us": {
-            "p50": round(stats.lateness.percentile(50) * 1e6, 1),
-            "p99": round(stats.lateness.percentile(99) * 1e6, 1),
-            "max": round(stats.lateness.max * 1e6, 1),
+        "skipped_per_switch": round(sum(s["skipped"] for s in switches) / len(switches), 1),
+        "longest_gap_ms": {
+            "during_switches": round(max(s["longest_gap_ms"] for s in switches), 2),
+            "outside_switches": round(transport.longest_outside * 1e3, 2),
         },
+        "longest_tick_work_ms": round(stats.work.max * 1e3, 2),
+        "longest_gc_pause_ms": round(stats.gc.pauses.max * 1e3, 2),
+        "on_time_fraction": round(stats.on_time / max(1, stats.ticks), 4),
         "rss_mb": {"before": round(before, 1), "after": round(rss_mb(), 1)},
+        "switches": switches,
     }
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--switches", type=int, default=10)
-    parser.add_argument("--every", type=float, default=2.0, help="s between switches")
+    parser.add_argument("--switches", type=int, default=8)
+    parser.add_argument("--every", type=float, default=1.5, help="s between switches")
     parser.add_argument("--robots", default="solo12,bolt")
+    parser.add_argument("--modes", default=",".join(MODES), help="of " + ", ".join(MODES))
     args = parser.parse_args()
     robots = args.robots.split(",")
-    for beside in (True, False):
-        print(json.dumps(run(beside, robots, args.every, args.switches)), flush=True)
+    for mode in args.modes.split(","):
+        if mode not in MODES:
+            parser.error(f"unknown mode {mode!r} (modes: {', '.join(MODES)})")
+        print(json.dumps(run(mode, robots, args.every, args.switches)), flush=True)
     return 0
 
 

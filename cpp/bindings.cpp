@@ -362,7 +362,10 @@ NB_MODULE(_kernel, m) {
           [](lab::Kernel* self, const std::string& model, const std::vector<ContactTuple>& contacts,
              const Eigen::VectorXd& torque_limits, const Eigen::VectorXd& lower,
              const Eigen::VectorXd& upper, double friction, double normal_min, double normal_max) {
-            new (self) lab::Kernel(model, contact_specs(contacts), torque_limits, lower, upper,
+            auto specs = contact_specs(contacts);
+            // pinocchio's deserialization and the set-up: C++ alone, the loop runs meanwhile
+            nb::gil_scoped_release release;
+            new (self) lab::Kernel(model, std::move(specs), torque_limits, lower, upper,
                                    lab::ContactLimits{friction, normal_min, normal_max});
           },
           "model"_a, "contacts"_a, "torque_limits"_a, "lower"_a, "upper"_a, "friction"_a,

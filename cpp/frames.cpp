@@ -51,6 +51,8 @@ void bind_frame_placements(nb::module_& m) {
   nb::class_<FramePlacements>(m, "FramePlacements",
                               "World placements of chosen frames of a model (lab/robot.py).")
       .def(nb::init<const std::string&, std::vector<std::size_t>>(), "model"_a, "frames"_a,
+           // pinocchio's deserialization: C++ alone, the loop runs meanwhile (a robot switch)
+           nb::call_guard<nb::gil_scoped_release>(),
            "From pinocchio's Model.saveToString() and the frames' indices.")
       .def_prop_ro("size", &FramePlacements::size)
       .def_prop_ro("nq", &FramePlacements::nq)

@@ -149,6 +149,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--telemetry-hz", type=float, default=100.0)
     p.add_argument("--state-hz", type=float, default=60.0)
+    p.add_argument(
+        "--switch-worker",
+        action="store_true",
+        help="build a robot switch's robot and MuJoCo model in a worker process that keeps the "
+        "last 8 (measured, not the default: docs/reliability.md, 'Robot switches')",
+    )
     p.add_argument("--headless", action="store_true", help="do not start the browser UI")
     p.add_argument("--ui-port", type=int, default=8080, help="HTTP port of the browser UI")
     return p
@@ -245,7 +251,7 @@ def serve_main(argv: list[str]) -> int:
             telemetry_hz=args.telemetry_hz,
             state_hz=args.state_hz,
         ),
-        switcher=(switcher := Switcher()),
+        switcher=(switcher := Switcher(worker=args.switch_worker, nice=args.nice)),
     )
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):

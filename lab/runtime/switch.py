@@ -8,15 +8,28 @@ freed there, and the C heap's free memory is returned to the system (lab/world/m
 One switch at a time: another one while a switch is under way is refused, naming it.
 
 While it builds, the thread shares the GIL with the loop: the loop's `switch_interval_s`
-(LoopConfig) bounds how long the loop waits for it.
+(LoopConfig) bounds how long the loop waits for it while the thread runs Python, but a C call
+keeps the GIL to its end unless it releases it. MuJoCo's compile releases it; pinocchio's URDF
+parser and model serialization keep it for milliseconds; the native kernel's set-up no longer
+keeps it. With `worker=True` the robot and MuJoCo's model are built in a worker process and kept
+per robot and scene (world_cache.py): a switch back costs a load, but a robot's first build
+there left the 1 kHz loop gaps of seconds on a machine at load 33-45, for reasons not found, so
+it is off by default (docs/reliability.md, "Robot switches").
+A GIL held by a thread the host preempts stays held until the thread runs again: on a busy
+machine a millisecond's hold became tens of them, the loop (at nice -10) waiting behind a nice-0
+thread. So the thread asks for the loop's nice (`LoopConfig.nice`) when it starts.
 """
 
+import functools
 import queue
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from lab.runtime.intake import Request
+from lab.runtime.loop_config import LoopConfig
+from lab.runtime.scheduling import request_nice
+from lab.runtime.world_cache import WorldCache
 from lab.world.memory import release_free_memory
 from lab.world.session_parts import SessionConfig, SessionParts, build_parts
 
@@ -33,7 +46,20 @@ class Built:
 class Switcher:
     """Builds session parts for one switch at a time on its own thread (see the module)."""
 
-    def __init__(self, build: Callable[[SessionConfig], SessionParts] = build_parts) -> None:
+    def __init__(
+        self,
+        build: Callable[[SessionConfig], SessionParts] = build_parts,
+        nice: int | None = LoopConfig.nice,
+        worker: bool = False,
+    ) -> None:
+        """`build` makes a switch's parts; with `worker`, `build_parts` with its robot and
+        MuJoCo model from the worker process and its cache (`worlds`, see the module). `nice`:
+        the thread's (None: as it starts; a refusal leaves it so)."""
+        self._nice = nice
+        self.worlds = WorldCache()
+        self._start_worker = worker  # the first switch need not wait for its start
+        if worker:
+            build = functools.partial(build_parts, world=self.worlds.world)
         self._build = build
         self._jobs: queue.SimpleQueue[tuple[Request, SessionConfig] | SessionParts | None] = (
             queue.SimpleQueue()
@@ -65,8 +91,13 @@ class Switcher:
         """Finish what is queued, then stop the thread."""
         self._jobs.put(None)
         self._thread.join()
+        self.worlds.close()
 
     def _run(self) -> None:
+        if self._nice is not None:
+            request_nice(self._nice)
+        if self._start_worker:
+            self.worlds.start()
         while (job := self._jobs.get()) is not None:
             if isinstance(job, SessionParts):
                 del job  # the last reference: the old session's parts are freed here

@@ -82,11 +82,16 @@ class MujocoPlant(PlantSensing):
         timestep: float = 1e-3,
         terrain_seed: int | None = None,
         native: bool = True,
+        mj_model: mujoco.MjModel | None = None,
     ) -> None:
         """`native`: run the per-tick calls (check, state, set_torques, step, touch sensing)
-        through `lab._plant` when it is built (`self.native` says whether they do)."""
+        through `lab._plant` when it is built (`self.native` says whether they do). `mj_model`:
+        what `build_spec` of these arguments compiles, compiled elsewhere (a worker process:
+        lab/world/compiled.py); the plant changes it, so it must be its own."""
         self.robot = robot
-        self.mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
+        if mj_model is None:
+            mj_model = build_spec(robot, scene, timestep, terrain_seed).compile()
+        self.mj_model = mj_model
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
         self.moving_terrain = ScriptedJoints(m, scene_bodies(scene))

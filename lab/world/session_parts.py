@@ -4,6 +4,7 @@ native tick, the realism layer), made by `build_parts` on any thread (lab/runtim
 a switch's parts beside the loop) and swapped into a running session by `Session.install`.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from lab.controller.behaviours import Balance, Behaviour
@@ -12,13 +13,14 @@ from lab.controller.controller import ControllerConfig
 from lab.controller.model import RobotModel
 from lab.controller.native import NativeController
 from lab.controller.stack import Stack
-from lab.description import load_description, robot_names
+from lab.description import robot_names
 from lab.protocol import TaskGains
 from lab.realism.knobs import RealismKnobs
 from lab.realism.layer import NativeRealismLayer, RealismLayer, realism_layer
 from lab.realism.model_error import perturbed_model
-from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
-from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
+from lab.robot import FramePlacements, Robot
+from lab.scenes import SCENE_ROBOTS, SCENES
+from lab.world.compiled import CompiledWorld, WorldKey, compile_world, world_key
 from lab.world.native_tick import NativeTick
 from lab.world.plant import MujocoPlant
 
@@ -61,8 +63,12 @@ class SessionParts:
     behaviour: Behaviour  # standing (Balance) until the `gait` command starts another
 
 
-def build_parts(config: SessionConfig) -> SessionParts:
-    """Plant, model and controller for `config`; raises KeyError or ValueError on bad names."""
+def build_parts(
+    config: SessionConfig, world: Callable[[WorldKey], CompiledWorld] = compile_world
+) -> SessionParts:
+    """Plant, model and controller for `config`; raises KeyError or ValueError on bad names.
+    `world` makes the robot and MuJoCo's model (lab/world/compiled.py): at once by default,
+    or in a worker process with a cache (lab/runtime/world_cache.py)."""
     if config.robot not in (known := robot_names()):
         raise KeyError(f"unknown robot {config.robot!r} (robots: {', '.join(known)})")
     if config.scene not in SCENES:
@@ -73,11 +79,11 @@ def build_parts(config: SessionConfig) -> SessionParts:
             f"scene {config.scene!r} is made for robot {', '.join(made_for)} only, "
             f"not {config.robot!r}"
         )
-    description = load_description(config.robot)
-    robot = build_robot(description)
-    if config.scene in START_RISE:  # one foot starts on a block
-        robot = with_raised_contact(robot, *START_RISE[config.scene])
-    plant = MujocoPlant(robot, config.scene, config.timestep, config.terrain_seed)
+    compiled = world(world_key(config.robot, config.scene, config.timestep, config.terrain_seed))
+    robot, description = compiled.robot, compiled.robot.description
+    plant = MujocoPlant(
+        robot, config.scene, config.timestep, config.terrain_seed, mj_model=compiled.mj_model
+    )
     knobs = config.realism
     plant.set_drive_limits(knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction)
     # the controller's model: the simulator's, or a copy with model error (lab/realism)

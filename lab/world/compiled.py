@@ -1,0 +1,75 @@
+"""The compiled world of a session: its robot's pinocchio model and MuJoCo's compiled model.
+
+What a robot and a scene make before any session state exists, from a `WorldKey` alone: the
+robot built from its URDF (lab/robot.py; one foot raised where the scene starts it on a block)
+and MuJoCo's model compiled from the spec `build_spec` makes of it and the scene. It is most of
+a switch's work and pickles, so a switch can build it in a worker process and keep it per key
+(lab/runtime/world_cache.py, opt-in); otherwise `compile_world` builds it in-process. The
+world is the same either way (tests/runtime/test_switch.py).
+"""
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from lab.description import ROBOTS_DIR, load_description
+from lab.robot import Robot, build_robot, with_raised_contact
+from lab.scenes import START_RISE
+from lab.world.plant_model import build_spec
+
+MJB_NAME = "world.mjb"  # the virtual file a pickled world's MjModel is loaded from
+
+
+@dataclass(frozen=True)
+class WorldKey:
+    """What a compiled world is made of; `robot_file_ns` is the modification time of
+    robots/<robot>.toml (ns), so that a robot file edited meanwhile is read again."""
+
+    robot: str
+    scene: str
+    timestep: float
+    terrain_seed: int | None
+    robot_file_ns: int = 0
+
+
+def world_key(robot: str, scene: str, timestep: float, terrain_seed: int | None) -> WorldKey:
+    """The key of a world (the robot file's time read now; 0 for a robot without a file)."""
+    path = ROBOTS_DIR / f"{robot}.toml"
+    stamp = path.stat().st_mtime_ns if path.is_file() else 0
+    return WorldKey(robot, scene, timestep, terrain_seed, stamp)
+
+
+@dataclass(frozen=True)
+class CompiledWorld:
+    """The robot (pinocchio) and MuJoCo's compiled model of one `WorldKey`. The plant changes
+    its MjModel (lab/world/plant.py): each plant needs a world of its own (a cached one is
+    unpickled afresh).
+
+    It pickles its MjModel as MuJoCo's binary model, saved with `mj_saveModel` and loaded from
+    a virtual file: both release the GIL. MuJoCo's own pickle of an MjModel keeps it (Solo12's
+    7.4 MB of meshes: 20 ms of CPU to load, 60-200 ms of wall time on a busy machine)."""
+
+    robot: Robot
+    mj_model: mujoco.MjModel
+
+    def __reduce__(self) -> tuple:
+        model = self.mj_model
+        mjb = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
+        mujoco.mj_saveModel(model, None, mjb)
+        return (_loaded_world, (self.robot, mjb.tobytes()))
+
+
+def _loaded_world(robot: Robot, mjb: bytes) -> CompiledWorld:
+    """A pickled `CompiledWorld` again (its MjModel from MuJoCo's binary model)."""
+    return CompiledWorld(robot, mujoco.MjModel.from_binary_path(MJB_NAME, {MJB_NAME: mjb}))
+
+
+def compile_world(key: WorldKey) -> CompiledWorld:
+    """Build the robot and compile MuJoCo's model of `key`; raises KeyError or ValueError on a
+    robot file or URDF it cannot use (naming what)."""
+    robot = build_robot(load_description(key.robot))
+    if key.scene in START_RISE:  # one foot starts on a block
+        robot = with_raised_contact(robot, *START_RISE[key.scene])
+    spec = build_spec(robot, key.scene, key.timestep, key.terrain_seed)
+    return CompiledWorld(robot, spec.compile())
