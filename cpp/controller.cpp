@@ -290,6 +290,7 @@ const TickResult& Kernel::solve() {
   const auto start = Clock::now();
   check_references();
   const HierarchyProblem& problem = build_problem();
+  rows_seconds_ = seconds_since(start);
   result_.solution.violations.clear();  // only wbosc reports them
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
   if (method_ == "cascade") {
