@@ -195,6 +195,7 @@ class ReferenceArrays {
     if (name == "contact_active") return values_.contact_active;
     if (name == "swing_tracked") return values_.swing_tracked;
     if (name == "leg_swinging") return values_.leg_swinging;
+    if (name == "hand_heading") return values_.hand_heading;
     throw nb::value_error(("native behaviour: no flag field " + name).c_str());
   }
 
