@@ -45,6 +45,7 @@ CPU_S: dict[str, float] = {
     "b1_stand_cascade": 1.4,
     "b1_stand_weighted": 1.4,
     "b1_trot_steered_s3": 6.3,
+    "b1_z1_hand_trot_steered": 11.4,  # round 13 (2026-12-04), measured alone at load ~35
     "b1_z1_push_arm": 1.6,  # round 13 (2026-12-04), measured alone at load ~30
     "bolt_push_recovery": 1.4,
     "bolt_step_in_place": 2.5,
