@@ -33,7 +33,8 @@ UP = np.array([0.0, 0.0, 1.0])
 def heading(base_rotation: np.ndarray) -> np.ndarray:
     """R_ψ: the rotation about world z by the trunk's yaw ψ, the heading of its x axis."""
     x = base_rotation[:, 0]
-    return pin.rpy.rpyToMatrix(0.0, 0.0, float(np.arctan2(x[1], x[0])))
+    turn: np.ndarray = pin.rpy.rpyToMatrix(0.0, 0.0, float(np.arctan2(x[1], x[0])))
+    return turn
 
 
 def heading_rate(base_rotation: np.ndarray, omega: np.ndarray) -> float:
