@@ -496,9 +496,11 @@ NB_MODULE(_kernel, m) {
       .def_prop_ro(
           "seconds",
           [](const lab::Kernel& k) {
-            return std::make_pair(k.update_seconds(), k.solve_seconds());
+            return std::make_tuple(k.update_seconds(), k.rows_seconds(),
+                                   k.solve_seconds() - k.rows_seconds());
           },
-          "Seconds the last update and the last solve took inside the kernel.")
+          "Seconds the last tick's stages took inside the kernel: the model update, the rows "
+          "(with the references' check) and the rest of the solve (hierarchy method, torques).")
       .def(
           "rows", [](lab::Kernel& k, const std::string& name) { return k.rows(name); }, "name"_a,
           "(A, b) of a task or (C, d) of a constraint at the last update, unweighted.")

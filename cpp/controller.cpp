@@ -190,6 +190,7 @@ void Kernel::check_references() const {
     check_size(refs_.hand_velocity.size(), {3 * hand_count_}, "hand_velocity");
     check_size(refs_.hand_acceleration.size(), {3 * hand_count_}, "hand_acceleration");
     check_size(refs_.hand_rotation.size(), {9 * hand_count_}, "hand_rotation");
+    check_size(refs_.hand_heading.size(), {0, hand_count_}, "hand_heading");
   }
   check_size(refs_.leg_swinging.size(), {0, n}, "leg_swinging");
   if (refs_.leg_swinging.size() && (refs_.leg_swinging && !refs_.contact_active).any()) {
@@ -289,6 +290,7 @@ const TickResult& Kernel::solve() {
   const auto start = Clock::now();
   check_references();
   const HierarchyProblem& problem = build_problem();
+  rows_seconds_ = seconds_since(start);
   result_.solution.violations.clear();  // only wbosc reports them
 #ifdef LAB_HAVE_HIERARCHY_SOLVERS
   if (method_ == "cascade") {

@@ -95,9 +95,12 @@ class Kernel {
       for (const auto& [name, task] : level.tasks)
         if (task->error.size()) f(name, task->error.norm());
   }
-  /// Seconds the last update() and the last solve() took inside the kernel (steady clock).
+  /// Seconds the last update() and the last solve() took inside the kernel (steady clock), and
+  /// the part of that solve spent building the rows (build_problem: every task's and
+  /// constraint's compute); the rest of it is the hierarchy method and the torques.
   double update_seconds() const { return update_seconds_; }
   double solve_seconds() const { return solve_seconds_; }
+  double rows_seconds() const { return rows_seconds_; }
 
   /// One task's or constraint's unweighted rows at the last update, for tests.
   std::pair<Eigen::MatrixXd, Eigen::VectorXd> rows(const std::string& name);
@@ -138,7 +141,7 @@ class Kernel {
   HierarchyProblem problem_;
   TickResult result_;
   bool updated_ = false;  // solve() needs a state
-  double update_seconds_ = 0.0, solve_seconds_ = 0.0;
+  double update_seconds_ = 0.0, solve_seconds_ = 0.0, rows_seconds_ = 0.0;
 };
 
 }  // namespace lab

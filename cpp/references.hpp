@@ -23,11 +23,13 @@ struct References {
   Eigen::VectorXd normal_force_max;  // per contact (N); empty: the robot-wide bound
   Eigen::Vector3d base_linear_velocity = Eigen::Vector3d::Zero();  // world axes
   // The hands task's targets, per hand (h, 3) and (h, 3, 3) row-major flat, or empty (no rows):
-  // world position, its velocity and acceleration, rotation.
+  // position, its velocity and acceleration, rotation; in world axes, or in the trunk's heading
+  // frame for a hand whose hand_heading flag is set (empty flags: all in the world).
   Eigen::VectorXd hand_position;
   Eigen::VectorXd hand_velocity;
   Eigen::VectorXd hand_acceleration;
   Eigen::VectorXd hand_rotation;
+  Eigen::Array<bool, Eigen::Dynamic, 1> hand_heading;
 
   // WalkReferences: per-contact rows (n_contacts, 3) stored row-major flat, or empty.
   Eigen::VectorXd foot_position;
@@ -98,14 +100,14 @@ bool flags(References& refs, const bool* data, Eigen::Index size) {
 }  // namespace reference_setters
 
 /// Every field of References, WalkReferences and SoleReferences, in their declaration order.
-inline const std::array<ReferenceField, 28> kReferenceFields = [] {
+inline const std::array<ReferenceField, 29> kReferenceFields = [] {
   namespace set = reference_setters;
   using R = References;
   constexpr auto doubles = FieldType::doubles;
   constexpr auto flags = FieldType::flags;
   constexpr const char* walk = "WalkReferences";
   constexpr const char* sole = "SoleReferences";
-  return std::array<ReferenceField, 28>{{
+  return std::array<ReferenceField, 29>{{
       {"com", "References", doubles, "3", set::vector3<&R::com>, nullptr},
       {"posture", "References", doubles, "na", set::doubles<&R::posture>, nullptr},
       {"base_height", "References", FieldType::number, "", set::base_height, nullptr},
@@ -123,6 +125,7 @@ inline const std::array<ReferenceField, 28> kReferenceFields = [] {
       {"hand_acceleration", "References", doubles, "h,3", set::doubles<&R::hand_acceleration>,
        nullptr},
       {"hand_rotation", "References", doubles, "h,3,3", set::doubles<&R::hand_rotation>, nullptr},
+      {"hand_heading", "References", flags, "h", nullptr, set::flags<&R::hand_heading>},
       {"foot_position", walk, doubles, "n,3", set::doubles<&R::foot_position>, nullptr},
       {"foot_velocity", walk, doubles, "n,3", set::doubles<&R::foot_velocity>, nullptr},
       {"foot_acceleration", walk, doubles, "n,3", set::doubles<&R::foot_acceleration>, nullptr},

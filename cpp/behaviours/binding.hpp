@@ -109,6 +109,10 @@ class ReferenceArrays {
         throw nb::value_error((who + ": the references' field " + name +
                                " is not in the kernel's layout (cpp/references.hpp)")
                                   .c_str());
+      // The hands' targets are the session's (hand_targets.py writes them before each tick), not
+      // the behaviour's: written back from this load, they would pin every hand to the target it
+      // had when the behaviour started.
+      if (name.rfind("hand_", 0) == 0) continue;
       bool stored;
       if (found->type == FieldType::number) {
         height_ = nb::cast<double>(refs.attr(found->name));
@@ -181,10 +185,6 @@ class ReferenceArrays {
         {"leg_position", r.leg_position.data()},
         {"leg_velocity", r.leg_velocity.data()},
         {"leg_acceleration", r.leg_acceleration.data()},
-        {"hand_position", r.hand_position.data()},
-        {"hand_velocity", r.hand_velocity.data()},
-        {"hand_acceleration", r.hand_acceleration.data()},
-        {"hand_rotation", r.hand_rotation.data()},
     };
     for (const auto& [field, data] : vectors)
       if (name == field) return data;

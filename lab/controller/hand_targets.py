@@ -1,7 +1,8 @@
 """Hand targets: where each hand of the `hands` task (tasks/hands.py) should be, in time.
 
 A target is a pose held still, or its position moving on a circle about a centre at a constant
-rate (a reach that never settles, to measure tracking). `HandTargets` holds one per hand and writes
+rate (a reach that never settles, to measure tracking), in the world or in the trunk's heading
+frame (tasks/hands.py: it moves with the robot). `HandTargets` holds one per hand and writes
 them, with the velocity and acceleration fed forward, into a References' hand rows each tick.
 """
 
@@ -14,14 +15,16 @@ import pinocchio as pin
 from lab.controller.references import References
 from lab.controller.tasks.hands import hand_frame_ids
 from lab.protocol import HandCommand
+from lab.protocol.commands import HandFrame
 
 
 @dataclass(frozen=True)
 class HandTarget:
-    """A hand's target: `position` (m, world) and `rotation` (world); with `radius` > 0 the
-    position moves on the circle of that radius about `position`, in the plane normal to `axis`,
-    one turn per `period` (s) counter-clockwise about `axis`, from `start` (s, sim time), starting
-    at the centre + radius × the first in-plane axis."""
+    """A hand's target: `position` (m) and `rotation`; with `radius` > 0 the position moves on
+    the circle of that radius about `position`, in the plane normal to `axis`, one turn per
+    `period` (s) counter-clockwise about `axis`, from `start` (s, sim time), starting at the
+    centre + radius × the first in-plane axis. All in `frame`: "world", or "heading" (the
+    trunk's heading frame)."""
 
     position: np.ndarray
     rotation: np.ndarray
@@ -29,6 +32,7 @@ class HandTarget:
     period: float = 1.0
     axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
     start: float = 0.0
+    frame: HandFrame = "world"
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration of the target at sim time t."""
@@ -60,6 +64,7 @@ def _report(name: str, target: HandTarget) -> dict:
         "rpy": pin.rpy.matrixToRpy(target.rotation).tolist(),
         "radius": target.radius,
         "period": target.period,
+        "frame": target.frame,
     }
 
 
@@ -113,6 +118,7 @@ class HandTargets:
             command.period,
             np.array(command.axis, dtype=float),
             t,
+            command.frame,
         )
         self.set(command.name, target)
         return _report(command.name, target)
@@ -127,16 +133,18 @@ class HandTargets:
         if refs is self._written:
             return
         n = len(self.targets)
-        if len(refs.hand_position) != n:
+        if len(refs.hand_position) != n or len(refs.hand_heading) != n:
             refs.hand_position = np.zeros((n, 3))
             refs.hand_velocity = np.zeros((n, 3))
             refs.hand_acceleration = np.zeros((n, 3))
             refs.hand_rotation = np.zeros((n, 3, 3))
+            refs.hand_heading = np.zeros(n, dtype=bool)
         for k, target in enumerate(self.targets):
             p, v, a = target.at(t)
             refs.hand_position[k] = p
             refs.hand_velocity[k] = v
             refs.hand_acceleration[k] = a
             refs.hand_rotation[k] = target.rotation
+            refs.hand_heading[k] = target.frame == "heading"
         moving = any(target.radius > 0.0 for target in self.targets)
         self._written = None if moving else refs

@@ -368,9 +368,10 @@ class NativeController(WholeBodyController):
         self._synced = (arrays, numbers)
 
     @property
-    def kernel_seconds(self) -> tuple[float, float] | None:
-        """Seconds the native kernel's last model update and last solve took, measured inside
-        it (no Python around them); None when the last tick ran on the Python kernel."""
+    def kernel_seconds(self) -> tuple[float, float, float] | None:
+        """Seconds the native kernel's last tick took in each stage, measured inside it (no
+        Python around them): model update, rows, hierarchy method with the torques; None when
+        the last tick ran on the Python kernel."""
         return self._built.seconds if self.kernel_ran == "native" else None
 
     def task_errors(self) -> dict[str, float]:

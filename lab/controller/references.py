@@ -39,12 +39,15 @@ class References:
     # Desired base linear velocity (world axes), for velocity tasks (Hutter Table 7).
     base_linear_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     # Hand targets of the `hands` task (tasks/hands.py), one row per hand the controller was given
-    # (`set_hands`), in that order; empty: no targets, no rows. World position (m), its velocity
-    # and acceleration fed forward (m/s, m/s²), rotation.
+    # (`set_hands`), in that order; empty: no targets, no rows. Position (m), its velocity and
+    # acceleration fed forward (m/s, m/s²), rotation: in world axes, or for a hand whose
+    # `hand_heading` flag is set, in the trunk's heading frame (tasks/hands.py: the base's
+    # position, turned by its yaw; empty flags: every target in the world).
     hand_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     hand_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     hand_acceleration: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     hand_rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    hand_heading: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def walking(self) -> "WalkReferences | None":

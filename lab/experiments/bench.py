@@ -12,7 +12,8 @@ native kernel run back to back on the same run, and the table gives native/pytho
 medians. `tick` is what the session pays per control period (model update, behaviour,
 controller); `solve` is the controller alone (`controller.solve()`, the native kernel's whole
 tick from q, v and references), repeated at the final state. `kernel` is the native kernel's own
-model update + rows + solve per tick, timed inside it (no Python around it). `--solvers daqp
+model update + rows + solve per tick, timed inside it (no Python around it), and the JSON gives the
+median of each of those stages (`kernel_stages_us`). `--solvers daqp
 clarabel` times both QP backends; the native kernel solves with DAQP only, so a Clarabel run
 asked of it runs on the Python kernel and its row says so (kernel python, `note`). Every row
 names what ran (`controller.ran`: kernel, method, solver).
@@ -44,6 +45,8 @@ PUSH_FRACTION_OF_WEIGHT = 0.1  # lateral push on the base for 0.1 s, as a fracti
 PUSH_FRACTION_OF_WEIGHT_OF = {"bolt": 0.05}
 HERZOG_PUSH = (150.0, 0.035)  # N, s: a single-support push of Herzog 2016 §5.4
 SOLVE_REPEATS = 500
+# The native kernel's stages, as Kernel.seconds times them (cpp/controller.cpp)
+KERNEL_STAGES = ("update", "rows", "method")
 
 
 @dataclass(frozen=True)
@@ -99,7 +102,8 @@ def bench_one(
         force, duration = HERZOG_PUSH
     ticks = round(seconds / session.config.timestep)
     control_us = np.zeros(ticks)
-    kernel_us = np.full(ticks, np.nan)  # the native kernel's update + solve, timed inside it
+    # the native kernel's stages (update, rows, method and torques), timed inside it
+    stages_us = np.full((ticks, len(KERNEL_STAGES)), np.nan)
     capped = 0  # nullspace: ticks whose active-set search stopped at its cap
     wall_start = time.perf_counter()
     for i in range(ticks):
@@ -112,8 +116,10 @@ def bench_one(
         control_us[i] = session.control_us
         inside = session.controller.kernel_seconds
         if inside is not None:
-            kernel_us[i] = sum(inside) * 1e6
+            stages_us[i] = inside
     wall = time.perf_counter() - wall_start
+    stages_us *= 1e6
+    kernel_us = stages_us.sum(axis=1)
     solve_us = np.zeros(SOLVE_REPEATS)
     controller = session.controller
     for i in range(SOLVE_REPEATS):
@@ -131,6 +137,11 @@ def bench_one(
         "ticks": ticks,
         "controller_us": _stats(control_us),
         "kernel_us": _stats(kernel_us) if np.isfinite(kernel_us).any() else None,
+        "kernel_stages_us": (
+            {stage: _stats(stages_us[:, k])["p50"] for k, stage in enumerate(KERNEL_STAGES)}
+            if np.isfinite(kernel_us).any()
+            else None
+        ),
         "solve_us": _stats(solve_us),
         "realtime_factor": session.time / wall,
         "fell": session.fell,

@@ -66,6 +66,8 @@ METRIC_KEYS: dict[str, tuple[str, ...]] = {
         "hand_error_rms_m",
         "hand_error_final_m",
         "hand_rotation_error_max_rad",
+        "hand_error_push_max_m",  # with pushes only
+        "hand_recovery_s",
     ),
     "cop_binding": ("cop_at_bound_fraction", "max_sole_tilt_rad", "max_sole_rise_m"),
     "sole_cop": (

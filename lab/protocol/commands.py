@@ -71,6 +71,9 @@ Weight = Annotated[float, Meta(gt=0.0, le=WEIGHT_MAX)]
 Level = Annotated[tuple[Name, ...], Meta(min_length=1, max_length=STACK_MAX_TASKS)]
 RecordAction = Literal["start", "stop"]
 RECORD_ACTIONS: tuple[str, ...] = get_args(RecordAction)
+# Where a hand target is given: the world, or the trunk's heading frame (origin at the base,
+# axes turned by its yaw: the target moves with the robot; lab/controller/tasks/hands.py).
+HandFrame = Literal["world", "heading"]
 
 
 class CommandStruct(Struct, frozen=True, forbid_unknown_fields=True, omit_defaults=True):
@@ -237,23 +240,29 @@ class StanceCommand(CommandStruct, frozen=True):
 
 class HandCommand(CommandStruct, frozen=True):
     """Set the target of one hand of the `hands` task: `name` (a hand of the robot's
-    description), `position` (m, world; finite, out of reach is the controller's to handle),
-    `rpy` (rad, world roll-pitch-yaw; None keeps the target's rotation); with `radius` > 0 (m)
-    the position circles about `position` once per `period` (s), counter-clockwise in the plane
-    normal to `axis` (world)."""
+    description), `position` (m; finite, out of reach is the controller's to handle), `rpy`
+    (rad, roll-pitch-yaw; None keeps the target's rotation matrix, read in `frame`); with
+    `radius` > 0 (m) the position circles about `position` once per `period` (s),
+    counter-clockwise in the plane normal to `axis`. All in `frame`: the world, or the trunk's
+    heading frame (origin at the base, axes turned by its yaw), which carries the target along
+    as the robot walks."""
 
     VERB: ClassVar[str] = "hand"
     name: Annotated[Name, Meta(description="a hand of the robot's description (info.hands)")]
-    position: Annotated[tuple[PointCoord, PointCoord, PointCoord], Meta(description="m, world")]
+    position: Annotated[tuple[PointCoord, PointCoord, PointCoord], Meta(description="m, in frame")]
     rpy: (
-        Annotated[tuple[Angle, Angle, Angle], Meta(description="rad, world roll-pitch-yaw")] | None
+        Annotated[tuple[Angle, Angle, Angle], Meta(description="rad, roll-pitch-yaw in frame")]
+        | None
     ) = None
     radius: Annotated[float, Meta(ge=0.0, le=HAND_RADIUS_MAX, description="m")] = 0.0
     period: Annotated[float, Meta(gt=0.0, le=HAND_PERIOD_MAX, description="s")] = 4.0
     axis: Annotated[
         tuple[PointCoord, PointCoord, PointCoord],
-        Meta(description="the circle plane's normal (world)"),
+        Meta(description="the circle plane's normal (in frame)"),
     ] = (1.0, 0.0, 0.0)
+    frame: Annotated[
+        HandFrame, Meta(description="world, or heading: the trunk's position and yaw")
+    ] = "world"
 
     def __post_init__(self) -> None:
         if math.hypot(*self.axis) < 1e-6:

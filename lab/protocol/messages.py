@@ -158,10 +158,13 @@ class HandTarget(Message, frozen=True):
     """One hand's target of the `hands` task (the `hand` reply, `info.hands`)."""
 
     name: str
-    position: Annotated[Vec3, Meta(description="m, world; the circle's centre")]
-    rpy: Annotated[Vec3, Meta(description="rad, world roll-pitch-yaw")]
+    position: Annotated[Vec3, Meta(description="m, in frame; the circle's centre")]
+    rpy: Annotated[Vec3, Meta(description="rad, roll-pitch-yaw in frame")]
     radius: Annotated[float, Meta(description="m, 0: still")]
     period: Annotated[float, Meta(description="s, one turn of the circle")]
+    frame: Annotated[str, Meta(description="world, or heading: the trunk's position and yaw")] = (
+        "world"
+    )
 
 
 class Playback(Message, frozen=True):

@@ -51,10 +51,13 @@ CPU_S: dict[str, float] = {
     "b1_trot_steered_s3": 6.3,
     "b1_z1_reach_circle_stand": 2.7,
     "b1_z1_reach_circle_trot": 3.9,
+    "b1_z1_hand_trot_steered": 11.4,  # round 13 (2026-12-04), measured alone at load ~35
+    "b1_z1_push_arm": 1.6,  # round 13 (2026-12-04), measured alone at load ~30
     "bolt_push_recovery": 1.4,
     "bolt_step_in_place": 2.5,
     "bolt_walk_planner": 13.6,
     "bolt_walk_turn": 6.1,
+    "g1_hands_held_push_pelvis": 2.6,  # round 13, as b1_z1_push_arm
     "g1_push_lateral": 1.4,
     "g1_single_support": 3.4,
     "g1_squat_05hz": 2.0,

@@ -72,7 +72,9 @@ EXAMPLES: dict[str, CommandStruct] = {
     "internal_force": InternalForceCommand(reference=-20.0, source="torques"),
     "stance": StanceCommand("left", 0.25),
     "floor": FloorCommand(3.0),
-    "hand": HandCommand("left", (0.4, 0.2, 1.0), (0.0, 0.1, 0.0), 0.05, 3.0, (0.0, 1.0, 0.0)),
+    "hand": HandCommand(
+        "left", (0.4, 0.2, 1.0), (0.0, 0.1, 0.0), 0.05, 3.0, (0.0, 1.0, 0.0), "heading"
+    ),
     "take": TakeCommand(),
     "release": ReleaseCommand(),
     "realism": RealismCommand(preset="typical", command_delay=2, actuator="sea"),
