@@ -29,7 +29,10 @@ bool GaitScheduler::may_unload(int i) const {
 }
 
 void GaitScheduler::advance(double t_now, const bool* touching, std::vector<LegEvent>& events) {
-  phase += (t_now - t) / cycle_time;
+  // The clock waits for a late foot: it stands still while a leg reaches (gait.py).
+  const bool late = std::any_of(legs.begin(), legs.end(),
+                                [](const Leg& leg) { return leg.state == LegState::kReaching; });
+  if (!late) phase += (t_now - t) / cycle_time;
   t = t_now;
   events.clear();
   const std::size_t n = legs.size();

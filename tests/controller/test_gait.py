@@ -94,6 +94,43 @@ def test_touchdown_is_haptic_early_or_late() -> None:
     assert landed - first == pytest.approx(1.2 * swing_time, abs=2 * DT)
 
 
+def test_a_late_foot_delays_the_next_pair_instead_of_costing_it_its_step() -> None:
+    # RH's first swing finds the ground only at 1.45 of its planned time (HyQ's hind shin caught
+    # on a tile edge reached 0.12 s = 0.44 T_sw, docs/locomotion.md); every other swing lands on
+    # time. The other diagonal must still swing next, once RH is down (its unloading ramp after
+    # the touchdown), and the trot go on alternating: a clock that ran on made RF and LH miss
+    # their lift-off and stand a whole extra cycle.
+    scheduler = GaitScheduler(LEG_ROLES, GAITS["trot"], CYCLE, 0.0)
+    late = LEG_ROLES.index("RH")
+    lifts: list[tuple[float, str]] = []
+    late_touchdown = None
+    for k in range(1, round(4 * CYCLE / DT) + 1):
+        t = k * DT
+        swings_of_late = sum(role == "RH" for _, role in lifts)
+        touching = [
+            leg.state is not LegState.STANCE
+            and t - leg.since
+            >= (1.45 if i == late and swings_of_late == 1 else 1.0) * leg.swing_duration
+            for i, leg in enumerate(scheduler.legs)
+        ]
+        for event in scheduler.advance(t, touching):
+            if event.kind == "liftoff":
+                lifts.append((t, LEG_ROLES[event.leg]))
+            elif event.leg == late and late_touchdown is None:
+                late_touchdown = t
+    groups: list[tuple[float, set[str]]] = []
+    for t, role in lifts:
+        if groups and groups[-1][0] == t:
+            groups[-1][1].add(role)
+        else:
+            groups.append((t, {role}))
+    assert [roles for _, roles in groups] == [DIAGONALS[i % 2] for i in range(len(groups))]
+    assert len(groups) >= 6
+    assert late_touchdown is not None
+    after = next(t for t, roles in groups if t > late_touchdown)
+    assert after - late_touchdown == pytest.approx(scheduler.ramp_time, abs=2 * DT)
+
+
 def test_switching_gait_in_stride_never_lifts_two_legs_of_different_groups() -> None:
     scheduler = GaitScheduler(LEG_ROLES, GAITS["crawl"], 1.4, 0.0)
     log = _run(scheduler, 1.9)  # mid-stride: a crawl leg is in the air

@@ -129,10 +129,8 @@ CPU_S: dict[str, float] = {
 
 # Scenarios whose documented outcome does not hold today, and why (docs say the same): run and
 # reported as xfail, never dropped; not strict, since whether they hold depends on the processor.
-KNOWN_FAILURES = {
-    "hyq_trot_rough": "chaotic: the unperturbed start falls at 21.38 s on this machine kind, "
-    "starts perturbed by 1e-9 rad cross the tiles as documented (docs/locomotion.md)",
-}
+# (none today: hyq_trot_rough's fall was a gait that skipped a step, docs/locomotion.md)
+KNOWN_FAILURES: dict[str, str] = {}
 
 
 def _cost(path: Path) -> float:

@@ -7,6 +7,13 @@ without finding the ground). Lift-off is dictated by the schedule; touchdown is 
 swinging foot lands when it touches the ground during the swing-down half (early or on time), or
 while reaching.
 
+The clock waits for a late foot: while a leg reaches, the phase does not advance, so the next
+group's lift-off comes after that touchdown, never instead of it. Raiola lets a leg swing only
+once it has completed a step cycle (Fig. 4); with a running clock, a foot reaching for longer
+than the next group's catch-up window (a hind shin caught on a tile edge, blind, reached for
+0.12 s) made that group miss its swing, stand a whole extra cycle while the base walked on past
+it, and HyQ fell off that diagonal (docs/locomotion.md).
+
 Smooth contact transitions (Hutter §5.1.6, Raiola §4.2): a stance leg is unloaded during the
 `ramp_time` before its lift-off and loaded again during the `ramp_time` after its touchdown;
 `load(i, t)` is the fraction of full load the leg may carry, for the normal-force bound.
@@ -126,8 +133,10 @@ class GaitScheduler:
         )
 
     def advance(self, t: float, touching: list[bool] | tuple[bool, ...]) -> list[LegEvent]:
-        """Move the clock to time t and every leg's state machine; return lift-offs/touchdowns."""
-        self.phase += (t - self.t) / self.cycle_time
+        """Move the clock to time t and every leg's state machine; return lift-offs/touchdowns.
+        The clock stands still while a leg reaches (module docstring)."""
+        if not any(leg.state is LegState.REACHING for leg in self.legs):
+            self.phase += (t - self.t) / self.cycle_time
         self.t = t
         events = []
         stance = [leg.state is LegState.STANCE for leg in self.legs]
