@@ -42,6 +42,7 @@ from lab.realism.model_error import perturbed_model
 from lab.robot import FramePlacements, Robot, build_robot, with_raised_contact
 from lab.scenes import SCENE_ROBOTS, SCENES, START_RISE
 from lab.stack_presets import PRESET_NAMES, load_stack_preset
+from lab.world.estimator import BaseEstimator
 from lab.world.memory import release_free_memory
 from lab.world.native_tick import NativeTick, TickStatus
 from lab.world.plant import MujocoPlant, SimulationDiverged
@@ -148,6 +149,7 @@ class SessionParts:
     frame_placements: FramePlacements
     native_tick: NativeTick
     realism: RealismLayer | NativeRealismLayer
+    estimator: BaseEstimator
     behaviour: Behaviour | None = None
 
 
@@ -192,8 +194,17 @@ def build_parts(config: SessionConfig) -> SessionParts:
     controller.set_hands(tuple(frame for _, frame in description.hands))
     native_tick = NativeTick(plant, controller)
     layer = realism_layer(knobs, model.na, config.timestep)
+    estimator = BaseEstimator(knobs, robot, config.timestep)
     return SessionParts(
-        config, robot, plant, model, controller, FramePlacements(robot), native_tick, layer
+        config,
+        robot,
+        plant,
+        model,
+        controller,
+        FramePlacements(robot),
+        native_tick,
+        layer,
+        estimator,
     )
 
 
@@ -271,6 +282,7 @@ class Session:
         self.plant.set_joint_damping(0.0)
         self.realism.reset(self.robot.q_standing)
         self._true_state = self.plant.state()  # this tick's, read by _measure
+        self.estimator.reset(*self._true_state)
         self.controller.forget_last_solution()  # the last tick's was of the state left behind
         self._set_behaviour(Balance.name)
         # the hands task's targets: each hand held where it stands (a `hand` command moves them)
@@ -359,6 +371,10 @@ class Session:
         idle = behaviour.idle and not controller.reads_sensing
         if not self.native_ticks:
             self.tick_note = "native ticks are off (Session.native_ticks)"
+        elif not self.fell and self.estimator.filter is not None:
+            self.tick_note = (
+                f"the state estimator ({self.estimator.name}) runs in Python (realism.md)"
+            )
         elif not self.fell and (not self.realism.ideal or self.realism.knobs.contact_estimate):
             # the realism seams and the touch estimate are on the Python path (realism.md)
             self.tick_note = "the realism layer runs between plant and controller (realism.md)"
@@ -404,12 +420,15 @@ class Session:
             )
 
     # The realism seams (lab/realism, docs/realism.md): the controller reads `_measure`'s
-    # state, the plant applies `_actuated`'s torques. Issue 30's estimator replaces `measure`.
+    # state, the plant applies `_actuated`'s torques; the `estimator` knob's EKF sits in `_measure`.
     def _measure(self) -> tuple[np.ndarray, np.ndarray]:
         """The state the controller reads this tick: the true one through the realism layer's
-        measurement delay, IMU and encoders (the true one when the layer is ideal)."""
-        self._true_state = self.plant.state()
-        return self._true_state if self.realism.ideal else self.realism.measure(*self._true_state)
+        measurement delay, IMU and encoders (the true one when the layer is ideal), its base
+        estimated by the EKF when the `estimator` knob says so (world/estimator.py)."""
+        self._true_state = truth = self.plant.state()
+        measured = truth if self.realism.ideal else self.realism.measure(*truth)
+        contacts = self.controller.references.contact_active  # the controller's (last tick's)
+        return self.estimator.read(truth, measured, contacts)
 
     def _actuated(self) -> np.ndarray:
         """The joint torques the drives apply for the controller's `tau` (N m): the command
@@ -562,7 +581,8 @@ class Session:
         (None: ask the plant)."""
         # the lab judges the true state (pinocchio conventions: quaternion x, y, z, w); with the
         # realism layer ideal, the model's state is it
-        q = self.model.q if self.realism.ideal else self._true_state[0]
+        exact = self.realism.ideal and self.estimator.filter is None
+        q = self.model.q if exact else self._true_state[0]
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
         tilt = math.acos(min(1.0, max(-1.0, float(upright))))
@@ -733,6 +753,8 @@ class Session:
                 knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction
             )
             self.realism.reset(self._true_state[0], self.tau)
+            self.estimator = BaseEstimator(knobs, self.robot, self.config.timestep)
+            self.estimator.reset(*self.plant.state())  # the filter starts at the truth
         return {"realism": self.realism.knobs.values()}
 
     def _stance(self, side: str | None, swing: float | None = None) -> dict:
