@@ -13,23 +13,26 @@ import numpy as np
 import pinocchio as pin
 
 from lab.estimation.measurement import LegKinematics, foot_innovation, touchdown_map
-from lab.estimation.process import process_noise, propagate, transition
+from lab.estimation.process import process_noise, propagate, roll_feet, transition
 from lab.estimation.state import ErrorLayout, NominalState
 from lab.estimation.tuning import EkfTuning
 
 
 class LeggedEkf:
-    """The base's pose, twist and IMU biases of a robot whose feet `kinematics` gives, ticked
-    every `dt` s under `gravity` (m/s², world)."""
+    """The base's pose, twist and IMU biases of a robot whose feet `kinematics` gives (spheres
+    of `radii` m about those points, 0 for a point or a sole), ticked every `dt` s under
+    `gravity` (m/s², world)."""
 
     def __init__(
         self,
         kinematics: LegKinematics,
+        radii: np.ndarray,
         gravity: np.ndarray,
         dt: float,
         tuning: EkfTuning | None = None,
     ) -> None:
         self.kinematics, self.gravity, self.dt = kinematics, gravity, dt
+        self.radii = np.asarray(radii, dtype=float)
         self.tuning = tuning or EkfTuning()
         self.layout = ErrorLayout(len(kinematics.frame_ids))
         self.reset(pin.neutral(kinematics.model), np.zeros(kinematics.model.nv))
@@ -60,11 +63,20 @@ class LeggedEkf:
         self.contacts = np.zeros(layout.n, dtype=bool)
 
     def step(
-        self, accel: np.ndarray, gyro: np.ndarray, joints: np.ndarray, contacts: np.ndarray
+        self,
+        accel: np.ndarray,
+        gyro: np.ndarray,
+        joints: np.ndarray,
+        joint_velocities: np.ndarray,
+        contacts: np.ndarray,
     ) -> None:
         """One tick: the IMU's readings `accel` (m/s²) and `gyro` (rad/s, base frame) over
-        it, the joint angles `joints` (rad) at its end, the feet in contact `contacts`."""
+        it, the joint angles `joints` (rad) and rates `joint_velocities` (rad/s) at its end,
+        the feet in contact `contacts`."""
         x, layout = self.x, self.layout
+        if np.any(self.radii > 0.0):
+            spins = self.kinematics.spins(joints, joint_velocities)
+            roll_feet(x, spins, gyro, self.radii, self.contacts, self.dt)
         F = transition(x, accel, gyro, self.dt, layout)
         propagate(x, accel, gyro, self.gravity, self.dt)
         self.P = F @ self.P @ F.T

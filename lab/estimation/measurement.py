@@ -31,12 +31,23 @@ class LegKinematics:
         self.data = model.createData()
         self.frame_ids = tuple(model.getFrameId(frame) for frame in frames)
         self.q = pin.neutral(model)  # base at the origin, upright
+        self.v = np.zeros(model.nv)  # the base at rest
 
     def feet(self, joints: np.ndarray) -> np.ndarray:
         """(n, 3): each foot's position (m, base frame) at joint angles `joints` (rad)."""
         self.q[7:] = joints
         pin.framesForwardKinematics(self.model, self.data, self.q)
         return np.array([self.data.oMf[i].translation for i in self.frame_ids])
+
+    def spins(self, joints: np.ndarray, joint_velocities: np.ndarray) -> np.ndarray:
+        """(n, 3): each foot's angular velocity relative to the base (rad/s, base frame) at
+        joint angles `joints` and rates `joint_velocities`."""
+        self.q[7:], self.v[6:] = joints, joint_velocities
+        pin.forwardKinematics(self.model, self.data, self.q, self.v)
+        frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        return np.array(
+            [pin.getFrameVelocity(self.model, self.data, i, frame).angular for i in self.frame_ids]
+        )
 
 
 def foot_innovation(

@@ -6,7 +6,9 @@ With â = f̃ − b̂_a and ω̂ = ω̃ − b̂_g the bias-corrected acceleromet
 (base frame) and g gravity (world), over a tick dt:
 
     p ← p + v dt + ½ (R â + g) dt²     v ← v + (R â + g) dt     R ← R Exp(ω̂ dt)
-    d_i, b_a, b_g unchanged (the feet stand, the biases random-walk)
+    d_i ← d_i + (ω_i × r_i e_z) dt for a foot in contact, d_i the centre of a sphere of radius
+          r_i rolling on level ground at the world angular velocity ω_i of its link (0 for a
+          point foot or a sole); b_a, b_g unchanged (the biases random-walk)
 
 and the error δx ← F δx + w:
 
@@ -35,6 +37,22 @@ def propagate(
     x.position += x.velocity * dt + 0.5 * world_accel * dt * dt
     x.velocity += world_accel * dt
     x.rotation = x.rotation @ pin.exp3((gyro - x.gyro_bias) * dt)
+
+
+def roll_feet(
+    x: NominalState,
+    spins: np.ndarray,
+    gyro: np.ndarray,
+    radii: np.ndarray,
+    stance: np.ndarray,
+    dt: float,
+) -> None:
+    """Move the centres of the rolling feet in `stance` in place: each link's world angular
+    velocity R (ω̂ + `spins`_i) (its spin relative to the base, base frame), crossed with
+    r_i e_z (module docstring)."""
+    omega = (spins + (gyro - x.gyro_bias)) @ x.rotation.T  # (n, 3), world
+    lever = np.outer(radii, [0.0, 0.0, 1.0])
+    x.feet += dt * stance[:, None] * np.cross(omega, lever)
 
 
 def transition(

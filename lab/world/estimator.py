@@ -5,9 +5,10 @@ The realism knob `estimator` picks it: `true`, the realism layer's measured stat
 state through its delay and noise: the base's position and velocity noise stand in for an
 estimator); `ekf`, the base's pose and twist estimated by lab/estimation's EKF from the IMU (the
 layer's gyroscope, lab/realism/accelerometer.py's accelerometer) and the leg kinematics (the
-layer's encoders) of the feet the controller has in contact (its references' `contact_active`,
-the behaviour's schedule and touchdowns), the joints still the layer's. Either way it keeps the
-truth of the tick beside what the controller read: telemetry's `estimator` reports the errors.
+layer's encoders) of the feet the controller has in contact (its references' `contact_active`:
+the behaviour's schedule and touchdowns, not MuJoCo's contact flags), the joints still the
+layer's. Either way it keeps the truth of the tick beside what the controller read:
+telemetry's `estimator` reports the errors.
 Runs on the session's Python tick (no C++ twin yet: the native tick does not call it).
 """
 
@@ -41,7 +42,8 @@ class BaseEstimator:
             gravity = np.array(robot.model.gravity.linear)
             self.accelerometer = Accelerometer(knobs, dt, gravity)
             kinematics = LegKinematics(robot.model, [c.frame for c in robot.contacts])
-            self.filter = LeggedEkf(kinematics, gravity, dt)
+            radii = np.array([c.radius if c.kind == "point" else 0.0 for c in robot.contacts])
+            self.filter = LeggedEkf(kinematics, radii, gravity, dt)
         self.truth: tuple[np.ndarray, np.ndarray] | None = None  # the last read's
         self.estimate: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -57,18 +59,18 @@ class BaseEstimator:
         self,
         truth: tuple[np.ndarray, np.ndarray],
         measured: tuple[np.ndarray, np.ndarray],
-        contacts: np.ndarray,
+        contacts: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """The state (q, v) the controller reads this tick, from the `truth` and the realism
         layer's `measured` state (pinocchio's conventions), `contacts` the feet the controller
-        has in contact."""
-        if self.filter is None or self.accelerometer is None:
+        has in contact (the `true` estimator reads none)."""
+        if self.filter is None or self.accelerometer is None or contacts is None:
             estimate = measured
         else:
             qm, vm = measured
             gyro = vm[3:BASE_V]  # the layer's gyroscope: ω + bias + noise
             accel = self.accelerometer.measure(*truth)
-            self.filter.step(accel, gyro, qm[BASE_Q:], contacts)
+            self.filter.step(accel, gyro, qm[BASE_Q:], vm[BASE_V:], contacts)
             estimate = (
                 self.filter.configuration(qm[BASE_Q:]),
                 self.filter.velocity(gyro, vm[BASE_V:]),

@@ -22,7 +22,8 @@ ENCODER_NOISE = 1e-4  # rad per sample
 def _standing_filter() -> tuple[np.ndarray, LeggedEkf]:
     robot = build_robot(load_description("anymal"))
     kinematics = LegKinematics(robot.model, [contact.frame for contact in robot.contacts])
-    ekf = LeggedEkf(kinematics, np.array(robot.model.gravity.linear), DT)
+    radii = np.array([contact.radius for contact in robot.contacts])
+    ekf = LeggedEkf(kinematics, radii, np.array(robot.model.gravity.linear), DT)
     ekf.reset(robot.q_standing, np.zeros(robot.model.nv))
     return robot.q_standing, ekf
 
@@ -57,6 +58,7 @@ def test_a_standing_robot_estimate_converges_and_its_covariance_stays_bounded() 
             accel,
             gyro,
             joints + ENCODER_NOISE * rng.standard_normal(joints.size),
+            np.zeros(joints.size),
             _trot_contacts(k),
         )
         if k in (1999, 5999):
@@ -86,14 +88,14 @@ def test_a_foot_touches_down_where_the_kinematics_put_it() -> None:
     joints = q[7:].copy()
     contacts = np.ones(4, dtype=bool)
     for _ in range(100):
-        ekf.step(-gravity, np.zeros(3), joints, contacts)
+        ekf.step(-gravity, np.zeros(3), joints, np.zeros(joints.size), contacts)
     contacts[0] = False
     for _ in range(100):
-        ekf.step(-gravity, np.zeros(3), joints, contacts)
+        ekf.step(-gravity, np.zeros(3), joints, np.zeros(joints.size), contacts)
     before = ekf.x.feet[0].copy()
     joints[:3] += 0.05  # the swinging leg lands elsewhere (the first three joints are LF's)
     contacts[0] = True
-    ekf.step(-gravity, np.zeros(3), joints, contacts)
+    ekf.step(-gravity, np.zeros(3), joints, np.zeros(joints.size), contacts)
     landed = ekf.x.position + ekf.x.rotation @ ekf.kinematics.feet(joints)[0]
     np.testing.assert_allclose(ekf.x.feet[0], landed, atol=1e-3)
     assert np.linalg.norm(ekf.x.feet[0] - before) > 0.01  # it moved with the leg
