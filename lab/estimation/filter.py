@@ -85,7 +85,7 @@ class LeggedEkf:
         )
         feet = self.kinematics.feet(joints)
         for i in np.flatnonzero(contacts & ~self.contacts):
-            self._touchdown(i, feet[i])
+            self._touchdown(int(i), feet[i])
         self.contacts = np.array(contacts, dtype=bool)
         self._correct(feet)
 
@@ -105,7 +105,7 @@ class LeggedEkf:
         standing = np.flatnonzero(self.contacts)
         if standing.size == 0:
             return
-        rows = [foot_innovation(self.x, i, feet[i], self.layout) for i in standing]
+        rows = [foot_innovation(self.x, int(i), feet[i], self.layout) for i in standing]
         residual = np.concatenate([r for r, _ in rows])
         H = np.vstack([h for _, h in rows])
         noise = self.tuning.kinematics**2

@@ -84,7 +84,9 @@ class RealismControls:
     def _apply(self, event: viser.GuiEvent) -> None:
         if event.client is None:
             return
-        shown = {name: slider.value for name, slider in self.knobs.items()}
+        shown: dict[str, float | int | str] = {
+            name: slider.value for name, slider in self.knobs.items()
+        }
         shown |= {
             "seed": int(self.seed.value),
             "actuator": self.actuator.value,

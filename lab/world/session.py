@@ -220,6 +220,7 @@ class Session:
     model: RobotModel
     controller: NativeController
     frame_placements: FramePlacements
+    estimator: BaseEstimator
 
     def __init__(
         self,
