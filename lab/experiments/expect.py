@@ -77,6 +77,13 @@ METRIC_KEYS: dict[str, tuple[str, ...]] = {
         "cop_at_edge_s",
     ),
     "scene_motion": (r".+_min", r".+_max", "sole_slip_max_m"),
+    "estimation": (
+        "max_estimate_height_error_m",
+        "max_estimate_horizontal_error_m",
+        "max_estimate_yaw_error_deg",
+        "yaw_drift_deg_per_min",
+        "rms_estimate_velocity_error_mps",
+    ),
     "load_distribution": (
         "energy_tau_n2m2s",
         "mean_friction_ratio",

@@ -19,6 +19,7 @@ from lab.protocol.realism import (
     PAYLOAD_MASS_MAX,
     PAYLOAD_OFFSET_MAX,
     Actuator,
+    Estimator,
     RealismPreset,
 )
 
@@ -346,14 +347,18 @@ def _knob(name: str) -> Meta:
 
 class RealismCommand(CommandStruct, frozen=True):
     """Set the realism knobs (docs/realism.md): `preset` (None: the knobs running now) with any
-    knob over it. A change of mass_error, com_error or seed rebuilds the controller's model
-    (the robot stands again)."""
+    knob over it, the actuator model and the state estimator (`true`: the measured true state;
+    `ekf`: the base estimated from the IMU and leg kinematics). A change of mass_error,
+    com_error or seed rebuilds the controller's model (the robot stands again)."""
 
     VERB: ClassVar[str] = "realism"
     preset: RealismPreset | None = None
     actuator: Actuator | None = None
+    estimator: Estimator | None = None
     gyro_noise: Annotated[float, _knob("gyro_noise")] | None = None
     gyro_bias_walk: Annotated[float, _knob("gyro_bias_walk")] | None = None
+    accel_noise: Annotated[float, _knob("accel_noise")] | None = None
+    accel_bias_walk: Annotated[float, _knob("accel_bias_walk")] | None = None
     attitude_noise: Annotated[float, _knob("attitude_noise")] | None = None
     base_velocity_noise: Annotated[float, _knob("base_velocity_noise")] | None = None
     base_position_noise: Annotated[float, _knob("base_position_noise")] | None = None

@@ -13,6 +13,8 @@ from typing import Annotated, Literal, TypeVar
 import msgspec
 from msgspec import Meta, Struct
 
+from lab.protocol.realism import Estimator
+
 Vec3 = Annotated[list[float], Meta(min_length=3, max_length=3)]
 TickPath = Literal["native", "python"]
 QuatXyzw = Annotated[list[float], Meta(min_length=4, max_length=4, description="x, y, z, w")]
@@ -350,6 +352,9 @@ class Ran(Message, frozen=True):
     note: str
     tick: Annotated[TickPath, Meta(description="the server tick's path: one crossing or Python")]
     tick_note: Annotated[str, Meta(description="why the Python path ran ('' when native)")]
+    estimator: Annotated[
+        Estimator, Meta(description="what the controller read of the base: true state or EKF")
+    ]
 
 
 class Status(Message, frozen=True):
@@ -423,6 +428,18 @@ class Realism(Message, frozen=True):
     payloads: Annotated[dict[str, float], Meta(description="kg fixed to each link by `payload`")]
 
 
+class EstimatorErrors(Message, frozen=True):
+    """What the controller read of the base against the truth (docs/realism.md "The state
+    estimator"): estimate − truth at the last tick that read through the realism layer; zeros
+    when the controller read the true state itself (the native tick)."""
+
+    name: Annotated[Estimator, Meta(description="true: the measured true state; ekf: the EKF")]
+    position_error: Annotated[Vec3, Meta(description="base position, world axes, m")]
+    velocity_error: Annotated[Vec3, Meta(description="base linear velocity, world axes, m/s")]
+    yaw_error: Annotated[float, Meta(description="base yaw, rad, in [-π, π]")]
+    orientation_error: Annotated[float, Meta(description="base orientation, whole angle, rad")]
+
+
 class Telemetry(Message, frozen=True):
     """`lab/<id>/telemetry`: everything the UI plots and the tests check."""
 
@@ -456,6 +473,7 @@ class Telemetry(Message, frozen=True):
     ]
     ran: Ran
     realism: Realism
+    estimator: EstimatorErrors
     status: Status
     controller_warnings: list[ControllerWarning]
     qp: Qp

@@ -21,6 +21,8 @@ class Knob:
 KNOBS: dict[str, Knob] = {
     "gyro_noise": Knob(0.0, 0.1, "rad/s/√Hz", "gyro white-noise density"),
     "gyro_bias_walk": Knob(0.0, 0.01, "rad/s²/√Hz", "gyro bias random-walk density"),
+    "accel_noise": Knob(0.0, 0.1, "m/s²/√Hz", "accelerometer white-noise density (ekf)"),
+    "accel_bias_walk": Knob(0.0, 0.1, "m/s³/√Hz", "accelerometer bias random-walk density (ekf)"),
     "attitude_noise": Knob(0.0, 0.2, "rad", "IMU attitude error per sample (std, each axis)"),
     "base_velocity_noise": Knob(0.0, 1.0, "m/s", "base linear velocity error (std)"),
     "base_position_noise": Knob(0.0, 0.1, "m", "base position error (std)"),
@@ -47,5 +49,9 @@ RealismPreset = Literal["ideal", "typical", "harsh"]
 PRESET_NAMES: tuple[str, ...] = get_args(RealismPreset)
 Actuator = Literal["ideal", "bandwidth", "sea"]
 ACTUATORS: tuple[str, ...] = get_args(Actuator)
+# What the controller reads of the base: the (noisy) true state, or the EKF's estimate from the
+# IMU and the leg kinematics (lab/estimation, docs/realism.md "The state estimator")
+Estimator = Literal["true", "ekf"]
+ESTIMATORS: tuple[str, ...] = get_args(Estimator)
 PAYLOAD_MASS_MAX = 200.0  # kg, 0 <= payload mass <= max (0 removes it)
 PAYLOAD_OFFSET_MAX = 2.0  # m, |x|, |y|, |z| of a payload's offset from its link

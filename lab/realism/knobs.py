@@ -14,18 +14,21 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
-from lab.protocol.realism import ACTUATORS, KNOBS, PRESET_NAMES
+from lab.protocol.realism import ACTUATORS, ESTIMATORS, KNOBS, PRESET_NAMES
 
 PRESETS_PATH = Path(__file__).resolve().parents[2] / "realism" / "presets.toml"
 
 
 @dataclass(frozen=True)
 class RealismKnobs:
-    """One value per knob of `KNOBS` (the defaults: an ideal robot) and the actuator model
-    (`ideal`, `bandwidth` or `sea`). `preset` names where the values came from."""
+    """One value per knob of `KNOBS` (the defaults: an ideal robot), the actuator model
+    (`ideal`, `bandwidth` or `sea`) and the state estimator (`true` or `ekf`). `preset` names
+    where the values came from."""
 
     gyro_noise: float = 0.0
     gyro_bias_walk: float = 0.0
+    accel_noise: float = 0.0
+    accel_bias_walk: float = 0.0
     attitude_noise: float = 0.0
     base_velocity_noise: float = 0.0
     base_position_noise: float = 0.0
@@ -48,6 +51,7 @@ class RealismKnobs:
     com_error: float = 0.0
     seed: int = 0
     actuator: str = "ideal"
+    estimator: str = "true"
     preset: str = "custom"
 
     def values(self) -> dict[str, float | int | str]:
@@ -62,14 +66,17 @@ class RealismKnobs:
 
 def checked(name: str, raw: object) -> float | int | str:
     """`raw` as the value of knob `name`, or ValueError naming the knob and the problem."""
-    if name == "actuator":
-        if raw not in ACTUATORS:
+    choices = {"actuator": ACTUATORS, "estimator": ESTIMATORS}
+    if name in choices:
+        if raw not in choices[name]:
             raise ValueError(
-                f"realism: actuator must be one of {', '.join(ACTUATORS)}, not {raw!r}"
+                f"realism: {name} must be one of {', '.join(choices[name])}, not {raw!r}"
             )
         return str(raw)
     if name not in KNOBS:
-        raise ValueError(f"realism: unknown knob {name!r} (knobs: {', '.join(KNOBS)}, actuator)")
+        raise ValueError(
+            f"realism: unknown knob {name!r} (knobs: {', '.join(KNOBS)}, actuator, estimator)"
+        )
     knob = KNOBS[name]
     if isinstance(raw, bool) or not isinstance(raw, int | float):
         raise ValueError(f"realism: {name} must be a number, got {type(raw).__name__}")

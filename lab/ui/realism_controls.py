@@ -1,15 +1,16 @@
 """The panel's "Realism" folder (issue 30, docs/realism.md): a preset (ideal, typical, harsh)
 and one slider per knob of lab/realism/knobs.py with its range and unit, the actuator model,
-and a payload on the base. *Apply* sends one `realism` command with the knobs moved away from
-what the server acknowledged in `info` (a change of mass_error, com_error or seed rebuilds the
-controller's model: the robot stands again); the sliders show the acknowledged knobs.
+the state estimator (true state or EKF) and a payload on the base. *Apply* sends one `realism`
+command with the knobs moved away from what the server acknowledged in `info` (a change of
+mass_error, com_error or seed rebuilds the controller's model: the robot stands again); the
+sliders show the acknowledged knobs.
 """
 
 from __future__ import annotations
 
 import viser
 
-from lab.protocol.realism import ACTUATORS, KNOBS, PAYLOAD_MASS_MAX, PRESET_NAMES
+from lab.protocol.realism import ACTUATORS, ESTIMATORS, KNOBS, PAYLOAD_MASS_MAX, PRESET_NAMES
 from lab.ui.balance_controls import CommandHost
 
 # A continuous knob's slider step, a fraction of its range: fine enough to show a datasheet's
@@ -28,6 +29,7 @@ class RealismControls:
             self.preset = gui.add_dropdown("Realism preset", PRESET_NAMES, initial_value="ideal")
             load = gui.add_button("Run preset")
             self.actuator = gui.add_dropdown("Actuator", ACTUATORS, initial_value="ideal")
+            self.estimator = gui.add_dropdown("Estimator", ESTIMATORS, initial_value="true")
             self.knobs = {
                 name: gui.add_slider(
                     f"{name} [{knob.unit}]" if knob.unit else name,
@@ -47,7 +49,8 @@ class RealismControls:
             self.note = gui.add_markdown("")
         self.base_body = "base"
         self._shown: dict[str, float | int | str] = {}  # the knobs the server acknowledged
-        self.controls: list = [self.preset, load, self.actuator, *self.knobs.values()]
+        self.controls: list = [self.preset, load, self.actuator, self.estimator]
+        self.controls += list(self.knobs.values())
         self.controls += [self.seed, apply, self.payload, set_payload]
         load.on_click(app.guard(self._load))
         apply.on_click(app.guard(self._apply))
@@ -64,6 +67,7 @@ class RealismControls:
             slider.value = knobs[name]
         self.seed.value = knobs["seed"]
         self.actuator.value = knobs["actuator"]
+        self.estimator.value = knobs["estimator"]
         if knobs["preset"] in PRESET_NAMES:
             self.preset.value = knobs["preset"]
         self.payload.value = info.get("payloads", {}).get(self.base_body, 0.0)
@@ -80,8 +84,14 @@ class RealismControls:
     def _apply(self, event: viser.GuiEvent) -> None:
         if event.client is None:
             return
-        shown = {name: slider.value for name, slider in self.knobs.items()}
-        shown |= {"seed": int(self.seed.value), "actuator": self.actuator.value}
+        shown: dict[str, float | int | str] = {
+            name: slider.value for name, slider in self.knobs.items()
+        }
+        shown |= {
+            "seed": int(self.seed.value),
+            "actuator": self.actuator.value,
+            "estimator": self.estimator.value,
+        }
         payload = {}
         for name, value in shown.items():
             knob = KNOBS.get(name)

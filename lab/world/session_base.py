@@ -125,6 +125,7 @@ class SessionBase(SessionParts):
         self.plant.set_joint_damping(0.0)
         self.realism.reset(self.robot.q_standing)
         self._true_state = self.plant.state()  # this tick's, read by _measure
+        self.estimator.reset(*self._true_state)
         self.controller.forget_last_solution()  # the last tick's was of the state left behind
         self._set_behaviour(Balance.name)
         # the hands task's targets: each hand held where it stands (a `hand` command moves them)

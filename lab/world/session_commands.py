@@ -23,6 +23,7 @@ from lab.realism.knobs import knobs_from, preset
 from lab.realism.layer import realism_layer
 from lab.scenes import SCENES
 from lab.stack_presets import PRESET_NAMES
+from lab.world.estimator import BaseEstimator
 from lab.world.memory import release_free_memory
 from lab.world.session_base import Push
 from lab.world.session_parts import build_parts
@@ -167,6 +168,8 @@ class SessionCommands(SessionTick):
                 knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction
             )
             self.realism.reset(self._true_state[0], self.tau)
+            self.estimator = BaseEstimator(knobs, self.robot, self.config.timestep)
+            self.estimator.reset(*self.plant.state())  # the filter starts at the truth
         return {"realism": self.realism.knobs.values()}
 
     def _stance(self, side: str | None, swing: float | None = None) -> dict:

@@ -21,6 +21,7 @@ from lab.realism.model_error import perturbed_model
 from lab.robot import FramePlacements, Robot
 from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.world.compiled import CompiledWorld, WorldKey, compile_world, world_key
+from lab.world.estimator import BaseEstimator
 from lab.world.native_tick import NativeTick
 from lab.world.plant import MujocoPlant
 
@@ -60,6 +61,7 @@ class SessionParts:
     frame_placements: FramePlacements
     native_tick: NativeTick
     realism: RealismLayer | NativeRealismLayer
+    estimator: BaseEstimator  # the base state the controller reads: truth, or the EKF's
     behaviour: Behaviour  # standing (Balance) until the `gait` command starts another
 
 
@@ -110,6 +112,7 @@ def build_parts(
     native_tick = NativeTick(plant, controller)
     layer = realism_layer(knobs, model.na, config.timestep)
     placements = FramePlacements(robot)
+    estimator = BaseEstimator(knobs, robot, config.timestep)
     return SessionParts(
-        config, robot, plant, model, controller, placements, native_tick, layer, standing
+        config, robot, plant, model, controller, placements, native_tick, layer, estimator, standing
     )

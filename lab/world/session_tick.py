@@ -63,6 +63,10 @@ class SessionTick(SessionBase):
         idle = behaviour.idle and not controller.reads_sensing
         if not self.native_ticks:
             self.tick_note = "native ticks are off (Session.native_ticks)"
+        elif not self.fell and self.estimator.filter is not None:
+            self.tick_note = (
+                f"the state estimator ({self.estimator.name}) runs in Python (realism.md)"
+            )
         else:
             self.tick_note = native_tick.note(behaviour, idle, self.fell, self.realism)
         native = False  # whether the native tick stepped (it made the fall check's contact test)
@@ -107,12 +111,15 @@ class SessionTick(SessionBase):
             )
 
     # The realism seams (lab/realism, docs/realism.md): the controller reads `_measure`'s
-    # state, the plant applies `_actuated`'s torques. Issue 30's estimator replaces `measure`.
+    # state, the plant applies `_actuated`'s torques; the `estimator` knob's EKF sits in `_measure`.
     def _measure(self) -> tuple[np.ndarray, np.ndarray]:
         """The state the controller reads this tick: the true one through the realism layer's
-        measurement delay, IMU and encoders (the true one when the layer is ideal)."""
-        self._true_state = self.plant.state()
-        return self._true_state if self.realism.ideal else self.realism.measure(*self._true_state)
+        measurement delay, IMU and encoders (the true one when the layer is ideal), its base
+        estimated by the EKF when the `estimator` knob says so (world/estimator.py)."""
+        self._true_state = truth = self.plant.state()
+        measured = truth if self.realism.ideal else self.realism.measure(*truth)
+        contacts = self.controller.references.contact_active  # the controller's (last tick's)
+        return self.estimator.read(truth, measured, contacts)
 
     def _actuated(self) -> np.ndarray:
         """The joint torques the drives apply for the controller's `tau` (N m): the command
@@ -265,7 +272,8 @@ class SessionTick(SessionBase):
         (None: ask the plant)."""
         # the lab judges the true state (pinocchio conventions: quaternion x, y, z, w); with the
         # realism layer ideal, the model's state is it
-        q = self.model.q if self.realism.ideal else self._true_state[0]
+        exact = self.realism.ideal and self.estimator.filter is None
+        q = self.model.q if exact else self._true_state[0]
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion
         tilt = math.acos(min(1.0, max(-1.0, float(upright))))

@@ -17,6 +17,7 @@ from lab.controller.native import NativeController
 from lab.protocol import TaskGains
 from lab.realism.layer import NativeRealismLayer, RealismLayer
 from lab.robot import FramePlacements, Robot
+from lab.world.estimator import BaseEstimator
 from lab.world.plant import MujocoPlant
 
 COP_MIN_FORCE = 1e-6  # N: a foot or the robot pressing less than this has no centre of pressure
@@ -50,6 +51,7 @@ class SessionView(Protocol):
     frame_placements: FramePlacements
     plant: MujocoPlant
     model: RobotModel
+    estimator: BaseEstimator
     controller: NativeController
     behaviour: Behaviour
     paused: bool
@@ -289,6 +291,7 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
             "behaviour": session.behaviour.kernel_ran,
             "note": controller.note,
             **session.tick_report(),
+            "estimator": session.estimator.name,
         },
         # which realism ran (lab/realism; every knob is in `info`), the payloads fixed (kg)
         "realism": {
@@ -297,6 +300,9 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
             "kernel": session.realism.kernel,
             "payloads": dict(session.plant.payloads),
         },
+        # what the controller read of the base against the truth (lab/world/estimator.py); the
+        # native tick reads the true state itself
+        "estimator": session.estimator.report(exact=session.tick_report()["tick"] == "native"),
         "status": status.report(),
         "controller_warnings": session.recent_warnings(),
         "qp": {

@@ -77,7 +77,9 @@ EXAMPLES: dict[str, CommandStruct] = {
     ),
     "take": TakeCommand(),
     "release": ReleaseCommand(),
-    "realism": RealismCommand(preset="typical", command_delay=2, actuator="sea"),
+    "realism": RealismCommand(
+        preset="typical", command_delay=2, actuator="sea", estimator="ekf", accel_noise=1e-3
+    ),
     "payload": PayloadCommand("base", 10.0, (0.0, 0.0, 0.15)),
 }
 # One valid command of each verb a served recording takes (`lab replay --serve`).
@@ -150,7 +152,7 @@ def test_a_wrong_field_or_value_is_named_with_the_verb(verb: str) -> None:
     with pytest.raises(CommandError) as error:
         parse_command(verb, {**valid, "zzz": 1})
     expected = ", ".join(COMMANDS[verb].__struct_fields__) or "no fields"
-    # cut at the protocol's error length (realism's 25 knobs run past it)
+    # cut at the protocol's error length (realism's knobs run past it)
     whole = f"{verb}: unknown field(s) 'zzz' (expected {expected})"
     assert str(error.value) == whole[:ERROR_MAX_LEN]
 

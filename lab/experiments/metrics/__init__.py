@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from lab.experiments.metrics.cop import CopBindingMetrics
+from lab.experiments.metrics.estimation import EstimationMetrics
 from lab.experiments.metrics.hand import HandTrackingMetrics
 from lab.experiments.metrics.kim import KIM_METRICS
 from lab.experiments.metrics.load import LOAD_METRICS
@@ -59,6 +60,7 @@ METRICS: dict[str, type] = {
     "cop_binding": CopBindingMetrics,
     "sole_cop": SoleCopMetrics,
     "scene_motion": SceneMotionMetrics,
+    "estimation": EstimationMetrics,
     **LOAD_METRICS,
     **KIM_METRICS,
 }
