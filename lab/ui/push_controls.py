@@ -105,7 +105,7 @@ class PushControls:
             self._note("error", f"push not sent: {error}")
             return
         force = push_force(direction, magnitude, self.app.base_yaw())
-        payload = {"body": self.app.base_body(), "force": force}
+        payload: dict[str, object] = {"body": self.app.base_body(), "force": force}
         payload["duration"] = duration_ms / 1000.0
         reply = self.app.send(self.client, "push", payload)
         # the boxes show exactly the numbers sent (a browser may hold another one, see above)

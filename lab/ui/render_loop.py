@@ -121,8 +121,11 @@ class RenderLoop:
         # With no browser connected only a robot switch is drawn: the UI then costs the
         # machine almost nothing, and the sim loop beside it keeps its schedule.
         watched = bool(app.server.get_clients())
-        drawn = state is not None and (watched or state["robot"] != scene.robot_name)
-        if drawn and scene.draw_state(state):  # another robot: no drag on the old one, its info
+        if (
+            state is not None
+            and (watched or state["robot"] != scene.robot_name)
+            and scene.draw_state(state)  # another robot: no drag on the old one, its `info`
+        ):
             app.drag.grab = None
             app.refresh_info()
         if not watched:
@@ -132,9 +135,12 @@ class RenderLoop:
         # From the newest telemetry, not this frame's: a recording that ended before a browser
         # came sends no more, and its scene (the floor) was never drawn.
         latest = app.telemetry
-        robot, scene_name = (None, None) if latest is None else (latest["robot"], latest["scene"])
-        if robot is not None and robot == scene.robot_name and scene_name != scene.scene_name:
-            scene.show_scene(scene_name)
+        if (
+            latest is not None
+            and latest["robot"] == scene.robot_name
+            and latest["scene"] != scene.scene_name
+        ):
+            scene.show_scene(latest["scene"])
         overlays = scene.overlays
         if tel is not None and overlays is not None and now - clock.overlay >= OVERLAY_S:
             clock.overlay = now

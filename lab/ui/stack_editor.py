@@ -170,9 +170,9 @@ class StackEditor:
 
     def _apply_gains(self) -> None:
         info = self.app.info
-        task = (
-            next((t for t in info["tasks"] if t["name"] == self.task.value), None) if info else None
-        )
+        if info is None:
+            return
+        task = next((t for t in info["tasks"] if t["name"] == self.task.value), None)
         if task is None:
             return
         busy = self.typed.busy("kp", "kd", "weight")

@@ -4,6 +4,8 @@ the velocity command from the pad, the yaw slider and the hotkeys, and the comma
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 import viser
 
@@ -12,7 +14,8 @@ from lab.ui.gaits import gait_options
 from lab.ui.joystick import JoystickLimits, from_offset, tap
 from lab.ui.panel_host import PanelHost
 
-HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
+Key = Literal["I", "K", "J", "L", "U", "O", "X"]  # the page's hotkeys (viser's names)
+HOTKEYS: dict[Key, tuple[str, str, int]] = {  # viser's camera uses W A S D Q E and the arrows
     "I": ("forward", "vx", 1),
     "K": ("back", "vx", -1),
     "J": ("left", "vy", 1),
@@ -20,7 +23,7 @@ HOTKEYS = {  # viser's camera uses W A S D Q E and the arrow keys
     "U": ("turn left", "yaw_rate", 1),
     "O": ("turn right", "yaw_rate", -1),
 }
-STOP_HOTKEY = "X"
+STOP_HOTKEY: Key = "X"
 JOYSTICK_HEIGHT = 0.3  # m above the base: the pad floats over the robot
 
 
