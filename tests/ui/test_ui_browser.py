@@ -203,7 +203,7 @@ def test_the_page_and_a_teleop_share_the_labs_control_lock(page, lab, serve) -> 
             time.sleep(0.2)
             taken = teleop.command("take")
         assert taken["ok"] and taken["control"]["holder"] == teleop.client_id, taken
-        held = f"Client `{teleop.client_id}` holds the lab's control lock"
+        held = f"Client {teleop.client_id} holds the lab's control lock"  # banner, as text
         page.get_by_text(held, exact=False).first.wait_for()  # from telemetry's `control`
         page.get_by_text("Read-only").first.wait_for()
         assert page.get_by_role("button", name="left", exact=True).count() == 0
