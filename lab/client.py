@@ -45,7 +45,9 @@ class LabClient:
     `lab_id` names the lab to talk to; without it the client looks for the labs behind
     `endpoint` for up to `connect_timeout` s and takes the only one; several raise `LabNotFound`
     naming them, unless `first` (then the first by id). `labs()` lists every lab seen, `select`
-    switches to another. Built on the client core (`lab.client_core.LabLink`), as the UI is."""
+    switches to another. `role` prefixes the client id (`lab teleop`: "teleop"), which the
+    control lock's refusals name. Built on the client core (`lab.client_core.LabLink`), as the
+    UI is."""
 
     def __init__(
         self,
@@ -53,6 +55,7 @@ class LabClient:
         connect_timeout: float = 5.0,
         lab_id: str | None = None,
         first: bool = False,
+        role: str = "",
     ) -> None:
         self.endpoint = endpoint
         self._lock = threading.Lock()
@@ -60,7 +63,7 @@ class LabClient:
         self._latest: dict[Channel, zenoh.Subscriber[Any]] = {}
         self._last: dict[Channel, Message | None] = {}
         self._callbacks: list[tuple[Channel, Callable[[Message], None], zenoh.Subscriber[Any]]] = []
-        self._link = LabLink(endpoint, connect_timeout, self._on_alive)
+        self._link = LabLink(endpoint, connect_timeout, self._on_alive, role=role)
         try:
             if lab_id is None:
                 found = find_labs(self._link.session, connect_timeout)

@@ -49,7 +49,9 @@ class LabLink:
     `on_alive`, Zenoh's threads feed the directory and call `on_alive(about_selected, alive)`
     for each change; without, the owner drains the changes with `poll_alive` (the UI's render
     loop: no Python on Zenoh's threads). The lab talked to is the one `select`ed, where the
-    link holds its client token (the control lock goes with it: docs/protocol.md)."""
+    link holds its client token (the control lock goes with it: docs/protocol.md). `role`
+    ("ui", "teleop"; empty for a script) prefixes the client id, so that the lock's refusals
+    say what kind of client holds it."""
 
     def __init__(
         self,
@@ -57,8 +59,10 @@ class LabLink:
         open_timeout: float,
         on_alive: Callable[[bool, bool], None] | None = None,
         cancelled: Callable[[], bool] = lambda: False,
+        role: str = "",
     ) -> None:
         self.endpoint = endpoint
+        self.role = role
         self.directory = LabDirectory()
         self.keys: LabKeys | None = None
         self._token: zenoh.LivelinessToken | None = None
@@ -79,7 +83,7 @@ class LabLink:
     @property
     def client_id(self) -> str:
         """The id this link sends with each command (the query's attachment)."""
-        return client_id(self.session)
+        return client_id(self.session, self.role)
 
     def poll_alive(self) -> bool:
         """Take the liveliness changes seen since the last call into `directory` (a link
@@ -131,7 +135,7 @@ class LabLink:
         """Send a raw payload to `lab/<id>/cmd/<verb>` of the lab selected; see `query`."""
         if self.keys is None:
             return {"ok": False, "error": f"{verb}: no lab seen yet"}
-        return query(self.session, self.keys, verb, payload, timeout)
+        return query(self.session, self.keys, verb, payload, timeout, self.client_id)
 
     def close(self) -> None:
         """Undeclare the client token and the liveliness subscriber, close the session."""
@@ -163,19 +167,23 @@ def query(
     verb: str,
     payload: str | bytes,
     timeout: float | None = None,
+    client: str | None = None,
 ) -> Reply:
     """Send a raw payload to the lab's `lab/<id>/cmd/<verb>` and return its reply. The query's
-    attachment is the client's id, its Zenoh session's id (`client_id`): the server's rate
-    limit and control lock go by it. A missing reply becomes {"ok": false, "error": "<verb>:
-    ..."} so callers handle one shape: "no reply within T s" when the timeout ran out, "closed
-    unanswered after t s" when the query ended sooner with no reply (no lab behind the key, or
-    one that dropped it: a full command queue)."""
+    attachment is the client's id, `client` or else its Zenoh session's id (`client_id`): the
+    server's rate limit and control lock go by it. A missing reply becomes {"ok": false,
+    "error": "<verb>: ..."} so callers handle one shape: "no reply within T s" when the timeout
+    ran out, "closed unanswered after t s" when the query ended sooner with no reply (no lab
+    behind the key, or one that dropped it: a full command queue)."""
     if timeout is None:
         timeout = SLOW_COMMAND_TIMEOUT_S if verb in SLOW_VERBS else COMMAND_TIMEOUT_S
     no_reply: Reply = {"ok": False, "error": f"{verb}: no reply within {timeout:g} s"}
     start = time.monotonic()
     replies = session.get(
-        keys.cmd(verb), payload=payload, timeout=timeout, attachment=client_id(session)
+        keys.cmd(verb),
+        payload=payload,
+        timeout=timeout,
+        attachment=client_id(session) if client is None else client,
     )
     for reply in replies:
         if reply.ok is None:  # Zenoh's own error, e.g. "Timeout" from an unanswered query
@@ -196,9 +204,11 @@ def query(
     return no_reply
 
 
-def client_id(session: zenoh.Session) -> str:
-    """The id a client sends with each command: its Zenoh session's id (32 hex digits)."""
-    return str(session.zid())
+def client_id(session: zenoh.Session, role: str = "") -> str:
+    """The id a client sends with each command: its Zenoh session's id (32 hex digits),
+    prefixed with its `role` and a dash when it has one ("ui-3f0c…")."""
+    zid = str(session.zid())
+    return f"{role}-{zid}" if role else zid
 
 
 def find_labs(session: zenoh.Session, timeout: float) -> list[str]:

@@ -185,7 +185,7 @@ def teleop_main(argv: list[str]) -> int:
     if not 0.0 < args.push_force <= PUSH_FORCE_MAX:  # the push command's range
         parser.error(f"--push-force {args.push_force:g}: must be in (0, {PUSH_FORCE_MAX:g}] N")
     try:
-        lab = LabClient(args.connect, lab_id=args.lab_id, first=True)
+        lab = LabClient(args.connect, lab_id=args.lab_id, first=True, role="teleop")
     except (LabNotFound, LabIdError, zenoh.ZError) as error:  # ZError: client.LabUnreachable,
         print(f"lab teleop: {error}", file=sys.stderr)  # or a LAB_ZENOH_CONFIG Zenoh refuses
         return 1

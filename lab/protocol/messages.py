@@ -258,6 +258,9 @@ class InfoReply(Message, frozen=True):
     t: float
     limits: dict[str, float] | None = None
     loop: Loop | None = None
+    control: Annotated[
+        Control | None, Meta(description="added by lab serve: the control lock's holder")
+    ] = None
 
 
 # ---------------------------------------------------------------------------------- telemetry
@@ -488,6 +491,9 @@ class Telemetry(Message, frozen=True):
     ] = None
     replay: Annotated[
         Playback | None, Meta(description="added by lab replay --serve: where playback is")
+    ] = None
+    control: Annotated[
+        Control | None, Meta(description="added by lab serve: the control lock's holder")
     ] = None
 
 

@@ -217,17 +217,28 @@ class CommandIntake:
             self._last_rejection = (verb, error[:300])
         self._answer(query, {"ok": False, "error": error})
 
+    def holder(self) -> str | None:
+        """The control lock's holder now (None: free), after the liveliness changes seen
+        since the last look: what telemetry and `info` report (lab/runtime/transport.py)."""
+        with self._lock:
+            self._follow_presence(self._clock())
+            return self.lock.holder
+
     def _locked_out(self, client: str, verb: str) -> str | None:
         """Why the control lock refuses `verb` from `client` now, after the liveliness
         changes seen since the last query (a holder whose link dropped loses it)."""
-        now = self._clock()
         with self._lock:
-            while self._presence is not None and (sample := self._presence.try_recv()):
-                key = str(sample.key_expr)
-                alive = sample.kind == zenoh.SampleKind.PUT
-                self.lock.seen(key.rsplit("/", 1)[-1], alive, now)
-            self.lock.expire(now)
+            self._follow_presence(self._clock())
             return self.lock.refusal(client, verb)
+
+    def _follow_presence(self, now: float) -> None:
+        """Feed the clients' liveliness changes to the lock and let a gone holder's expire
+        (with `_lock` held)."""
+        while self._presence is not None and (sample := self._presence.try_recv()):
+            key = str(sample.key_expr)
+            alive = sample.kind == zenoh.SampleKind.PUT
+            self.lock.seen(key.rsplit("/", 1)[-1], alive, now)
+        self.lock.expire(now)
 
     def _admit(self, client: str, verb: str) -> str | None:
         """None if `client` may send one more command now, else why not (its rate)."""

@@ -186,10 +186,18 @@ class ServerTransport:
         return self._intake.rejections()
 
     def reply(self, request: Request, body: dict[str, object]) -> None:
+        if request.verb == "info" and body.get("ok"):
+            body = {**body, "control": self._control()}
         answer(request.query, body)
 
     def publish_telemetry(self, message: dict[str, object]) -> None:
+        message["control"] = self._control()
         self._puts.put(self._telemetry, encode(message))
+
+    def _control(self) -> dict[str, object]:
+        """Who holds the control lock, as telemetry and `info` carry it (the page greys its
+        controls while another client holds it: docs/ui.md)."""
+        return {"holder": self._intake.holder()}
 
     def publish_state(self, message: dict[str, object]) -> None:
         self._puts.put(self._state, encode(message))

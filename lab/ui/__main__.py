@@ -11,6 +11,7 @@ import zenoh
 
 from lab.protocol import DEFAULT_ENDPOINT, LabIdError, LabKeys
 from lab.ui.app import LabApp
+from lab.ui.render_loop import RenderLoop
 
 PARENT_CHECK_S = 1.0
 
@@ -48,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     print(f"lab ui: http://{args.host}:{args.port} (Zenoh {args.connect})", flush=True)
     try:
-        app.run(stop)
+        RenderLoop(app).run(stop)
     finally:
         app.close()
     return 0

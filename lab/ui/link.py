@@ -33,7 +33,7 @@ class Link:
     ) -> None:
         # a UI started beside its sim waits for it (until `cancelled()`); once open, the
         # session reconnects by itself
-        self._link = LabLink(endpoint, OPEN_TIMEOUT_S, cancelled=cancelled)
+        self._link = LabLink(endpoint, OPEN_TIMEOUT_S, cancelled=cancelled, role="ui")
         self.connected = False
         self._streams: tuple[zenoh.Subscriber[Any], ...] = ()
         if lab_id is not None:
@@ -43,6 +43,11 @@ class Link:
     def directory(self) -> LabDirectory:
         """Every lab seen: online or not."""
         return self._link.directory
+
+    @property
+    def client_id(self) -> str:
+        """The id the UI sends with its commands ("ui-<Zenoh id>": the control lock names it)."""
+        return self._link.client_id
 
     @property
     def lab_id(self) -> str | None:

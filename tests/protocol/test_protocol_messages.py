@@ -49,8 +49,9 @@ from lab.protocol.events import EVENT_KINDS, decode_event
 from lab.protocol.messages import InfoReply, Reply, State, Telemetry, decode
 from lab.protocol.validation import ERROR_MAX_LEN
 from lab.runtime.loop import LoopConfig, SimLoop
-from lab.ui.app import INFO_CHANGING_VERBS, MOTION_ENDING_EVENTS, MOTION_ENDING_VERBS
+from lab.ui.app import INFO_CHANGING_VERBS, MOTION_ENDING_VERBS
 from lab.ui.event_log import RECURRING_EVENTS, SERVER_EVENTS
+from lab.ui.render_loop import MOTION_ENDING_EVENTS
 from lab.world.session import Session, SessionConfig
 
 # One valid command of each verb (adding a verb adds its example here).

@@ -35,6 +35,9 @@ def test_the_lock_through_zenoh() -> None:
             taken = a.command("take")
             a_id = taken["control"]["holder"]
             assert taken["ok"] and a_id == a.client_id
+            # telemetry and `info` say who holds it (the page greys its controls by them)
+            assert b.command("info")["control"] == {"holder": a_id}
+            b.wait_telemetry(lambda m: m["control"] == {"holder": a_id}, timeout=WAIT_S)
             refused = b.command("pause")
             assert not refused["ok"] and a_id in refused["error"], refused
             assert refused["error"].startswith("pause:")
@@ -43,6 +46,7 @@ def test_the_lock_through_zenoh() -> None:
             assert a_id in b.command("take")["error"]
             assert a.command("pause")["ok"] and a.command("resume")["ok"]
             assert a.command("release") == {"ok": True, "control": {"holder": None}}
+            b.wait_telemetry(lambda m: m["control"] == {"holder": None}, timeout=WAIT_S)
             assert b.command("pause")["ok"] and b.command("resume")["ok"]
             assert b.command("take")["ok"]
 
@@ -51,4 +55,10 @@ def test_the_lock_through_zenoh() -> None:
             return a.command("take")["ok"]
 
         wait_for(a_takes, WAIT_S, "the lock released after its holder's link dropped")
+        # a role names the kind of client in the lock's refusals
+        with LabClient(server.endpoint, role="teleop") as teleop:
+            assert teleop.client_id.startswith("teleop-")
+            refused = teleop.command("pause")
+            assert not refused["ok"] and f"client {a.client_id} holds" in refused["error"]
+            assert f"this client ({teleop.client_id})" in refused["error"]
         assert a.command("release")["ok"]

@@ -19,7 +19,7 @@ from lab.description import ROBOT_NAMES, load_description
 from lab.recording.record_replay import read_recording
 from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.stack_presets import load_stack_preset
-from lab.ui.panel import default_push_newtons
+from lab.ui.push_controls import default_push_newtons
 from tests.helpers.browser import (
     CHROMIUM,
     CHROMIUM_ARGS,
@@ -134,6 +134,58 @@ def test_the_status_line_shows_the_floor_measured_at_start_up(page, lab: LabClie
     assert 0.5 < floor["on_time_fraction"] <= 1.0
     shown = f"(this machine's floor {100 * floor['on_time_fraction']:.1f} %)"
     page.get_by_text(shown).wait_for(timeout=PAGE_TIMEOUT_MS)
+
+
+def test_the_page_and_a_teleop_share_the_labs_control_lock(page, lab, serve) -> None:
+    """Merely open, the page holds nothing: a terminal teleop's client takes the lab's control
+    lock. The page then names it, greys its controls, and its velocity hotkey and *Take
+    control* are refused naming the holder (the command never reaches the lab). Released, the
+    page's push takes the lock and acts (the base moves the pushed way), and from then on a
+    script's velocity is refused naming the UI as holder."""
+    expect = playwright_api.expect
+    with LabClient(serve.endpoint, role="teleop") as teleop:
+        end = time.monotonic() + 10.0  # until the lab has seen the new client's token
+        taken = teleop.command("take")
+        while not taken["ok"] and "liveliness" in taken["error"] and time.monotonic() < end:
+            time.sleep(0.2)
+            taken = teleop.command("take")
+        assert taken["ok"] and taken["control"]["holder"] == teleop.client_id, taken
+        held = f"Client {teleop.client_id} holds the lab's control lock"  # banner, as text
+        page.get_by_text(held, exact=False).first.wait_for()  # from telemetry's `control`
+        page.get_by_text("Read-only").first.wait_for()
+        assert page.get_by_role("button", name="left", exact=True).count() == 0
+        expect(page.get_by_role("button", name="Stop")).to_be_disabled()
+        page.keyboard.press("i")  # the velocity hotkey: refused in the page, holder named
+        refusal = f"velocity rejected: client {teleop.client_id} holds the control lock"
+        expect(page.get_by_text(refusal).first).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+        press(page, "Take control")  # asks the lab: refused while the teleop holds it
+        asked = f"take control rejected: client {teleop.client_id} holds the control lock"
+        expect(page.get_by_text(asked).first).to_be_visible(timeout=PAGE_TIMEOUT_MS)
+        assert lab.latest_telemetry()["command"]["vx"] == 0.0  # nothing reached the lab
+        assert teleop.command("release")["ok"]
+        page.get_by_text("You hold control").wait_for()  # free again: the controls are back
+        type_number(slider_box(page, "Magnitude [N]"), "150")
+        type_number(slider_box(page, "Duration [ms]"), "200")
+        lab.latest_telemetry()
+        press(page, "left")  # takes the lock for the page, then pushes
+        peak = lab.wait_telemetry(
+            lambda m: m["base"]["linear_velocity"][1] > 0.1,
+            timeout=UI_ACTION_TIMEOUT_S,
+            since_last_read=True,
+        )
+        heading = peak["base"]["quaternion"]
+        assert abs(heading[2]) < 0.1, heading  # heading ~ world x: "left" is world +y
+        vx, vy, _ = peak["base"]["linear_velocity"]
+        assert vy > 0.1 and vy > abs(vx), peak["base"]["linear_velocity"]
+        refused = lab.command("velocity", vx=0.3)  # a script while the page holds the lock
+        assert not refused["ok"] and "client ui-" in refused["error"], refused
+        holder = lab.command("info")["control"]["holder"]
+        assert holder.startswith("ui-") and holder in refused["error"]
+        assert "ui-" in teleop.command("take")["error"]
+        log = page.get_by_text("Events, newest first").first.locator("xpath=..")
+        expect(log).to_contain_text(f"client {teleop.client_id} holds the lab's control lock")
+    press(page, "Reset")  # through the page, which holds the lock
+    lab.wait_telemetry(lambda m: m["t"] < 0.5, timeout=UI_ACTION_TIMEOUT_S, since_last_read=True)
 
 
 def test_push_button_moves_the_base_in_the_pushed_direction(
@@ -356,7 +408,7 @@ def test_typed_push_numbers_are_the_numbers_sent(page, lab: LabClient, pushes: P
     remaining = pushes.wait(500.0)
     assert 0.0 < remaining <= 0.3 + 1e-9, remaining  # 300 ms, as typed
     page.get_by_text("pushed forward: 500 N for 300 ms").first.wait_for()
-    lab.command("reset")
+    press(page, "Reset")  # through the page: it holds the lab's control lock since its push
 
 
 def test_typed_gains_are_the_gains_sent(page, lab: LabClient) -> None:
@@ -417,7 +469,7 @@ def test_a_click_right_after_typing_never_sends_a_number_not_shown(page, lab, pu
     assert sent or refused.is_visible(), "the click neither pushed nor said why not"
     if sent:
         assert sent == [shown], (sent, shown)
-    lab.command("reset")
+    press(page, "Reset")  # through the page, which holds the lab's control lock
 
 
 def test_the_event_log_keeps_pushes_and_refusals_and_shows_one_kind(page) -> None:

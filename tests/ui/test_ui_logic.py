@@ -22,11 +22,13 @@ from lab.ui.event_log import CATEGORIES, EventLog, log_server_event
 from lab.ui.gaits import gait_options
 from lab.ui.guard_rails import error_growth, stack_risks, standing_risks
 from lab.ui.joystick import JoystickLimits, from_offset, tap
+from lab.ui.lab_lock import LabLock
 from lab.ui.numbers import NumberError, NumberRange, format_number
 from lab.ui.ownership import ControlOwnership
-from lab.ui.panel import default_push_newtons
+from lab.ui.panel import banner
 from lab.ui.plot_buffer import RollingBuffer
 from lab.ui.plot_export import Shown, shown_csv, shown_png
+from lab.ui.push_controls import default_push_newtons
 from lab.ui.status import (
     LoopFigures,
     LoopWindow,
@@ -161,6 +163,57 @@ def test_control_ownership():
     assert c.claim_if_free(1) and not c.claim_if_free(2)
     assert c.take(2) == 1 and c.is_owner(2) and not c.is_owner(1)
     assert not c.release(1) and c.release(2) and c.owner is None
+
+
+class _Lab:
+    """A lab's control lock as the server keeps it, for `LabLock`'s `request`."""
+
+    def __init__(self) -> None:
+        self.holder: str | None = None
+        self.asked: list[str] = []
+
+    def request(self, client: str, verb: str) -> dict:
+        self.asked.append(verb)
+        if verb == "take":
+            if self.holder not in (None, client):
+                return {"ok": False, "error": f"take: client {self.holder} holds the control lock"}
+            self.holder = client
+        elif self.holder == client:
+            self.holder = None
+        return {"ok": True, "control": {"holder": self.holder}}
+
+
+def test_the_page_takes_the_labs_lock_only_to_act_and_reads_who_else_holds_it():
+    lab = _Lab()
+    lock = LabLock("ui-1", lambda verb: lab.request("ui-1", verb))
+    assert lock.other() is None and not lock.seen({"t": 0.0})  # a message without `control`
+    assert lock.acquire() is None and lab.holder == "ui-1"
+    assert lock.acquire() is None and lab.asked == ["take"]  # held: no second take
+    # telemetry built before the take still says "free": nothing to show, the page keeps it
+    assert not lock.seen({"control": {"holder": None}}) and lock.other() is None
+    lock.seen({"control": {"holder": "ui-1"}})
+    lock.release()
+    assert lab.holder is None and lab.asked == ["take", "release"]
+    lock.release()  # not held: nothing asked
+    assert lab.asked == ["take", "release"]
+    lab.holder = "teleop-9"  # a terminal teleop takes it
+    assert lock.seen({"control": {"holder": "teleop-9"}}) and lock.other() == "teleop-9"
+    assert lock.acquire() == "client teleop-9 holds the control lock"  # refused, holder named
+    lock.release()  # not the page's: left alone
+    assert lab.holder == "teleop-9"
+    lab.holder = None
+    assert lock.seen({"control": {"holder": None}}) and lock.other() is None
+    assert lock.acquire() is None and lab.holder == "ui-1"
+
+
+def test_the_control_banner_names_the_browser_or_the_client_holding_control():
+    assert banner(1, 1, None) == "**You hold control** of the robot."
+    mine_locked = banner(1, 1, "teleop-9")
+    assert mine_locked.startswith("**Read-only**") and "`teleop-9` holds the lab's" in mine_locked
+    assert "Take control" in mine_locked
+    assert banner(2, 1, None).startswith("**Read-only**: browser #1 holds control")
+    assert "teleop-9" in banner(2, 1, "teleop-9")
+    assert banner(2, None, None) == "Nobody holds control: press *Take control*."
 
 
 def test_support_polygon_hull_and_degenerate_cases():
@@ -647,16 +700,32 @@ def test_the_panel_knows_the_app_only_through_its_narrow_host_interface() -> Non
     import ast
     import inspect
 
-    from lab.ui import panel
+    from lab.ui import (
+        number_fields,
+        panel,
+        panel_host,
+        push_controls,
+        stack_editor,
+        velocity_controls,
+    )
     from lab.ui.app import LabApp
 
-    imported = {
-        node.module
-        for node in ast.walk(ast.parse(inspect.getsource(panel)))
-        if isinstance(node, ast.ImportFrom)
-    }
-    assert "lab.ui.app" not in imported  # no import cycle between panel and app
-    methods = [n for n, v in vars(panel.PanelHost).items() if callable(v) and not n.startswith("_")]
+    for module in (
+        panel,
+        panel_host,
+        push_controls,
+        stack_editor,
+        velocity_controls,
+        number_fields,
+    ):
+        imported = {
+            node.module
+            for node in ast.walk(ast.parse(inspect.getsource(module)))
+            if isinstance(node, ast.ImportFrom)
+        }
+        assert "lab.ui.app" not in imported, module  # no import cycle between panel and app
+    host = panel_host.PanelHost
+    methods = [n for n, v in vars(host).items() if callable(v) and not n.startswith("_")]
     assert {"send", "report", "guard", "base_yaw"} <= set(methods)
     missing = [name for name in methods if not callable(getattr(LabApp, name, None))]
     assert not missing, f"LabApp lacks {missing} of PanelHost"
@@ -766,7 +835,7 @@ def test_a_push_button_pushes_the_robot_the_way_it_names_and_herzog_names_the_ot
     """The panel's buttons name the way the force pushes the robot, in its heading frame; Herzog
     2016's Table 3 scenarios (Talos facing +x) name the side the pusher stands on: each of their
     pushes "from the <side>" is the button of the opposite way."""
-    from lab.ui.panel import PUSH_DIRECTIONS, push_force
+    from lab.ui.push_controls import PUSH_DIRECTIONS, push_force
 
     assert set(PUSH_DIRECTIONS) == {"forward", "backward", "left", "right"}
     for yaw, forward, left in ((0.0, (1, 0), (0, 1)), (math.pi / 2, (0, 1), (-1, 0))):
@@ -855,7 +924,7 @@ def test_each_scene_set_up_is_accepted_and_bolt_holds_on_the_wedges_across_a_res
 def test_only_viser_s_wakeup_race_is_taken_for_a_dropped_frame() -> None:
     """The render loop drops a frame (a warning) only for viser's own race, raised inside its
     message buffer; the same message raised by our code is still a UI error."""
-    from lab.ui.app import viser_wakeup_race
+    from lab.ui.render_loop import viser_wakeup_race
 
     def raised_in(filename: str) -> Exception:
         code = compile("raise RuntimeError('deque mutated during iteration')", filename, "exec")
