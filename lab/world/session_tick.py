@@ -76,7 +76,9 @@ class SessionTick(SessionBase):
                     self.plant.check()  # raises, naming the cause, as the Python step does
                 native = True
                 # what the native tick read and applied, through the realism layer if on
-                self._true_state = native_tick.true_state
+                truth = native_tick.true_state
+                assert truth is not None  # a native tick ran: its buffers exist
+                self._true_state = truth
                 self.applied_tau = self.tau if self.realism.ideal else native_tick.applied_torques()
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
