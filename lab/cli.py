@@ -55,7 +55,7 @@ def _run(argv: list[str]) -> int:
 
 
 def _replay(argv: list[str]) -> int:
-    from lab.recording.record_replay import replay
+    from lab.recording.replay import replay
 
     parser = argparse.ArgumentParser(
         prog="lab replay",

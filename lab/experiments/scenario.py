@@ -39,7 +39,7 @@ from lab.experiments.limits import LimitsError, apply_limits, check_limits
 from lab.experiments.metrics import METRICS
 from lab.protocol import CommandError, parse_command
 from lab.realism.knobs import RealismKnobs, knobs_from, preset
-from lab.recording.record_replay import Recorder
+from lab.recording.record import Recorder
 from lab.scenes import SEEDED_SCENES
 from lab.stack_presets import check_gains, load_stack_preset
 from lab.world.session import Session, SessionConfig

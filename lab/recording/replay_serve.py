@@ -34,7 +34,7 @@ from lab.protocol import (
     default_lab_id,
     parse_replay_command,
 )
-from lab.recording.record_replay import Message, Recording, RecordingError, read_recording
+from lab.recording.replay import Message, Recording, RecordingError, read_recording
 from lab.runtime.serve import stop_process
 from lab.runtime.transport import Request, ServerTransport, server_config
 

@@ -219,7 +219,7 @@ def serve_main(argv: list[str]) -> int:
         designer.close()
         print(f"lab serve: Zenoh: {error}", file=sys.stderr)
         return 2
-    from lab.recording.record_replay import Recorder, RecordingTransport
+    from lab.recording.record import Recorder, RecordingTransport
     from lab.runtime.switch import Switcher
 
     recorder = None

@@ -12,7 +12,7 @@ from lab.experiments.scenario import load_scenario, run_scenario
 from lab.realism.contact_estimate import estimated_contact_forces
 from lab.realism.knobs import RealismKnobs, knobs_from, preset
 from lab.realism.model_error import mass_of
-from lab.recording.record_replay import replay
+from lab.recording.replay import replay
 from lab.robot import build_robot
 from lab.world.plant import MujocoPlant
 from lab.world.session import Session, SessionConfig

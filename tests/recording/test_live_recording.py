@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lab.recording.record_replay import read_recording, replay
+from lab.recording.replay import read_recording, replay
 from lab.recording.replay_serve import Player, ReplayServer
 from tests.helpers.ports import free_port
 from tests.helpers.processes import RATE_HZ, WAIT_S, Process, ready_client, serve

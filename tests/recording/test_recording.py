@@ -8,8 +8,9 @@ from mcap.reader import make_reader
 
 from lab.cli import main
 from lab.experiments.scenario import Event, load_scenario, run_scenario
-from lab.recording import record_replay as recording_module
-from lab.recording.record_replay import SCHEMAS, TOPICS, RecordingError, read_recording, replay
+from lab.recording import record as recording_module
+from lab.recording.record import SCHEMAS, TOPICS
+from lab.recording.replay import RecordingError, read_recording, replay
 from tests.helpers.ports import free_port
 
 SCENARIOS = Path(__file__).resolve().parent.parent.parent / "scenarios"

@@ -16,7 +16,7 @@ import pytest
 
 from lab.client import LabClient
 from lab.description import ROBOT_NAMES, load_description
-from lab.recording.record_replay import read_recording
+from lab.recording.replay import read_recording
 from lab.scenes import SCENE_ROBOTS, SCENES
 from lab.stack_presets import load_stack_preset
 from lab.ui.push_controls import default_push_newtons
