@@ -2,6 +2,9 @@
 
 state → RobotModel.update → tasks and constraints become rows, level by level as the stack says
 → hierarchy method → x = [q̈, F] → τ = M_a q̈ + h_a − J_aᵀ F (Herzog eq. 14).
+
+Over 400 lines: most of it is one class, WholeBodyController, whose methods share its tasks,
+constraints, stack and last solution; its configuration and output types sit beside it.
 """
 
 import math
