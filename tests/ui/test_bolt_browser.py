@@ -14,7 +14,7 @@ import pytest
 
 from lab.client import LabClient
 from lab.description import load_description
-from lab.ui.panel import default_push_newtons
+from lab.ui.push_controls import default_push_newtons
 from tests.helpers.browser import (
     CHROMIUM,
     CHROMIUM_ARGS,
