@@ -108,8 +108,11 @@ def test_stepping_bolts_phase_portraits_draw_the_path_and_the_prediction(page, l
     while not _portraits_drawn(charts) and time.monotonic() < end:
         page.wait_for_timeout(500)
         charts = page.evaluate(READ_CHARTS)
-    tel = lab.latest_telemetry()
-    assert tel is not None and not tel["fell"] and tel["stepping"]["steps"] >= 3, tel
+    # three steps taken (or a fall): the charts may fill before the third step on a quick page
+    tel = lab.wait_telemetry(
+        lambda m: m["fell"] or m["stepping"]["steps"] >= 3, timeout=UI_ACTION_TIMEOUT_S
+    )
+    assert not tel["fell"] and tel["stepping"]["steps"] >= 3, tel
     assert _portraits_drawn(charts), charts
     for chart in charts:  # every chart shown has a finite y range (NaN draws nothing)
         low, high = chart["y"]
