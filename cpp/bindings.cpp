@@ -1,4 +1,6 @@
 // lab._kernel: the Python face of the native kernel (lab/controller/native.py wraps it).
+// Over 400 lines: one nanobind module's definitions, a block per bound class, with nothing
+// else in the file (the hierarchy, behaviours and realism bind themselves in their python.cpp).
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
