@@ -64,7 +64,8 @@ def test_a_dragged_hand_gizmo_moves_the_target_and_the_hand_follows(tmp_path: Pa
                 page = browser.new_page(viewport=VIEWPORT)
                 page.set_default_timeout(60_000)
                 page.goto(serve.url)
-                page.get_by_text("You hold control").wait_for()
+                # the page's panel is built after Talos's view: meshes on a cold cache
+                page.get_by_text("You hold control").wait_for(timeout=LOAD_TIMEOUT_MS)
                 loading = page.get_by_text("Loading")
                 playwright_api.expect(loading).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
                 page.wait_for_function(
