@@ -1,7 +1,15 @@
-"""The locomotion scenarios, run short (2.5-4 s instead of 10-24 s), against their metrics.
+"""The locomotion scenarios, run short (3-3.6 s instead of 12-24 s), for what their whole runs'
+[expect] tables do not hold: that the gait switches are accepted while walking, and the trunk's
+mean |roll| and |pitch| on rough ground. The whole runs (tests/helpers/scenario_runs.py) check the
+rest to tighter bounds: anymal_trot_flat (v_x 0.48-0.53 m/s, drift ≤ 0.02 m/s so |v_y| ≤ 0.02,
+mean ‖v − v_cmd‖ ≤ 0.15 m/s, |roll| ≤ 0.005, |pitch| ≤ 0.0072 rad, 9.5-10.5 m), both stacks'
+crawl-trot-crawl (v_x 0.19-0.21 m/s, the same attitude bounds), anymal_trot_lateral_kicks (the
+largest kick survived 60-80 N s), solo12_trot_turn (0.49-0.51 rad/s, < 1 mm) and
+solo12_trot_strafe (v_y 0.14-0.16 m/s, mean ‖v − v_cmd‖ ≤ 0.03 m/s so |v_x| ≤ 0.03, yaw rate
+within ±0.05 rad/s).
 
-Event times of the gait-switching and push scenarios are compressed so that the short runs still
-switch gait twice and take two pushes. Averages skip the first second (the start from standing).
+Event times of the gait-switching scenario are compressed so that the short run still switches
+gait twice. Averages skip the first second (the start from standing).
 """
 
 from dataclasses import replace
@@ -34,21 +42,9 @@ def _walked(report: dict) -> dict:
     return report["metrics"]
 
 
-def test_anymal_trots_at_half_a_metre_per_second_with_a_level_trunk() -> None:
-    metrics = _walked(run_scenario(_load("anymal_trot_flat"), 3.0))
-    # S3 has no velocity task: the stance legs' posture references move the base (Raiola eqs.
-    # 30-32; measured 0.505 m/s over 20 s, mean |v - v_cmd| 0.062 m/s with the trot's sway).
-    assert metrics["mean_vx_mps"] == pytest.approx(0.5, abs=0.05)
-    assert abs(metrics["mean_vy_mps"]) < 0.03
-    assert metrics["mean_velocity_error_mps"] < 0.15  # 2 s of averaging, right after the start
-    assert metrics["mean_abs_roll_rad"] < MAX_MEAN_ATTITUDE
-    assert metrics["mean_abs_pitch_rad"] < MAX_MEAN_ATTITUDE
-    assert metrics["distance_m"] > 0.6
-
-
-@pytest.mark.parametrize("stack", ["s3", "s1"])
-def test_crawl_trot_crawl_switches_while_walking(stack: str) -> None:
-    scenario = _compressed(_load(f"anymal_crawl_trot_crawl_{stack}"), 0.3)  # switches at 1.2, 2.4 s
+def test_crawl_trot_crawl_switches_while_walking() -> None:
+    """The gait events are accepted while walking (s3; the stack does not decide a switch)."""
+    scenario = _compressed(_load("anymal_crawl_trot_crawl_s3"), 0.3)  # switches at 1.2, 2.4 s
     metrics = _walked(run_scenario(scenario))
     assert scenario.duration == pytest.approx(3.6)
     assert metrics["mean_vx_mps"] == pytest.approx(0.2, abs=0.04)  # never stopped
@@ -63,12 +59,6 @@ def test_blind_trot_over_rough_ground(robot: str) -> None:
     assert metrics["distance_m"] > 0.6  # onto the tiles, which start 0.6 m ahead
     assert metrics["mean_abs_roll_rad"] < 3 * MAX_MEAN_ATTITUDE
     assert metrics["mean_abs_pitch_rad"] < 3 * MAX_MEAN_ATTITUDE
-
-
-def test_trot_survives_lateral_kicks() -> None:
-    scenario = _compressed(_load("anymal_trot_lateral_kicks"), 0.5)  # 20 N s, then 40 N s
-    metrics = _walked(run_scenario(scenario, 3.7))
-    assert metrics["largest_push_survived_ns"] == pytest.approx(40.0, rel=0.01)
 
 
 def _pushed_run(fall_at: float | None, next_push_at: float) -> dict:
@@ -108,17 +98,3 @@ def test_a_push_counts_as_survived_only_without_a_fall_before_the_next_one() -> 
     # No fall: both count, the second one judged at the end of the run (0.9 s is too short).
     assert _pushed_run(None, next_push_at=2.5)["largest_push_survived_ns"] == pytest.approx(30)
     assert _pushed_run(None, next_push_at=3.0)["largest_push_survived_ns"] == pytest.approx(10)
-
-
-def test_solo12_turns_in_place() -> None:
-    metrics = _walked(run_scenario(_load("solo12_trot_turn"), 2.5))
-    assert metrics["mean_yaw_rate_radps"] == pytest.approx(0.5, abs=0.05)
-    assert metrics["distance_m"] < 0.05
-
-
-def test_solo12_strafes() -> None:
-    metrics = _walked(run_scenario(_load("solo12_trot_strafe"), 2.5))
-    # Commanded 0.15 m/s; measured 0.152 m/s over 10 s.
-    assert metrics["mean_vy_mps"] == pytest.approx(0.15, abs=0.03)
-    assert abs(metrics["mean_vx_mps"]) < 0.03
-    assert abs(metrics["mean_yaw_rate_radps"]) < 0.05
