@@ -24,6 +24,10 @@ the lab's robots; a gait the robot cannot do is refused by the server, by name. 
 runs issue 31's four situations in turn (ANYmal standing and trotting, Talos in single support,
 Bolt with biped_step), each against its own floor, and prints one line each.
 
+`--sections` starts the server through serve_sections.py, which times each tick's parts (the
+command intake, the session's tick and its native crossing, the work beside the tick, the rest)
+and reports their medians by the tick's kind.
+
 Each run also reports the loop thread's CPU share (its CPU time over the wall time between
 two telemetry messages: `loop.cpu_s`), so settings that spin longer show what they cost.
 """
@@ -39,10 +43,13 @@ import tempfile
 import threading
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from lab.client import LabClient
+
+STOP_TIMEOUT_S = 60.0  # the server's own shutdown after SIGINT; then it is killed
 
 
 def free_port() -> int:
@@ -51,8 +58,14 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(args: argparse.Namespace, robot: str, port: int, log) -> subprocess.Popen:
-    cmd = [sys.executable, "-m", "lab.runtime.serve", "--port", str(port), "--robot", robot]
+def start_server(
+    args: argparse.Namespace, robot: str, port: int, log, sections: str | None = None
+) -> subprocess.Popen:
+    """`lab serve` (through serve_sections.py's timer, writing to `sections`, when given)."""
+    serve = ["-m", "lab.runtime.serve"]
+    if sections is not None:
+        serve = [str(Path(__file__).resolve().parent / "serve_sections.py"), sections]
+    cmd = [sys.executable, *serve, "--port", str(port), "--robot", robot]
     cmd += ["--rate", str(args.rate), "--sched", args.sched]
     if args.spin_ms is not None:
         cmd += ["--spin-ms", str(args.spin_ms)]
@@ -232,6 +245,11 @@ def main() -> int:
     )
     p.add_argument("--floor-after", action="store_true", help="also run the empty loop after")
     p.add_argument("--json", action="store_true", help="print one JSON object (a list: --targets)")
+    p.add_argument(
+        "--sections",
+        action="store_true",
+        help="time each tick's sections in the server (serve_sections.py): median µs by kind",
+    )
     args = p.parse_args()
     if args.spin_ms not in (None, "auto"):
         try:
@@ -273,14 +291,21 @@ def one_run(args: argparse.Namespace, robot: str, gait: str) -> dict:
     port = free_port()
     load = os.getloadavg()[0]  # the machine's 1-minute load at the start
     floor = {} if args.no_floor else {"before": _floor(args)}
-    with tempfile.TemporaryFile() as log:
-        server = start_server(args, robot, port, log)
+    with tempfile.TemporaryFile() as log, tempfile.TemporaryDirectory() as tmp:
+        sections = Path(tmp) / "sections.json" if args.sections else None
+        server = start_server(args, robot, port, log, None if sections is None else str(sections))
         try:
             endpoint = f"tcp/127.0.0.1:{port}"
             result = measure(endpoint, args.duration, args.command_hz, GAITS[gait], setup)
         finally:
             server.send_signal(signal.SIGINT)
-            server.wait(10)
+            try:  # on a loaded machine (load 40) the server's UI and Zenoh took over 10 s
+                server.wait(STOP_TIMEOUT_S)
+            except subprocess.TimeoutExpired:
+                server.kill()
+                server.wait()
+        if sections is not None:  # None: the server was killed before it wrote them
+            result["sections_us"] = json.loads(sections.read_text()) if sections.exists() else None
     if args.floor_after:
         floor["after"] = _floor(args)
     result["floor"] = floor
@@ -333,6 +358,8 @@ def report(result: dict, args: argparse.Namespace) -> None:
         + f"; GC collections by generation {result['gc_collections']}, load {result['load']}"
     )
     print(f"telemetry per subscriber: {result['telemetry_hz_per_subscriber']} Hz")
+    for kind, us in (result.get("sections_us") or {}).items():
+        print(f"{kind} ticks, median us: " + ", ".join(f"{k} {v}" for k, v in us.items()))
     if server_floor := result["server_floor"]:
         print(f"the server's own floor at start-up: {server_floor['on_time_fraction']:.4%}")
     if floor := result["floor"]:

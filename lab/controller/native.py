@@ -349,17 +349,21 @@ class NativeController(WholeBodyController):
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
         config, limits = self.config, self.config.limits
-        arrays = (self.torque_limits(), *self.joint_limits())
-        numbers = (limits.friction, limits.normal_min, limits.normal_max, config.level_weight_ratio)
-        synced = self._synced
+        # every tick: identities and numbers compared as they are (a tuple of them cost more)
+        torque, joints, synced = self._torque_limits.torque_limits, self._joint_limits, self._synced
         if (
             synced
-            and synced[0][0] is arrays[0]
-            and synced[0][1] is arrays[1]
-            and synced[0][2] is arrays[2]
-            and synced[1] == numbers
+            and synced[0][0] is torque
+            and synced[0][1] is joints.lower
+            and synced[0][2] is joints.upper
+            and synced[1][0] == limits.friction
+            and synced[1][1] == limits.normal_min
+            and synced[1][2] == limits.normal_max
+            and synced[1][3] == config.level_weight_ratio
         ):
             return
+        arrays = (self.torque_limits(), *self.joint_limits())
+        numbers = (limits.friction, limits.normal_min, limits.normal_max, config.level_weight_ratio)
         native = self._built
         native.set_torque_limits(arrays[0])
         native.set_joint_limits(arrays[1], arrays[2])

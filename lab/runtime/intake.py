@@ -149,7 +149,11 @@ class CommandIntake:
         self._thread.start()
 
     def take(self) -> Request | None:
-        """The next valid command, one client after the other; None when none waits."""
+        """The next valid command, one client after the other; None when none waits (told
+        without the lock: the loop asks every tick, and a command appended meanwhile is taken
+        next tick)."""
+        if not self._turn:
+            return None
         with self._lock:
             if not self._turn:
                 return None

@@ -316,17 +316,21 @@ class SimLoop:
         return "publish"
 
     def _apply_commands(self, now: float) -> None:
+        """Apply the commands waiting (at most `max_commands_per_tick`, for at most
+        COMMAND_BUDGET_S), of the velocity commands only the newest. Most ticks have none:
+        one `receive` then, no clock read."""
         velocity: list[Request] = []
-        for _ in range(self.config.max_commands_per_tick):
-            if self.clock() - now > COMMAND_BUDGET_S:
-                break
-            request = self.transport.receive()
-            if request is None:
-                break
+        left = self.config.max_commands_per_tick
+        request = self.transport.receive() if left > 0 else None
+        while request is not None:
             if isinstance(request.command, VelocityCommand):
                 velocity.append(request)
             else:
                 self._apply(request, now)
+            left -= 1
+            if left == 0 or self.clock() - now > COMMAND_BUDGET_S:
+                break
+            request = self.transport.receive()
         if velocity:  # latest value: only the newest velocity command is applied
             for request in velocity[:-1]:
                 self._answer(request, {"ok": True, "superseded": True})

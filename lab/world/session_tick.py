@@ -56,7 +56,8 @@ class SessionTick(SessionBase):
         and `tick_note` says why."""
         if self.paused:
             return
-        self._expire_pushes()
+        if self.pushes:
+            self._expire_pushes()
         controller, behaviour, native_tick = self.controller, self.behaviour, self.native_tick
         # An idle behaviour's update changes nothing (Balance off a foot line): the model update
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
@@ -72,7 +73,7 @@ class SessionTick(SessionBase):
         native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
             if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
-                if stepped is TickStatus.DIVERGED_AFTER:
+                if stepped == TickStatus.DIVERGED_AFTER:
                     self.plant.check()  # raises, naming the cause, as the Python step does
                 native = True
                 # what the native tick read and applied, through the realism layer if on
@@ -135,12 +136,12 @@ class SessionTick(SessionBase):
         share = self.model.mass * 9.81 / len(self.model.contacts)
         return np.where(np.isnan(normal), flags, normal > ESTIMATED_TOUCH_FRACTION * share)
 
-    def _control(self, idle: bool, native: bool) -> TickStatus | None:
+    def _control(self, idle: bool, native: bool) -> int | None:
         """This tick's torques and planned contact forces: the controller's, or fallback ones.
         `native`: the whole tick in one crossing (native_tick.py), which also applies the
-        torques and steps; returns how it ended when it did (None when the controller failed:
-        the caller applies the fallback torques, or when not `native`). Raises
-        SimulationDiverged when the state was not valid before control."""
+        torques and steps; returns how it ended when it did, a TickStatus value (None when
+        the controller failed: the caller applies the fallback torques, or when not
+        `native`). Raises SimulationDiverged when the state was not valid before control."""
         controller, behaviour = self.controller, self.behaviour
         if self.hands.targets:
             self.hands.write(controller.references, self.time)
@@ -197,8 +198,7 @@ class SessionTick(SessionBase):
                     status="failed",
                     level=None,
                 )
-        ran = controller.ran
-        self.ran_ticks[ran] = self.ran_ticks.get(ran, 0) + 1
+        self._count_ran(controller.ran)
         self.control_us = (
             self.native_tick.control_us if native else (time.perf_counter() - start) * 1e6
         )
@@ -295,8 +295,6 @@ class SessionTick(SessionBase):
         )
 
     def _expire_pushes(self) -> None:
-        if not self.pushes:
-            return
         expired = [name for name, p in self.pushes.items() if self.time >= p.ends_at]
         if not expired:
             return
