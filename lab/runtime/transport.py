@@ -25,15 +25,16 @@ from lab.zenoh_config import Credentials, usrpwd_settings, zenoh_config
 
 # Queries Zenoh keeps for the intake thread; beyond this the oldest get no reply. The intake
 # answers each at once, so this fills only while that thread is starved, as under a flood: then
-# it holds this many queries of up to MAX_MESSAGE_BYTES each: at 256 a flood of 64 KB commands
+# it holds this many queries (of up to MAX_MESSAGE_BYTES each): at 256 a flood of 64 KB commands
 # kept 16 MB in it (7 % of the sim process; benchmarks/zenoh_flood_memory.py), at 128 8 MB. A
 # client's burst of 100 still fits (its rate limit answers it, tests/client/test_client.py).
 COMMAND_QUEUE = 128
 # The largest message Zenoh takes in (its `transport/link/rx/max_message_size`, 1 GiB by
 # default: one query could make the sim process allocate that much). A larger one is dropped by
 # Zenoh unanswered (its sender's query times out); up to this size a payload over the protocol's
-# MAX_PAYLOAD_BYTES (16 KB) is refused with a reply naming the cap (lab/runtime/intake.py).
-MAX_MESSAGE_BYTES = 128 * 1024
+# MAX_PAYLOAD_BYTES (16 KiB) is refused with a reply naming the cap (lab/runtime/intake.py), the
+# wire fuzz's 1 MB payloads included (tests/runtime/test_fuzz_wire.py).
+MAX_MESSAGE_BYTES = 1536 * 1024
 INTAKE_STOP_S = 2.0  # how long `close` waits for the intake thread
 MAX_CLIENT_CHANGES = 1024  # clients' liveliness changes kept between two commands (the oldest go)
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
