@@ -10,9 +10,12 @@ switching between robots every `--every` s, in one run for each way of building 
 
 For each it prints one JSON line: per switch the robot, whether its world was compiled or came
 from the cache, the periods the loop skipped from the command to its reply and the longest
-interval between two ticks meanwhile; over the run the same interval outside switches (the
-machine's own noise), the longest tick's work, the longest pause of the garbage collector (it
-stops every thread), the on-time fraction and the resident memory.
+interval between two ticks meanwhile; over the switches the median and the largest of those
+longest intervals, and the same of the longest interval in windows as long as the median
+switch cut from the time outside switches (`outside`: the machine's own noise in the same run;
+a switch that costs the loop nothing has the same distribution); the longest tick's work, the
+longest pause of the garbage collector (it stops every thread), the on-time fraction and the
+resident memory.
 
     .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
         [--modes worker,thread,loop]
@@ -21,6 +24,7 @@ stops every thread), the on-time fraction and the resident memory.
 import argparse
 import json
 import os
+import statistics
 import sys
 import threading
 import time
@@ -62,6 +66,8 @@ class Switching:
         self.switches: list[dict] = []
         self.last_tick: float | None = None
         self.longest_outside = 0.0  # between two ticks while no switch is under way (s)
+        # (tick, interval before it) outside switches, one list between two switches
+        self.outside: list[list[tuple[float, float]]] = [[]]
 
     def receive(self) -> Request | None:
         now = time.monotonic()
@@ -70,6 +76,7 @@ class Switching:
         switch = self.switch
         if switch is None:
             self.longest_outside = max(self.longest_outside, gap)
+            self.outside[-1].append((now, gap))
         else:
             switch["longest_gap"] = max(switch["longest_gap"], gap)
             if "reply_s" in switch:  # the first tick after the reply: the switch is over
@@ -92,9 +99,11 @@ class Switching:
                 "reply_ms": round((switch["reply_s"] - switch["sent"]) * 1e3, 1),
                 "skipped": self.loop.stats.skipped - switch["skipped_before"],
                 "longest_gap_ms": round(switch["longest_gap"] * 1e3, 2),
+                "duration_s": self.last_tick - switch["sent"],
             }
         )
         self.switch = None
+        self.outside.append([])
         self.next_at = self.last_tick + self.every
         if len(self.switches) == self.count:
             self.stop.set()
@@ -112,6 +121,31 @@ class Switching:
     def publish_event(self, message: dict) -> None: ...
 
 
+def windows_longest_ms(stretches: list[list[tuple[float, float]]], window_s: float) -> list[float]:
+    """The longest interval between two ticks (ms) in each `window_s` window of each stretch of
+    ticks ((time, interval before it)), windows laid end to end; a stretch's last, shorter
+    window is dropped."""
+    longest: list[float] = []
+    for ticks in stretches:
+        start, worst = None, 0.0
+        for t, gap in ticks:
+            if start is None:
+                start = t
+            elif t - start >= window_s:
+                longest.append(worst * 1e3)
+                start, worst = t, 0.0
+            worst = max(worst, gap)
+    return longest
+
+
+def spread(values: list[float]) -> dict[str, float]:
+    """Median and largest of `values`, and how many."""
+    if not values:
+        return {"n": 0}
+    middle, largest = statistics.median(values), max(values)
+    return {"p50": round(middle, 2), "max": round(largest, 2), "n": len(values)}
+
+
 def run(mode: str, robots: list[str], every: float, count: int) -> dict:
     session = Session(SessionConfig(robot=robots[0]))
     stop = threading.Event()
@@ -125,6 +159,8 @@ def run(mode: str, robots: list[str], every: float, count: int) -> dict:
     if switcher is not None:
         switcher.close()
     stats, switches = loop.stats, transport.switches
+    window = statistics.median(s.pop("duration_s") for s in switches)
+    outside = windows_longest_ms(transport.outside, window)
     return {
         "built": mode,
         "load_average": [round(x, 1) for x in os.getloadavg()],
@@ -137,6 +173,9 @@ def run(mode: str, robots: list[str], every: float, count: int) -> dict:
             "during_switches": round(max(s["longest_gap_ms"] for s in switches), 2),
             "outside_switches": round(transport.longest_outside * 1e3, 2),
         },
+        # per switch, and per window of the median switch's length outside them
+        "longest_gap_per_switch_ms": spread([s["longest_gap_ms"] for s in switches]),
+        "longest_gap_per_window_outside_ms": {"window_s": round(window, 3), **spread(outside)},
         "longest_tick_work_ms": round(stats.work.max * 1e3, 2),
         "longest_gc_pause_ms": round(stats.gc.pauses.max * 1e3, 2),
         "on_time_fraction": round(stats.on_time / max(1, stats.ticks), 4),

@@ -24,13 +24,14 @@ import time
 from collections.abc import Callable, Iterator
 
 import lab.world.compiled as compiled
-import lab.world.session as session_module
+import lab.world.session_parts as session_module
 from lab.runtime.world_cache import WorldCache
 from lab.world.session import Session, SessionConfig
 from lab.world.session_parts import build_parts
 
 PROBE_S = 5e-4  # the main thread's sleep between wake-ups
-# What build_parts calls, by name in lab.world.session, and compile_world's, in lab.world.compiled
+# What build_parts calls, by name in lab.world.session_parts, and compile_world's, in
+# lab.world.compiled
 SESSION_STEPS = (
     "MujocoPlant",
     "perturbed_model",

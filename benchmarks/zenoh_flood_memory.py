@@ -6,9 +6,11 @@ answers each query at once; `--flooders` client processes send 64 KB queries wit
 flight each (benchmarks/bench_load.py's flooding client) for `--duration` s; then quiet for as
 long. With `--trim`, glibc's malloc_trim(0) is called once after the flood. With `--lab` the
 lab's own intake answers instead (`ServerTransport`: client ids, rate limits, size cap,
-validation; nobody takes the valid commands, and the flood sends none): the difference is the
-lab's part. Run it with the environment the question needs (e.g. MALLOC_ARENA_MAX=1) and
-compare:
+validation, the ring of COMMAND_QUEUE queries, MAX_MESSAGE_BYTES and the heap trimmer; nobody
+takes the valid commands, and the flood sends none): the difference is the lab's part. Each
+sample is the resident memory and glibc's heap (`heap_usage`: in use by live allocations, and
+freed but kept by malloc). Run it with the environment the question needs (e.g.
+MALLOC_ARENA_MAX=1) and compare:
 
     .venv/bin/python benchmarks/zenoh_flood_memory.py [--duration 10] [--trim]
 """
@@ -28,7 +30,7 @@ from bench_load import flood, rss_mb
 
 from lab.protocol import LabKeys
 from lab.runtime.transport import COMMAND_QUEUE, ServerTransport, server_config
-from lab.world.memory import release_free_memory
+from lab.world.memory import heap_usage, release_free_memory
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from tests.helpers.ports import free_port
@@ -43,6 +45,11 @@ def serve(queryable: zenoh.Queryable) -> None:
             return
         query.reply(query.key_expr, b'{"ok": false, "error": "refused"}')
         query.drop()
+
+
+def sample(pid: int) -> dict[str, object]:
+    """The resident memory (MB) and glibc's heap now."""
+    return {"rss": round(rss_mb(pid), 1), "heap": heap_usage()}
 
 
 def main() -> int:
@@ -84,7 +91,7 @@ def main() -> int:
 
     pid = multiprocessing.current_process().pid
     report: dict[str, object] = {"lab": args.lab, "set": args.set}
-    report["before_mb"] = round(rss_mb(pid), 1)
+    report["before"] = sample(pid)
     spawn = multiprocessing.get_context("spawn")
     stop, replies = spawn.Event(), spawn.Value("l", 0)
     endpoint = f"tcp/127.0.0.1:{port}"
@@ -98,16 +105,18 @@ def main() -> int:
     end = time.monotonic() + args.duration
     while time.monotonic() < end:
         time.sleep(1.0)
-        samples.append(round(rss_mb(pid), 1))
+        samples.append(sample(pid))
     stop.set()
     for process in flooders:
         process.join(30.0)
-    report["flood_mb"] = samples
+    report["flood"] = samples
     report["replies"] = replies.value
+    time.sleep(1.0)  # the last queries answered
+    report["flood_ended"] = sample(pid)
     if args.trim:
         report["trimmed"] = release_free_memory()
     time.sleep(args.duration)
-    report["after_mb"] = round(rss_mb(pid), 1)
+    report["after"] = sample(pid)
     close()
     print(json.dumps(report))
     return 0

@@ -145,6 +145,7 @@ class CommandIntake:
         self._lock = threading.Lock()
         self._rejected = 0
         self._last_rejection = ("", "")
+        self.payload_bytes = 0  # read so far, refused or not (lab/runtime/heap_trim.py)
         self._thread = threading.Thread(target=self._run, name="command-intake", daemon=True)
         self._thread.start()
 
@@ -187,6 +188,8 @@ class CommandIntake:
 
     def receive(self, query: zenoh.Query) -> None:
         """Refuse and answer `query`, or keep it for the loop."""
+        if (sent := query.payload) is not None:
+            self.payload_bytes += len(sent)
         verb = str(query.key_expr).removeprefix(self._keys.cmd_prefix)[:64]
         client, error = client_of(query)
         if error is None:

@@ -17,7 +17,9 @@ there left the 1 kHz loop gaps of seconds on a machine at load 33-45, for reason
 it is off by default (docs/reliability.md, "Robot switches").
 A GIL held by a thread the host preempts stays held until the thread runs again: on a busy
 machine a millisecond's hold became tens of them, the loop (at nice -10) waiting behind a nice-0
-thread. So the thread asks for the loop's nice (`LoopConfig.nice`) when it starts.
+thread. So the thread asks for the loop's nice (`LoopConfig.nice`) when it starts. A build's
+allocations can start Python's full garbage collection, which holds the GIL for as long as it
+scans: the realtime loop freezes what exists when it starts (loop.py), so that it scans little.
 """
 
 import functools

@@ -19,12 +19,22 @@ import zenoh
 
 from lab.protocol import DEFAULT_PORT, LabKeys, parse_command
 from lab.runtime.access import ListenAccess, listen_access, read_users, remote_listen_refusal
+from lab.runtime.heap_trim import HeapTrimmer
 from lab.runtime.intake import CommandIntake, Request
 from lab.zenoh_config import Credentials, usrpwd_settings, zenoh_config
 
 # Queries Zenoh keeps for the intake thread; beyond this the oldest get no reply. The intake
-# answers each at once, so this fills only while that thread is starved.
-COMMAND_QUEUE = 256
+# answers each at once, so this fills only while that thread is starved, as under a flood: then
+# it holds this many queries (of up to MAX_MESSAGE_BYTES each): at 256 a flood of 64 KB commands
+# kept 16 MB in it (7 % of the sim process; benchmarks/zenoh_flood_memory.py), at 128 8 MB. A
+# client's burst of 100 still fits (its rate limit answers it, tests/client/test_client.py).
+COMMAND_QUEUE = 128
+# The largest message Zenoh takes in (its `transport/link/rx/max_message_size`, 1 GiB by
+# default: one query could make the sim process allocate that much). A larger one is dropped by
+# Zenoh unanswered (its sender's query times out); up to this size a payload over the protocol's
+# MAX_PAYLOAD_BYTES (16 KiB) is refused with a reply naming the cap (lab/runtime/intake.py), the
+# wire fuzz's 1 MB payloads included (tests/runtime/test_fuzz_wire.py).
+MAX_MESSAGE_BYTES = 1536 * 1024
 INTAKE_STOP_S = 2.0  # how long `close` waits for the intake thread
 MAX_CLIENT_CHANGES = 1024  # clients' liveliness changes kept between two commands (the oldest go)
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
@@ -67,6 +77,8 @@ def server_config(
         # docs/reliability.md). Messages here are a few KB: loopback TCP carries them.
         "transport/shared_memory/enabled": False,
     }
+    if mode == "peer":  # the sim process (a router forwards what its labs publish, any size)
+        settings["transport/link/rx/max_message_size"] = MAX_MESSAGE_BYTES
     if users_file is not None or credentials is not None:
         settings["transport/auth/usrpwd"] = usrpwd_settings(users_file, credentials)
     return zenoh_config(settings, base_file)
@@ -176,6 +188,7 @@ class ServerTransport:
         self._events = self._session.declare_publisher(self.keys.events)
         self._alive = self._session.liveliness().declare_token(self.keys.alive)
         self._puts = PutThread()
+        self._trimmer = HeapTrimmer(lambda: self._intake.payload_bytes)
 
     def receive(self) -> Request | None:
         """The next valid command (one client after another), without blocking."""
@@ -207,6 +220,7 @@ class ServerTransport:
 
     def close(self) -> None:
         self._puts.close()
+        self._trimmer.close()
         for entity in (self._alive, self._clients, self._telemetry, self._state, self._events):
             entity.undeclare()
         # The queryable is the intake thread's while it waits in `recv` (undeclaring it then

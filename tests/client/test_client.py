@@ -11,7 +11,7 @@ import zenoh
 from lab.client import LabClient
 from lab.protocol import MAX_PAYLOAD_BYTES, LabKeys, PushCommand
 from lab.runtime.intake import ANONYMOUS, BURST, CLIENT_QUEUE
-from lab.runtime.transport import ServerTransport, server_config
+from lab.runtime.transport import MAX_MESSAGE_BYTES, ServerTransport, server_config
 
 LAB = "client-decoding"
 
@@ -94,6 +94,32 @@ def test_queries_are_validated_off_the_loop_and_answered_on_their_key() -> None:
         transport.close()
 
 
+def test_a_message_over_zenohs_cap_is_dropped_before_the_lab_reads_it() -> None:
+    """Up to MAX_MESSAGE_BYTES an oversized payload is refused with the protocol's cap; beyond,
+    Zenoh drops it unanswered (the sim process never holds it), and the link still serves."""
+    port = free_port()
+    transport = ServerTransport(server_config(port), LAB)
+    try:
+        with LabClient(f"tcp/127.0.0.1:{port}") as lab:
+            session = lab.session
+            near = b" " * (MAX_MESSAGE_BYTES - 1024)  # fragmented (over 64 KiB), under the cap
+            answer = json.loads(
+                next(iter(lab_query(session, LAB, "velocity", near))).ok.payload.to_bytes()
+            )
+            assert f"{MAX_PAYLOAD_BYTES}-byte cap" in answer["error"]
+            read = transport._intake.payload_bytes
+            huge = b" " * (8 * MAX_MESSAGE_BYTES)
+            dropped = lab_query(session, LAB, "velocity", huge, timeout=0.5)
+            assert [r for r in dropped if r.ok is not None] == []  # no reply: a timeout
+            assert transport._intake.payload_bytes == read  # never reached the intake
+            answer = json.loads(
+                next(iter(lab_query(session, LAB, "velocity", b"null"))).ok.payload.to_bytes()
+            )
+            assert "got null" in answer["error"]  # the same link still answers
+    finally:
+        transport.close()
+
+
 def test_a_client_over_its_rate_or_queue_is_told_so() -> None:
     port = free_port()
     transport = ServerTransport(server_config(port), LAB)  # nobody drains: commands wait
@@ -117,11 +143,16 @@ def test_a_client_over_its_rate_or_queue_is_told_so() -> None:
 
 
 def lab_query(
-    session: zenoh.Session, lab: str, verb: str, payload: bytes, attachment: str | None = "tester"
+    session: zenoh.Session,
+    lab: str,
+    verb: str,
+    payload: bytes,
+    attachment: str | None = "tester",
+    timeout: float = 2.0,
 ) -> zenoh.Handler:
     """A raw query to `lab/<lab>/cmd/<verb>`, with `attachment` as the client id."""
     key = f"lab/{lab}/cmd/{verb}"
-    return session.get(key, payload=payload, timeout=2.0, attachment=attachment)
+    return session.get(key, payload=payload, timeout=timeout, attachment=attachment)
 
 
 def _receive(transport: ServerTransport):

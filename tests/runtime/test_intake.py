@@ -82,8 +82,10 @@ def test_a_full_queue_a_fast_client_and_a_large_payload_are_refused_with_the_rea
     intake.receive(_Query("info", {}, "a"))
     assert len(answers) == refused  # accepted: it waits, unanswered
     big = b'{"vx": ' + b" " * MAX_PAYLOAD_BYTES + b"1}"
+    read = intake.payload_bytes
     intake.receive(_Query("velocity", big, "b"))
     assert f"over the {MAX_PAYLOAD_BYTES}-byte cap" in answers[-1][1]["error"]
+    assert intake.payload_bytes - read == len(big)  # refused, but counted (heap_trim.py)
     count, verb, error = intake.rejections()
     assert count == len(answers) and verb == "velocity" and "cap" in error
     assert intake.rejections()[0] == 0

@@ -287,6 +287,19 @@ def test_gc_pauses_are_counted_by_generation_while_installed() -> None:
     pauses.remove()  # twice: harmless
 
 
+def test_a_realtime_loop_freezes_what_exists_so_a_full_collection_skips_it() -> None:
+    """What existed when the realtime loop started is in the permanent generation: a full
+    collection scans only what came after (docs/reliability.md, "The garbage collector")."""
+    gc.unfreeze()  # from an earlier test's loop
+    try:
+        scanned_before = len(gc.get_objects())
+        _run_loop(LoopConfig(rate_hz=2000, sched="other"), ticks=5)
+        assert gc.get_freeze_count() >= scanned_before // 2
+        assert len(gc.get_objects()) < scanned_before // 10  # what a full collection scans
+    finally:
+        gc.unfreeze()
+
+
 def test_ticks_are_timed_by_kind_and_the_details_reach_the_snapshot() -> None:
     """Each tick's work goes to the histogram of its kind (what it did beside the session's
     tick: a telemetry message takes two ticks to build); each percentile refresh updates one
