@@ -16,10 +16,7 @@ model update + rows + solve per tick, timed inside it (no Python around it), and
 median of each of those stages (`kernel_stages_us`). `--solvers daqp
 clarabel` times both QP backends; the native kernel solves with DAQP only, so a Clarabel run
 asked of it runs on the Python kernel and its row says so (kernel python, `note`). Every row
-names what ran (`controller.ran`: kernel, method, solver). Herzog's LQR momentum gains are
-designed as `lab serve` designs them, in a worker process off the tick (lab/runtime/
-gain_designer.py; the gain in use stays until the new one arrives), so a row times the tick the
-server runs; `--inline-designs` designs them in the tick instead, as a scenario run does.
+names what ran (`controller.ran`: kernel, method, solver).
 """
 
 import argparse
@@ -31,7 +28,6 @@ import numpy as np
 
 from lab.controller.native import NOT_BUILT
 from lab.description import ROBOT_NAMES
-from lab.runtime.gain_designer import GainDesigner
 from lab.world.session import Session, SessionConfig
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos", "bolt")  # the default rows; --robots takes any
@@ -90,31 +86,10 @@ def bench_one(
     kernel: str = "python",
     gait: str = "stand",
     solver: str = "daqp",
-    inline_designs: bool = False,
 ) -> dict:
     """One run: the ticks of `seconds` of `gait` with a push, then the solve repeated; the row
-    names what ran (kernel, method, solver, where LQR gains were designed) and the note when it
-    is not what was asked."""
-    designer = None if inline_designs else GainDesigner()
-    try:
-        return _bench_session(robot, method, seconds, kernel, gait, solver, designer)
-    finally:
-        if designer is not None:
-            designer.close()
-
-
-def _bench_session(
-    robot: str,
-    method: str,
-    seconds: float,
-    kernel: str,
-    gait: str,
-    solver: str,
-    designer: GainDesigner | None,
-) -> dict:
-    """bench_one's run, LQR gains designed by `designer` (None: in the tick)."""
-    config = SessionConfig(robot=robot, method=method, kernel=kernel, solver=solver)
-    session = Session(config, None if designer is None else designer.submit)
+    names what ran (kernel, method, solver) and the note when it is not what was asked."""
+    session = Session(SessionConfig(robot=robot, method=method, kernel=kernel, solver=solver))
     for verb, payload in GAITS[gait].commands:
         reply = session.handle(verb, payload)
         if not reply["ok"]:
@@ -172,7 +147,6 @@ def _bench_session(
         "fell": session.fell,
         "capped_ticks": capped,
         "qp_failures": session.qp_failures,
-        "lqr_designs": "inline" if designer is None else "worker",
     }
 
 
@@ -192,12 +166,6 @@ def bench_main(argv: list[str]) -> int:
         help="stand: every robot; trot: the quadrupeds; single: Talos on one sole; "
         "biped_step: Bolt walking",
     )
-    parser.add_argument(
-        "--inline-designs",
-        action="store_true",
-        help="design LQR momentum gains in the tick (as `lab run`), not in a worker "
-        "(as `lab serve`)",
-    )
     args = parser.parse_args(argv)
     if "native" in args.kernels and NOT_BUILT:
         print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
@@ -210,7 +178,7 @@ def bench_main(argv: list[str]) -> int:
         if _applies(r, m, g)
     ]
     asked = [(r, g, m, s, k) for r, m, g in runs for s in args.solvers for k in args.kernels]
-    rows = [bench_one(r, m, args.seconds, k, g, s, args.inline_designs) for r, g, m, s, k in asked]
+    rows = [bench_one(r, m, args.seconds, k, g, s) for r, g, m, s, k in asked]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
