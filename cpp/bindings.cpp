@@ -246,6 +246,14 @@ nb::tuple tuple_of(const Values& values, Item&& item) {
 
 using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
+/// A bool array's entries as Eigen's.
+Eigen::Array<bool, Eigen::Dynamic, 1> flags_of(const Flags& flags) {
+  Eigen::Array<bool, Eigen::Dynamic, 1> out(static_cast<Eigen::Index>(flags.shape(0)));
+  for (std::size_t i = 0; i < flags.shape(0); ++i)
+    out(static_cast<Eigen::Index>(i)) = flags.data()[i];
+  return out;
+}
+
 }  // namespace
 
 void lab::read_references(lab::Kernel& kernel, nb::handle refs) {
@@ -423,6 +431,41 @@ NB_MODULE(_kernel, m) {
       .def("set_momentum_gain", &lab::Kernel::set_momentum_gain, "gain"_a,
            "The momentum task's K_h (6 x 9) from lab/controller/momentum.py; raises ValueError "
            "for another size or a non-finite entry.")
+      .def(
+          "set_momentum_schedule",
+          [](lab::Kernel& k, std::optional<nb::callable> schedule, double arm_tolerance) {
+            std::function<void()> ask;
+            if (schedule)  // called inside a tick, which may have let the GIL go; the kernel
+              ask = [call = *schedule, kernel = &k]() {  // owns this, so it outlives it
+                nb::gil_scoped_acquire gil;
+                const nb::tuple out = nb::cast<nb::tuple>(call());
+                if (out.size() != 3)
+                  throw std::invalid_argument("momentum schedule: return (gain, active, arms)");
+                kernel->set_momentum_gain(nb::cast<Eigen::MatrixXd>(out[0]));
+                if (out[1].is_none())
+                  kernel->release_momentum_gain();
+                else
+                  kernel->hold_momentum_gain(flags_of(nb::cast<Flags>(out[1])),
+                                             nb::cast<Eigen::MatrixXd>(out[2]));
+              };
+            k.set_momentum_schedule(std::move(ask), arm_tolerance);
+          },
+          "schedule"_a.none(), "arm_tolerance"_a,
+          "The momentum task's gain schedule, asked inside a tick whenever no held K_h stays "
+          "(another contact configuration, or an arm p_i - c moved more than arm_tolerance, m): "
+          "a callable returning (K_h, the contact flags, the arms, one row per contact in "
+          "support) to hold K_h at while it is settled, or (K_h, None, None). None: K_h only "
+          "from set_momentum_gain. A Python error it raises leaves the tick.")
+      .def(
+          "hold_momentum_gain",
+          [](lab::Kernel& k, Flags active, const Eigen::MatrixXd& arms) {
+            k.hold_momentum_gain(flags_of(active), arms);
+          },
+          "active"_a, "arms"_a,
+          "Hold the current K_h as settled for the contacts `active` (bool per contact) at the "
+          "arms p_i - c (one row of 3 per contact in support) its design read.")
+      .def("release_momentum_gain", &lab::Kernel::release_momentum_gain,
+           "The next tick asks the momentum schedule again.")
       .def("set_internal_force", &lab::Kernel::set_internal_force, "reference"_a, "source"_a,
            "The internal-force task's F_int,ref (N) and sensed source (contacts or torques); "
            "raises ValueError for a non-finite reference or another source.")

@@ -150,6 +150,17 @@ void Kernel::set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain) {
   lab::set_momentum_gain(*tasks_.at("momentum"), gain);
 }
 
+void Kernel::set_momentum_schedule(std::function<void()> schedule, double arm_tolerance) {
+  lab::set_momentum_schedule(*tasks_.at("momentum"), std::move(schedule), arm_tolerance);
+}
+
+void Kernel::hold_momentum_gain(const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
+                                const Eigen::Ref<const Eigen::MatrixXd>& arms) {
+  lab::hold_momentum_gain(*tasks_.at("momentum"), active, arms);
+}
+
+void Kernel::release_momentum_gain() { lab::release_momentum_gain(*tasks_.at("momentum")); }
+
 void Kernel::set_internal_force(double reference, const std::string& source) {
   lab::set_internal_force(*tasks_.at("internal_force"), reference, source);
 }

@@ -1,7 +1,12 @@
 // The centroidal momentum task of Herzog 2016 (lab/controller/tasks/momentum.py): momentum.
 // K_h, the 6 × 9 feedback gain, is designed in Python (lab/controller/momentum.py: PD of eq. 22,
 // LQR of eqs. 23–26 and its interpolation across a contact switch) and set here when it changes.
+// Under LQR the gain depends on the contact configuration and the pose; the kernel holds a
+// settled gain while both stay (MomentumTask.to_kernel's rule, GainSchedule.settled) and asks
+// the Python schedule only on the other ticks: a switch, a redesign, an interpolation.
+#include <functional>
 #include <stdexcept>
+#include <utility>
 
 #include "tasks/registry.hpp"
 
@@ -14,6 +19,7 @@ namespace {
 class MomentumTask : public Task {
  public:
   void compute(const RobotModel& robot, const References& refs) override {
+    if (schedule && !holds(robot, refs)) schedule();  // it sets K_h (and holds it, if settled)
     if (!gain_set) throw std::logic_error("momentum: no K_h was set (Kernel.set_momentum_gain)");
     const Eigen::Matrix<double, 6, 1> h = robot.centroidal_map * robot.v;
     reset(robot, 6);
@@ -25,8 +31,30 @@ class MomentumTask : public Task {
     b.head<3>() += robot.mass * refs.com_acceleration;
   }
 
+  /// Whether the held K_h stays this tick: it was held as settled for this contact
+  /// configuration, and no arm p_i − c of a contact in support has moved more than the
+  /// tolerance from the pose its design read (GainSchedule.settled, momentum.py).
+  bool holds(const RobotModel& robot, const References& refs) const {
+    if (!held || refs.contact_active.size() != held_active.size() ||
+        (refs.contact_active != held_active).any())
+      return false;
+    Eigen::Index row = 0;
+    for (Eigen::Index i = 0; i < held_active.size(); ++i) {
+      if (!held_active(i)) continue;
+      const Eigen::Vector3d arm = robot.contact_positions[static_cast<std::size_t>(i)] - robot.com;
+      if ((arm - held_arms.row(row++).transpose()).cwiseAbs().maxCoeff() > arm_tolerance)
+        return false;
+    }
+    return true;
+  }
+
   Eigen::Matrix<double, 6, 9> gain = Eigen::Matrix<double, 6, 9>::Zero();
   bool gain_set = false;
+  std::function<void()> schedule;  // the Python schedule's tick (empty: K_h is set from outside)
+  double arm_tolerance = 0.0;      // m (momentum.py ARM_TOLERANCE)
+  bool held = false;               // K_h is settled for held_active at held_arms
+  Eigen::Array<bool, Eigen::Dynamic, 1> held_active;
+  Eigen::MatrixXd held_arms;  // (contacts in support) × 3, the pose the design read
 };
 
 }  // namespace
@@ -40,6 +68,28 @@ void set_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& 
   task.gain = gain;
   task.gain_set = true;
 }
+
+void set_momentum_schedule(Task& momentum, std::function<void()> schedule, double arm_tolerance) {
+  if (!(arm_tolerance >= 0.0))
+    throw std::invalid_argument("momentum: the arm tolerance must be a number >= 0");
+  auto& task = dynamic_cast<MomentumTask&>(momentum);
+  task.schedule = std::move(schedule);
+  task.arm_tolerance = arm_tolerance;
+  task.held = false;
+}
+
+void hold_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
+                        const Eigen::Ref<const Eigen::MatrixXd>& arms) {
+  if (arms.cols() != 3 || arms.rows() != active.count() || !arms.allFinite())
+    throw std::invalid_argument(
+        "momentum: the held arms need 3 finite columns, one row per contact in support");
+  auto& task = dynamic_cast<MomentumTask&>(momentum);
+  task.held_active = active;
+  task.held_arms = arms;
+  task.held = true;
+}
+
+void release_momentum_gain(Task& momentum) { dynamic_cast<MomentumTask&>(momentum).held = false; }
 
 void add_momentum_tasks(TaskRegistry& tasks) {
   tasks["momentum"] = std::make_unique<MomentumTask>();

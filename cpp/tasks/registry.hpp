@@ -1,6 +1,7 @@
 // The task registry (lab/controller/tasks/__init__.py TASK_TYPES): every task a stack can name.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,17 @@ TaskRegistry make_tasks();
 /// The momentum task's K_h (6 × 9, tasks/momentum.cpp); throws std::invalid_argument for another
 /// size or a non-finite entry and keeps the last one.
 void set_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& gain);
+/// The momentum task asks `schedule` (the Python gain schedule, which sets K_h and holds it
+/// when settled) on every tick where no settled K_h holds for the contact configuration and
+/// pose: a contact arm moved more than `arm_tolerance` (m) from the held pose (an empty
+/// `schedule`: K_h only from set_momentum_gain). Drops the held gain.
+void set_momentum_schedule(Task& momentum, std::function<void()> schedule, double arm_tolerance);
+/// Hold the current K_h as settled for the contacts `active` at the arms p_i − c (one row per
+/// contact in support, world axes) its design read; throws std::invalid_argument for others.
+void hold_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
+                        const Eigen::Ref<const Eigen::MatrixXd>& arms);
+/// The next tick asks the schedule again (the Python schedule changed outside a tick).
+void release_momentum_gain(Task& momentum);
 
 /// The frames the hands task moves, one hand each, in the order of the references' hand rows
 /// (tasks/hands.cpp); throws std::invalid_argument naming a frame the model lacks and keeps the

@@ -188,6 +188,9 @@ class GainSchedule:
     solve: Callable[[LqrProblem], np.ndarray] = momentum_gain_of  # a design run at once
     submit: Callable[[LqrProblem], GainFuture] | None = None
     designs: int = 0  # gains designed since the schedule was made or cleared
+    # bumped whenever a stored design, the pending one or the whole schedule changes: a holder
+    # of a settled gain (the native kernel, MomentumTask.to_kernel) sees it changed elsewhere
+    version: int = 0
     _gains: dict[bytes, np.ndarray] = field(default_factory=dict)
     _arms: dict[bytes, np.ndarray] = field(default_factory=dict)  # the pose of each gain
     _pending: tuple[bytes, np.ndarray, GainFuture] | None = None
@@ -204,6 +207,7 @@ class GainSchedule:
     def _install(self, key: bytes, arms: np.ndarray, gain: np.ndarray) -> None:
         self._gains[key], self._arms[key] = gain, arms.copy()
         self.designs += 1
+        self.version += 1
 
     def target(self, key: bytes, arms: np.ndarray, problem: Callable[[], LqrProblem]) -> np.ndarray:
         """K_h of configuration `key` at the pose `arms` (contact_arms), the gain the
@@ -213,12 +217,14 @@ class GainSchedule:
         pending = self._pending
         if pending is not None and pending[2].done():
             self._pending = None
+            self.version += 1
             self._install(pending[0], pending[1], pending[2].result())  # raises its LinAlgError
         if self._moved(key, arms):
             if self.submit is None or self._current is None:
                 self._install(key, arms, self.solve(problem()))
             elif self._pending is None:  # one design at a time: the newest pose goes next
                 self._pending = (key, arms.copy(), self.submit(problem()))
+                self.version += 1
         return self._gains.get(key, self._target)
 
     def gain(self, key: bytes, arms: np.ndarray, problem: Callable[[], LqrProblem]) -> np.ndarray:
@@ -240,13 +246,21 @@ class GainSchedule:
     def settled(self, key: bytes, arms: np.ndarray) -> bool:
         """Whether `gain(key, arms, …)` would return `current` unchanged (same configuration and
         pose, no interpolation or design running): a caller holding that gain may skip it."""
-        return (
-            self._current is not None
-            and self._pending is None
-            and self._ticks >= self.transition_ticks
-            and self._target is self._gains.get(key)
-            and not self._moved(key, arms)
-        )
+        return self.held_arms(key) is not None and not self._moved(key, arms)
+
+    def held_arms(self, key: bytes) -> np.ndarray | None:
+        """The pose (contact_arms) that configuration `key`'s gain was designed at, when the gain
+        in use is that one and stays (no interpolation or design running); else None. A holder
+        may skip `gain` while the configuration is `key` and no arm has moved more than
+        ARM_TOLERANCE from this pose (`settled`), until `version` changes."""
+        if (
+            self._current is None
+            or self._pending is not None
+            or self._ticks < self.transition_ticks
+            or self._target is not self._gains.get(key)
+        ):
+            return None
+        return self._arms[key]
 
     @property
     def current(self) -> np.ndarray | None:
@@ -272,3 +286,4 @@ class GainSchedule:
         self._pending = None
         self._key = b""
         self._ticks = 0
+        self.version += 1

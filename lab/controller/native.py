@@ -144,7 +144,6 @@ class NativeController(WholeBodyController):
         self._native: _kernel.Kernel | None = None
         self._unsupported = ""  # why the native kernel cannot run the stack ('' when it can)
         self._kernel_inputs: list[Task] = []  # the stack's tasks with KERNEL_INPUTS
-        self._python_before_solve = ""  # a stack task's PYTHON_BEFORE_SOLVE ('' for none)
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
@@ -221,9 +220,6 @@ class NativeController(WholeBodyController):
             self._unsupported = ""
             tasks = [self.tasks[name] for name in stack.names() if name in self.tasks]
             self._kernel_inputs = [task for task in tasks if task.KERNEL_INPUTS]
-            self._python_before_solve = next(
-                (task.PYTHON_BEFORE_SOLVE for task in tasks if task.PYTHON_BEFORE_SOLVE), ""
-            )
         except KeyError as error:  # a task written in Python only: the Python kernel runs it
             self._unsupported = error.args[0]
 
@@ -282,10 +278,6 @@ class NativeController(WholeBodyController):
         """One crossing: references in, the model update at (q, v) if given, the solve, τ and x
         into the preallocated arrays; the rest stays in the kernel's outcome until read."""
         native = self._built
-        if self._python_before_solve and q is not None:  # it reads this tick's model update
-            native.update(q, v)
-            self.robot.filled_elsewhere()
-            q = v = None
         self.prepare_native_tick()
         outcome = native.tick_into(self.references, self._tau, self._x, q, v)
         if q is not None:
@@ -296,12 +288,10 @@ class NativeController(WholeBodyController):
     def server_tick_note(self) -> str:
         """Why the server's native tick (lab/world/native_tick.py: plant, behaviour and
         controller in one crossing) cannot run this controller ('' when it can): the native
-        kernel does not run the stack, or the momentum task's gain schedule, which runs in
-        Python, must read each tick's model update before the solve (a task's
-        PYTHON_BEFORE_SOLVE)."""
+        kernel does not run the stack."""
         if self._native is None or not self._runs_native():
             return self.kernel_note or f"kernel {self.config.kernel!r} was asked for"
-        return self._python_before_solve
+        return ""
 
     @property
     def native_kernel(self) -> "_kernel.Kernel | None":

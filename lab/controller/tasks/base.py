@@ -8,11 +8,12 @@ UI hides them).
 
 A task also declares what the controller must do for it beyond building its rows, so that no
 controller asks for a task by name: whether it reads the sensors (`READS_SENSING`, `sense`),
-whether it holds inputs in Python that the native kernel needs each tick (`KERNEL_INPUTS`,
-`to_kernel`, `from_kernel`), and what of it runs in Python between the kernel's model update and
-its solve (`PYTHON_BEFORE_SOLVE`).
+and whether it holds inputs in Python that the native kernel needs each tick (`KERNEL_INPUTS`,
+`to_kernel`, `from_kernel`; the momentum task's LQR schedule is asked from inside the kernel's
+tick on the rare ticks that change its gain).
 """
 
+from collections.abc import Callable
 from typing import ClassVar, NamedTuple, Protocol
 
 import numpy as np
@@ -47,6 +48,17 @@ class KernelInputs(Protocol):
     def set_momentum_gain(self, gain: np.ndarray) -> None:
         """The momentum task's K_h (6 × 9)."""
 
+    def set_momentum_schedule(
+        self,
+        schedule: Callable[[], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] | None,
+        arm_tolerance: float,
+    ) -> None:
+        """The momentum task's LQR schedule, asked inside a tick where no settled K_h holds: it
+        returns K_h and the contact flags and arms to hold it at (None, None: not settled)."""
+
+    def release_momentum_gain(self) -> None:
+        """The next tick asks the momentum schedule again."""
+
     def set_internal_force(self, reference: float, source: str) -> None:
         """The internal-force task's F_int,ref (N) and sensed source."""
 
@@ -70,10 +82,6 @@ class Task:
     # The task holds inputs in Python that `to_kernel` hands the native kernel before each of
     # its ticks, and takes back what the tick computed of them with `from_kernel`.
     KERNEL_INPUTS: ClassVar[bool] = False
-    # What of the task runs in Python between the native kernel's model update and its solve
-    # ('' for nothing): the update and the solve are then two crossings, and the server's
-    # one-crossing tick (lab/world/native_tick.py) cannot run the task.
-    PYTHON_BEFORE_SOLVE: ClassVar[str] = ""
 
     def __init__(self, gains: TaskGains | None = None) -> None:
         self.gains = gains or TaskGains()

@@ -15,6 +15,7 @@ import numpy as np
 
 from lab.controller.model import RobotModel
 from lab.controller.momentum import (
+    ARM_TOLERANCE,
     LQR_COSTS,
     MOMENTUM_MODES,
     GainSchedule,
@@ -33,9 +34,6 @@ class MomentumTask(Task):
 
     name = "momentum"
     KERNEL_INPUTS: ClassVar[bool] = True  # K_h, designed in Python
-    PYTHON_BEFORE_SOLVE: ClassVar[str] = (
-        "the momentum task's gain schedule runs in Python between update and solve"
-    )
 
     def __init__(self, gains: TaskGains | None = None) -> None:
         super().__init__(gains)
@@ -44,6 +42,10 @@ class MomentumTask(Task):
         self.schedule = GainSchedule()
         self._kernel_pd: tuple[float, float] | None = None  # (kp, kd) of the PD K_h it holds
         self._kernel_lqr: np.ndarray | None = None  # the scheduled K_h the kernel holds
+        self._scheduled = False  # whether the kernel asks `_schedule_tick` (LQR)
+        self._version = -1  # the schedule's version when the kernel was last handed K_h
+        # the model and references the kernel's next tick reads (set before each crossing)
+        self._kernel_reads: tuple[RobotModel, References] | None = None
 
     def set_mode(self, mode: str) -> None:
         """`pd` (eq. 22), or `lqr` / `lqr_talos` (eqs. 23–26 with the printed cost or the one
@@ -75,27 +77,41 @@ class MomentumTask(Task):
             active.tobytes(), contact_arms(robot, active), self._problem(robot, active)
         )
 
-    def settled(self, robot: RobotModel, refs: References) -> bool:
-        """Whether this tick's LQR K_h is the last tick's (GainSchedule.settled)."""
-        active = refs.contact_active
-        return self.schedule.settled(active.tobytes(), contact_arms(robot, active))
-
     def to_kernel(self, kernel: KernelInputs, robot: RobotModel, refs: References) -> None:
-        """Hand the kernel K_h when it changes: the design (PD, LQR) and the interpolation
-        across a contact switch stay here and advance tick by tick as on the Python kernel; an
-        unchanged K_h does not cross."""
+        """Before a native crossing: under `pd` hand the kernel K_h when the gains change; under
+        LQR let the kernel ask `_schedule_tick` inside its tick, after its model update and the
+        behaviour, on the ticks where no settled K_h holds (another contact configuration, an
+        arm moved more than ARM_TOLERANCE: checked in the kernel), and drop the one it holds
+        when the schedule changed since it was handed (a mode, a design from outside a tick)."""
         if self.mode == "pd":
+            if self._scheduled:
+                kernel.set_momentum_schedule(None, ARM_TOLERANCE)
+                self._scheduled = False
             pd = (self.gains.kp, self.gains.kd)
             if pd != self._kernel_pd:
                 kernel.set_momentum_gain(self.gain(robot, refs))
                 self._kernel_pd, self._kernel_lqr = pd, None
             return
-        held = self._kernel_lqr
-        if held is not None and held is self.schedule.current and self.settled(robot, refs):
-            return
+        self._kernel_reads = (robot, refs)
+        if not self._scheduled:
+            kernel.set_momentum_schedule(self._schedule_tick, ARM_TOLERANCE)
+            self._scheduled, self._kernel_pd = True, None
+        elif (
+            self._kernel_lqr is not self.schedule.current or self._version != self.schedule.version
+        ):
+            kernel.release_momentum_gain()
+
+    def _schedule_tick(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The kernel's ask, inside its tick: this tick's K_h (GainSchedule.gain: a design, an
+        interpolation step), and the contact flags and arms to hold it at while it is settled
+        (None, None while it is not: the kernel asks again next tick)."""
+        assert self._kernel_reads is not None  # to_kernel ran before the crossing
+        robot, refs = self._kernel_reads
         gain = self.gain(robot, refs)
-        kernel.set_momentum_gain(gain)
-        self._kernel_pd, self._kernel_lqr = None, gain
+        self._kernel_lqr, self._version = gain, self.schedule.version
+        active = refs.contact_active
+        arms = self.schedule.held_arms(active.tobytes())
+        return gain, (None if arms is None else active.copy()), arms
 
     def _problem(self, robot: RobotModel, active: np.ndarray) -> Callable[[], LqrProblem]:
         return lambda: lqr_problem(robot, active, self.cost)
