@@ -41,8 +41,10 @@ The same problem on both sides:
   its model update read data.acom after pinocchio's computeAllTerms, which leaves it at zero;
   fixed on 2026-12-02 in both kernels.)
 - Timed per tick on both sides from Python, cycling through the states: TSID's three
-  setReference, computeProblemData, solve and getActuatorForces; ours the references, the
-  NativeController's update and solve (τ included), and the kernel's own time inside that.
+  setReference, computeProblemData, solve and getActuatorForces; ours the references and the
+  NativeController's `compute(q, v)` (update, rows, solve and τ in one crossing into the kernel,
+  the call a session's tick makes; until 2026-12-04 `update` then `solve`, two crossings), and
+  the kernel's own time inside that.
 """
 
 import argparse
@@ -276,8 +278,7 @@ def our_answer(controller: object, q: np.ndarray, v: np.ndarray, refs: object) -
     """q̈, F (point feet: world force; soles: wrench in the sole frame) and τ of our kernel, and
     how many of its inequality rows bind."""
     controller.references = refs
-    controller.update(q, v)
-    out = controller.solve()
+    out = controller.compute(q, v)
     assert controller.kernel_ran == "native"
     problem = controller.build_problem()  # the Python rows of the same problem, to count binding
     C = np.vstack([level.C for level in problem.levels])
@@ -288,15 +289,15 @@ def our_answer(controller: object, q: np.ndarray, v: np.ndarray, refs: object) -
 
 
 def time_ours(controller: object, states: list, ticks: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per-tick µs of `update` + `solve` cycling through the states (references swapped in per
-    tick, as TSID's are set per tick), and the kernel's own update + solve time inside it."""
+    """Per-tick µs of `compute(q, v)` (the model update, rows, solve and τ in one crossing, as
+    a session's tick calls it) cycling through the states (references swapped in per tick, as
+    TSID's are set per tick), and the kernel's own update + solve time inside it."""
     us, inside = np.empty(ticks), np.empty(ticks)
     for i in range(ticks):
         q, v, refs = states[i % len(states)]
         start = time.perf_counter()
         controller.references = refs
-        controller.update(q, v)
-        controller.solve()
+        controller.compute(q, v)
         us[i] = (time.perf_counter() - start) * 1e6
         inside[i] = sum(controller.kernel_seconds) * 1e6
     return us, inside
@@ -620,7 +621,7 @@ def main(argv: list[str] | None = None) -> int:
     failed = False
     for row in rows:
         print(f"{row['robot']:7} {'TSID':18} {stats(row['tsid'])}")
-        print(f"{row['robot']:7} {'ours (update+solve)':18} {stats(row['ours'])}")
+        print(f"{row['robot']:7} {'ours (compute)':18} {stats(row['ours'])}")
         print(f"{row['robot']:7} {'ours, inside kernel':18} {stats(row['inside'])}")
         ratio = np.median(row["ours"]) / np.median(row["tsid"])
         worst = row["worst"]

@@ -64,6 +64,15 @@ class RowSpaceQR {
     qr_.householderQ().applyThisOnTheRight(M, workspace_);
   }
 
+  /// Q itself (n x n), formed from the reflectors (Eigen's accumulation, which skips the
+  /// identity's untouched corner): I Q without applying the reflectors to a whole identity.
+  void q(Eigen::MatrixXd& out) {
+    if (rows_ == 0) return;
+    workspace_.resize(qr_.rows());
+    out.resize(qr_.rows(), qr_.rows());
+    qr_.householderQ().evalTo(out, workspace_);
+  }
+
   /// Q v, applied as reflectors.
   void apply_q_on_the_left(Eigen::VectorXd& v) {
     if (rows_ == 0) return;

@@ -41,19 +41,21 @@ struct Entry {
   Eigen::VectorXd z;
   Eigen::MatrixXd Z_buffer;
   Eigen::Index first = 0, cols = 0;
+  bool identity = false;  // Z is the identity (no level has stepped yet)
 
   void swap(Entry& other) {
     z.swap(other.z);
     Z_buffer.swap(other.Z_buffer);
     std::swap(first, other.first);
     std::swap(cols, other.cols);
+    std::swap(identity, other.identity);
   }
 };
 
 /// The storage of one equality step (a level's A, or its active rows of C): sized once.
 struct StepWork {
   RowSpaceQR qr;
-  Eigen::MatrixXd AZ;
+  Eigen::MatrixXd AZ, Q;
   Eigen::VectorXd r, y;
 };
 
@@ -124,6 +126,7 @@ void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index 
   entry_[0].Z_buffer.setIdentity(n, n);
   entry_[0].first = 0;
   entry_[0].cols = n;
+  entry_[0].identity = true;
   project(0);
   z = entry_[L].z;
   if (point && point->size() == n && violates(z)) {
@@ -284,6 +287,7 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
     next.Z_buffer.resize(n_, n_);  // no allocation once sized
     next.first = here.first;
     next.cols = here.cols;
+    next.identity = here.identity;
     next.Z_buffer.middleCols(next.first, next.cols) =
         here.Z_buffer.middleCols(here.first, here.cols);
     const Flags& on = active[k];
@@ -308,14 +312,26 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   // (A Z)ᵀ = Q [R1; 0] Pᵀ with linalg's rank rule: (A Z)⁺ r = Q1 (R1ᵀ)⁺ Pᵀ r, the next Z is Z Q2.
   if (b.size() == 0 || e.cols == 0) return;
   auto Z = e.Z_buffer.middleCols(e.first, e.cols);
-  work.AZ.noalias() = A * Z;
-  work.qr.compute(work.AZ);
+  if (e.identity) {
+    work.qr.compute(A);  // A Z = A
+  } else {
+    work.AZ.noalias() = A * Z;
+    work.qr.compute(work.AZ);
+  }
   const Eigen::Index rank = work.qr.rank();
   if (rank == 0) return;
   work.r = b;
   work.r.noalias() -= A * e.z;
   work.qr.solve(work.r, work.y);
-  work.qr.apply_q_on_the_right(Z);  // Z Q: the first `rank` columns step, the rest stay free
+  // Z Q: the first `rank` columns step, the rest stay free; where Z is the identity, Q itself
+  // (formed from its reflectors, which skips the identity's untouched corner)
+  if (e.identity) {
+    work.qr.q(work.Q);
+    Z = work.Q;
+    e.identity = false;
+  } else {
+    work.qr.apply_q_on_the_right(Z);
+  }
   e.z.noalias() += Z.leftCols(rank) * work.y;
   e.first += rank;
   e.cols -= rank;
