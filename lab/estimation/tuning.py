@@ -20,6 +20,11 @@ class EkfTuning:
     gyro_bias_walk: float = 1e-4  # rad/s²/√Hz
     foot_slip: float = 0.01  # m/√s: a stance foot's position random walk (Bloesch's w_p)
     kinematics: float = 0.005  # m: a foot's position from the leg kinematics, each axis
+    # After any touchdown, for `settle` s, the feet's kinematics count along the vertical with
+    # `settling_kinematics` instead: the loading foot's contact sinks and springs back, the
+    # unloading ones rise, by up to 5 mm (filter.py says why; docs/realism.md measures it)
+    settle: float = 0.2  # s
+    settling_kinematics: float = 0.05  # m
     initial_position: float = 1e-3  # m: the start pose is known (the lab's world frame)
     initial_velocity: float = 1e-3  # m/s: the robot starts at rest
     initial_orientation: float = 1e-3  # rad

@@ -34,15 +34,11 @@ def test_anymal_trots_on_the_ekf_with_its_yaw_and_velocity_within_bounds(trot_re
     assert metrics["distance_m"] > 0.5 * 0.5 * (SHORT_S - 1.0)  # it walked
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="not met yet: the estimate sinks about 1 cm/s while stepping (not while standing), "
-    "cause not found (docs/realism.md 'The state estimator')",
-)
 def test_the_ekf_base_height_stays_within_2_cm_of_the_truth_while_trotting(
     trot_report: dict,
 ) -> None:
-    """Issue 30's height target: base height error < 2 cm against the truth."""
+    """Issue 30's height target: base height error < 2 cm against the truth (the contacts'
+    give no longer sinks it: lab/estimation/filter.py)."""
     assert trot_report["metrics"]["max_estimate_height_error_m"] < 0.02
 
 
