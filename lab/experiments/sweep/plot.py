@@ -117,7 +117,7 @@ def plot_robustness(sweep: Sweep, rows: list[dict[str, object]], png: str | Path
             colour = "tab:green" if state.next is None else "lightgrey"  # grey: unfinished
             panel.barh(y, state.largest_ok - axis.lo, left=axis.lo, color=colour, alpha=0.35)
             for row in ran:
-                value = float(row[name])  # type: ignore[arg-type]
+                value = float(row[name])
                 if succeeded(row):
                     panel.scatter(value, y, marker="o", color="tab:green", s=30, zorder=3)
                 else:
