@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from lab.experiments.scenario import run_scenario
-from lab.experiments.sweep.spec import SweepError, check_scenario, load_sweep
+from lab.experiments.sweep.spec import SweepError, check_scenario, load_sweep, point_key
 from lab.experiments.sweep.table import ERROR, KEY, read_rows, write_rows
 
 BASE = Path(__file__).resolve().parent.parent.parent / "scenarios" / "anymal_push_lateral.toml"
@@ -235,3 +235,76 @@ def test_ctrl_c_stops_lab_sweep_while_it_waits_for_a_cluster(tmp_path):
         sweep.kill()
         sweep.wait()
         listener.close()
+
+
+def test_bisect_finds_the_largest_value_that_succeeds_in_its_steps():
+    """On a known threshold: the range's top first, then halvings; integers stop one apart."""
+    from lab.experiments.sweep.spec import Axis, bisect
+
+    def run(axis: Axis, threshold: float) -> tuple[list, object]:
+        outcomes: dict = {}
+        tried = []
+        while (state := bisect(axis, outcomes)).next is not None:
+            tried.append(state.next)
+            outcomes[state.next] = state.next <= threshold
+        return tried, state
+
+    tried, state = run(Axis("d", 0, 32, 4, True), 11)
+    assert tried == [32, 16, 8, 12, 10] and (state.largest_ok, state.smallest_failed) == (10, 12)
+    tried, state = run(Axis("d", 0, 4, 9, True), 2)  # stops one apart, not after 9 halvings
+    assert tried == [4, 2, 3] and (state.largest_ok, state.smallest_failed) == (2, 3)
+    tried, state = run(Axis("n", 0.0, 0.4, 3, False), 0.13)
+    assert tried == [0.4, 0.2, 0.1, 0.15] and state.largest_ok == pytest.approx(0.1)
+    tried, state = run(Axis("n", 0.0, 0.4, 3, False), 1.0)  # the top holds: one run
+    assert tried == [0.4] and (state.largest_ok, state.smallest_failed) == (0.4, None)
+
+
+BISECT_SWEEP = f"""
+name = "tiny_robustness"
+base = "{BASE}"
+duration = 2.5
+
+[set]
+"push.t" = 0.5
+
+[[points]]
+"controller.method" = "cascade"
+
+[bisect]
+"realism.command_delay" = {{ range = [0, 48], steps = 1 }}
+"realism.mass_error" = {{ range = [0.0, 0.1], steps = 0 }}
+"""
+
+
+def test_a_bisecting_sweep_runs_its_rounds_on_ray_and_resumes(local_ray, tmp_path):
+    """A tiny robustness map (scenarios/anymal_push_lateral.toml's 150 N push at 0.5 s, 2.5 s,
+    cascade): a 48-tick command delay fells ANYmal (its balance acts 48 ms late: it tilted
+    0.9 rad and fell at 2.2 s by hand), half of it is the next run, a 10 % mass error (no
+    halving asked) is taken; a rerun runs nothing and the map draws."""
+    from lab.experiments.sweep.plot import plot_robustness
+    from lab.experiments.sweep.runner import run_sweep
+
+    sweep = load_sweep(_write(tmp_path, BISECT_SWEEP))
+    assert [s.axis.field for s in sweep.series] == ["realism.command_delay", "realism.mass_error"]
+    table = tmp_path / "tiny.csv"
+    outcome = run_sweep(sweep, table, workers=2, progress=False)
+    rows = {row[KEY]: row for row in read_rows(table)}
+    method = {"controller.method": "cascade"}
+    top, middle, mass_run = (
+        point_key(method | field)
+        for field in (
+            {"realism.command_delay": 48},
+            {"realism.command_delay": 24},
+            {"realism.mass_error": 0.1},
+        )
+    )
+    assert (outcome.ok, outcome.failed) == (3, 0) and set(rows) == {top, middle, mass_run}
+    # the report's realism says what ran: the varied knob, the other at the base's value
+    assert rows[top]["fell"] is True and rows[top]["realism.mass_error"] == 0.0
+    assert rows[mass_run]["fell"] is False and rows[mass_run]["realism.command_delay"] == 0
+    delay, mass = (series.state(read_rows(table))[0] for series in sweep.series)
+    assert delay.next is None and delay.smallest_failed in (24, 48)
+    assert (mass.next, mass.largest_ok, mass.smallest_failed) == (None, 0.1, None)
+    assert run_sweep(load_sweep(_write(tmp_path, BISECT_SWEEP)), table, progress=False).ok == 0
+    png = plot_robustness(sweep, read_rows(table), tmp_path / "map.png")
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000

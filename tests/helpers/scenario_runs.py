@@ -136,6 +136,9 @@ KNOWN_FAILURES: dict[str, str] = {}
 LONG: dict[str, str] = {
     "anymal_trot_ekf": "60 s on the Python tick (the EKF has no C++ twin yet): ~2 processor "
     "minutes, more than a whole group",
+    "anymal_robustness": "the robustness map's base (sweeps/robustness_map.toml): 37.5 s, ~9 "
+    "processor seconds",
+    "bolt_robustness": "the robustness map's WBOSC base: 30.5 s of Bolt walking",
 }
 
 

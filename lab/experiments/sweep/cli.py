@@ -1,6 +1,7 @@
 """`lab sweep`: run a sweep file's points on Ray into one results table, optionally plot it."""
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -41,7 +42,8 @@ def sweep_main(argv: list[str]) -> int:
         nargs="?",
         const=True,
         metavar="FILE.png",
-        help="draw the push-recovery map (default: beside the table)",
+        help="draw the push-recovery map, or a bisecting sweep's robustness map (default: "
+        "beside the table)",
     )
     args = parser.parse_args(argv)
     try:
@@ -73,12 +75,24 @@ def sweep_main(argv: list[str]) -> int:
         + (" (interrupted)" if outcome.interrupted else "")
     )
     rows = read_rows(output)
+    for series in sweep.series:  # a bisecting sweep: what each series found
+        state, ran = series.state(rows)
+        failed = "none" if state.smallest_failed is None else f"{state.smallest_failed:g}"
+        print(
+            f"  {json.dumps(series.fields, sort_keys=True)} {series.axis.field}: succeeded up to "
+            f"{state.largest_ok:g}, failed at {failed} ({len(ran)} runs"
+            + ("" if state.next is None else ", unfinished")
+            + ")"
+        )
     if args.plot:
-        from lab.experiments.sweep.plot import PlotError, plot_push_map
+        from lab.experiments.sweep.plot import PlotError, plot_push_map, plot_robustness
 
         png = output.with_suffix(".png") if args.plot is True else Path(args.plot)
         try:
-            print(f"push-recovery map: {plot_push_map(rows, png, sweep.name)}")
+            if sweep.series:
+                print(f"robustness map: {plot_robustness(sweep, rows, png)}")
+            else:
+                print(f"push-recovery map: {plot_push_map(rows, png, sweep.name)}")
         except PlotError as error:
             print(f"lab sweep --plot: {error}", file=sys.stderr)
             return 2

@@ -1,7 +1,13 @@
-"""The push-recovery map of a sweep table: one polar panel per hierarchy method, a point per
-push (angle = push direction, radius = push force), a filled disc when the robot survived it
-(coloured by the largest CoG error, the `cog_tracking` metric), a cross when it fell, a grey
-square when the point failed to run. Drawn with matplotlib into a PNG.
+"""Plots of sweep tables, drawn with matplotlib into a PNG.
+
+The push-recovery map: one polar panel per hierarchy method, a point per push (angle = push
+direction, radius = push force), a filled disc when the robot survived it (coloured by the
+largest CoG error, the `cog_tracking` metric), a cross when it fell, a grey square when the
+point failed to run.
+
+The robustness map of a bisecting sweep: one panel per bisected field, a row per series (its
+method), a bar up to the largest value that succeeded, a disc at every run that succeeded, a
+cross at every run that failed.
 """
 
 from pathlib import Path
@@ -9,7 +15,9 @@ from pathlib import Path
 import numpy as np
 from matplotlib.colors import LogNorm
 
+from lab.experiments.sweep.spec import Sweep, succeeded
 from lab.experiments.sweep.table import ERROR
+from lab.protocol.realism import KNOBS
 
 FORCE, DIRECTION = "push.force_n", "push.direction_deg"
 COM_ERROR = "metrics.cog_error_max_m"
@@ -84,3 +92,58 @@ def _panel(ax: object, name: str, group: list[dict], norm: object, forces: list[
     ax.set_rlabel_position(22.5)
     ax.set_title(f"{name}: survived {len(kept)} of {len(group)}", pad=12)
     return disc
+
+
+def plot_robustness(sweep: Sweep, rows: list[dict[str, object]], png: str | Path) -> Path:
+    """Draw a bisecting sweep's table `rows` into `png`: per bisected field, per series, the
+    largest value at which the run succeeded."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not sweep.series:
+        raise PlotError("a robustness map needs a sweep with [bisect]")
+    axes_by_field = {series.axis.field: series.axis for series in sweep.series}
+    fig, panels = plt.subplots(
+        1, len(axes_by_field), figsize=(4.2 * len(axes_by_field), 3.2), layout="constrained"
+    )
+    for panel, (name, axis) in zip(np.atleast_1d(panels), axes_by_field.items(), strict=True):
+        group = [series for series in sweep.series if series.axis.field == name]
+        labels = []
+        for y, series in enumerate(group):
+            state, ran = series.state(rows)
+            labels.append(_series_label(series.fields))
+            colour = "tab:green" if state.next is None else "lightgrey"  # grey: unfinished
+            panel.barh(y, state.largest_ok - axis.lo, left=axis.lo, color=colour, alpha=0.35)
+            for row in ran:
+                value = float(row[name])
+                if succeeded(row):
+                    panel.scatter(value, y, marker="o", color="tab:green", s=30, zorder=3)
+                else:
+                    panel.scatter(value, y, marker="x", color="crimson", s=45, zorder=3)
+            panel.annotate(
+                f"{state.largest_ok:g}",
+                (state.largest_ok, y),
+                xytext=(3, 6),
+                textcoords="offset points",
+                fontsize=8,
+            )
+        panel.set_yticks(range(len(group)), labels)
+        panel.set_xlim(axis.lo, axis.hi * 1.08)
+        knob = KNOBS.get(name.removeprefix("realism."))
+        unit = f" ({knob.unit})" if knob and knob.unit else ""
+        panel.set_xlabel(f"{name.removeprefix('realism.')}{unit}")
+        panel.invert_yaxis()
+    fig.suptitle(f"{sweep.name}: ● succeeded, × fell or failed; bar: the largest that succeeded")
+    png = Path(png)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(png, dpi=100)
+    plt.close(fig)
+    return png
+
+
+def _series_label(fields: dict[str, object]) -> str:
+    """A series' name in the plot: its fields' values (a point's own base by its file's name)."""
+    values = [Path(str(v)).stem if k == "base" else str(v) for k, v in fields.items()]
+    return "\n".join(values) or "base"

@@ -72,8 +72,12 @@ def run_sweep(
     if retry_failed:
         rows = [row for row in rows if not row[ERROR]]
     done = {row[KEY] for row in rows}
-    todo = [point for point in sweep.points if point.key not in done]
-    outcome = SweepOutcome(skipped=len(sweep.points) - len(todo))
+    if sweep.series:  # a bisecting sweep: rounds of each series' next run, until all are done
+        todo = sweep.next_points(rows)
+        outcome = SweepOutcome(skipped=len(rows))
+    else:
+        todo = [point for point in sweep.points if point.key not in done]
+        outcome = SweepOutcome(skipped=len(sweep.points) - len(todo))
     if todo:
         ours = not ray.is_initialized()  # a caller's own Ray session is used and left running
         if ours:
@@ -81,7 +85,9 @@ def run_sweep(
             outcome.ray_start_s = time.monotonic() - start
         try:
             slots = workers or int(ray.cluster_resources().get("CPU", 1))
-            _stream(sweep, todo, rows, Path(output), slots, outcome, progress)
+            while todo and not outcome.interrupted:
+                _stream(sweep, todo, rows, Path(output), slots, outcome, progress)
+                todo = sweep.next_points(rows) if sweep.series else []
         finally:
             if ours:
                 ray.shutdown()
@@ -179,7 +185,8 @@ def _stream(
         while pending or running:
             while pending and len(running) < slots:
                 point = pending.popleft()
-                running[task.remote(point.scenario, str(sweep.base))] = (point, time.monotonic())
+                base = str(point.base or sweep.base)
+                running[task.remote(point.scenario, base)] = (point, time.monotonic())
             ready, _ = ray.wait(list(running), num_returns=1, timeout=WAIT_S)
             for ref in ready:
                 point, _ = running.pop(ref)

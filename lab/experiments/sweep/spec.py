@@ -22,6 +22,16 @@ A sweep file names a `base` scenario (a path relative to the sweep file) and how
 
     [[points]]               # optional: single points added as they are
     robot = "solo12"
+    base = "../scenarios/solo12_push_lateral.toml"  # a point may name its own base scenario
+
+    [bisect]                 # optional: per point, the largest value of each field that succeeds
+    "realism.command_delay" = { range = [0, 32], steps = 4 }
+
+With `[bisect]`, each point of the grid, samples and points is a series per bisected field (the
+others at the base's value): the run at the range's top, then up to `steps` runs halving the
+interval between the largest value that succeeded (the range's bottom, the base scenario, taken
+as succeeding) and the smallest that did not; a run succeeds when it finished without falling.
+Integer ranges bisect on integers. The runs of one round go out together (bisect_next).
 
 A field is a dotted path into the scenario's TOML (`robot`, `scene`, `duration`, `metrics`,
 `controller.method`, `controller.kernel`, `controller.stack`, `controller.gains.<task>.kp`, ...)
@@ -35,6 +45,7 @@ import copy
 import itertools
 import json
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,7 +55,7 @@ from lab.experiments.scenario import SCENARIO_KEYS, Scenario, ScenarioError, par
 from lab.protocol import VERBS
 
 SWEEP_KEYS = {"name", "description", "base", "duration", "timeout", "set", "grid", "sample"}
-SWEEP_KEYS |= {"points"}
+SWEEP_KEYS |= {"points", "bisect"}
 DEFAULT_TIMEOUT = 600.0  # s of wall time per point
 DERIVED_PUSH_FIELDS = ("push.force_n", "push.direction_deg")
 
@@ -55,10 +66,12 @@ class SweepError(ValueError):
 
 @dataclass(frozen=True)
 class Point:
-    """One scenario of a sweep: the varied fields' values, and the scenario TOML they give."""
+    """One scenario of a sweep: the varied fields' values, the scenario TOML they give, and
+    the base scenario's path (relative paths in the scenario are read from there)."""
 
     fields: dict[str, object]
     scenario: dict
+    base: Path | None = None
 
     @property
     def key(self) -> str:
@@ -66,15 +79,87 @@ class Point:
         return point_key(self.fields)
 
 
+@dataclass(frozen=True)
+class Axis:
+    """A bisected field: its range [lo, hi], the number of halvings after the run at hi, and
+    whether its values are integers (both ends written as integers)."""
+
+    field: str
+    lo: float
+    hi: float
+    steps: int
+    integer: bool
+
+    def value(self, x: float) -> float | int:
+        """`x` as this axis's value (an integer on an integer axis)."""
+        return int(x) if self.integer else round(float(x), 9)
+
+    def middle(self, ok: float, bad: float) -> float | int | None:
+        """The value halfway between a success and a failure; None when none is left between
+        them (integers one apart)."""
+        if self.integer:
+            return None if bad - ok <= 1 else int((ok + bad) // 2)
+        return self.value((ok + bad) / 2)
+
+
+@dataclass
+class Series:
+    """A bisection: a point's fields (the grid's, a sample's or an explicit point's) and the
+    axis varied from them."""
+
+    fields: dict[str, object]
+    axis: Axis
+
+    def fields_at(self, value: float | int) -> dict[str, object]:
+        """The fields of the series' run at `value`."""
+        return {**self.fields, self.axis.field: value}
+
+    def state(self, rows: list[dict[str, object]]) -> tuple["Bisection", list[dict]]:
+        """Where the bisection stands given a results table's rows, and its rows in run order."""
+        by_key = {str(row["point"]): row for row in rows}
+        outcomes: dict[float, bool] = {}
+        ran: list[dict] = []
+        while True:
+            state = bisect(self.axis, outcomes)
+            row = None if state.next is None else by_key.get(point_key(self.fields_at(state.next)))
+            if row is None:
+                return state, ran
+            assert state.next is not None
+            outcomes[state.next] = succeeded(row)
+            ran.append(row)
+
+
 @dataclass
 class Sweep:
-    """A parsed sweep file: its points in order and the wall time allowed to each."""
+    """A parsed sweep file: its points in order and the wall time allowed to each; a bisecting
+    sweep has its series instead, and makes its points as the bisection asks for them."""
 
     name: str
     base: Path
     points: list[Point] = field(default_factory=list)
     fields: list[str] = field(default_factory=list)  # every varied field, in file order
     timeout: float = DEFAULT_TIMEOUT
+    series: list[Series] = field(default_factory=list)
+    make: Callable[[dict[str, object]], Point] | None = None  # a bisecting sweep's point maker
+
+    def next_points(self, rows: list[dict[str, object]]) -> list[Point]:
+        """A bisecting sweep's next round: each unfinished series' next run not in `rows`."""
+        return [
+            self.point(series.fields_at(state.next))
+            for series in self.series
+            if (state := series.state(rows)[0]).next is not None
+        ]
+
+    def point(self, fields: dict[str, object]) -> Point:
+        """The point of `fields` (a bisecting sweep's), added to `points` on first use."""
+        key = point_key(fields)
+        known = next((p for p in self.points if p.key == key), None)
+        if known is not None:
+            return known
+        assert self.make is not None, "only a bisecting sweep makes points on demand"
+        made = self.make(fields)
+        self.points.append(made)
+        return made
 
 
 def point_key(fields: dict[str, object]) -> str:
@@ -105,20 +190,123 @@ def load_sweep(path: str | Path) -> Sweep:
         base_data["duration"] = data["duration"]
     for name, value in data.get("set", {}).items():
         _apply(base_data, name, value, f"{path}: [set]")
-    combos = _expand(path, data)
+    combos = _expand(path, data, bisecting="bisect" in data)
     sweep = Sweep(data.get("name", path.stem), base, timeout=_timeout(path, data))
-    sweep.fields = list(dict.fromkeys(name for combo in combos for name in combo))
-    for combo in combos:
-        scenario = copy.deepcopy(base_data)
+    bases: dict[str, tuple[Path, dict]] = {}
+
+    def make(combo: dict[str, object]) -> Point:
+        """The point of `combo`: its base (the sweep's, or the point's own `base`), its fields
+        applied, checked as `lab run` would."""
+        point_base, scenario = base, base_data
+        if "base" in combo:
+            own = str(combo["base"])
+            if own not in bases:
+                bases[own] = _own_base(path, combo["base"], data, f"{path}: [[points]]")
+            point_base, scenario = bases[own]
+        scenario = copy.deepcopy(scenario)
         for key, value in combo.items():
-            _apply(scenario, key, value, f"{path}: point {point_key(combo)}")
+            if key != "base":
+                _apply(scenario, key, value, f"{path}: point {point_key(combo)}")
         scenario["name"] = sweep.name  # not the base's name: a point may change what it says
-        check_scenario(scenario, base)
-        sweep.points.append(Point(combo, scenario))
+        check_scenario(scenario, point_base)
+        return Point(combo, scenario, point_base)
+
+    if "bisect" in data:
+        axes = _axes(path, data["bisect"])
+        sweep.series = [Series(combo, axis) for combo in combos for axis in axes]
+        named = [*(name for combo in combos for name in combo), *(a.field for a in axes)]
+        sweep.fields = list(dict.fromkeys(named))
+        sweep.make = make
+        for series in sweep.series:  # a misspelt field stops the sweep before Ray starts
+            make(series.fields_at(series.axis.value(series.axis.hi)))
+        return sweep
+    sweep.fields = list(dict.fromkeys(name for combo in combos for name in combo))
+    sweep.points = [make(combo) for combo in combos]
     keys = [p.key for p in sweep.points]
     if len(set(keys)) != len(keys):
         raise SweepError(f"{path}: some points are the same point twice")
     return sweep
+
+
+def _own_base(path: Path, relative: object, sweep: dict, where: str) -> tuple[Path, dict]:
+    """A point's own base scenario (`base` in [[points]]), prepared as the sweep's is."""
+    if not isinstance(relative, str):
+        raise SweepError(f"{where}: base must be a path, got {relative!r}")
+    base = (path.parent / relative).resolve()
+    try:
+        data = tomllib.loads(base.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise SweepError(f"{where}: base scenario: {error}") from error
+    data.pop("expect", None)
+    if "duration" in sweep:
+        data["duration"] = sweep["duration"]
+    for name, value in sweep.get("set", {}).items():
+        _apply(data, name, value, f"{path}: [set]")
+    return base, data
+
+
+def _axes(path: Path, table: object) -> list[Axis]:
+    """The [bisect] table: `"field" = { range = [lo, hi], steps = n }` per field."""
+    if not isinstance(table, dict) or not table:
+        raise SweepError(
+            f"{path}: [bisect] must name fields: field = {{range = [lo, hi], steps = n}}"
+        )
+    axes = []
+    for name, law in table.items():
+        ends = law.get("range") if isinstance(law, dict) else None
+        steps = law.get("steps") if isinstance(law, dict) else None
+        if (
+            not isinstance(ends, list)
+            or len(ends) != 2
+            or not all(isinstance(x, int | float) and not isinstance(x, bool) for x in ends)
+            or not ends[0] < ends[1]
+            or set(law) != {"range", "steps"}
+            or not isinstance(steps, int)
+            or steps < 0
+        ):
+            raise SweepError(
+                f"{path}: [bisect] {name!r} must be {{range = [lo, hi], steps = n}} with lo < hi "
+                "and n ≥ 0 halvings"
+            )
+        integer = all(isinstance(x, int) for x in ends)
+        axes.append(Axis(name, float(ends[0]), float(ends[1]), steps, integer))
+    return axes
+
+
+def succeeded(row: dict[str, object]) -> bool:
+    """A bisected run's success: it finished (no error) and the robot did not fall."""
+    return not row.get("error") and row.get("fell") is False
+
+
+@dataclass(frozen=True)
+class Bisection:
+    """Where a series stands: the next value to run (None when done), the largest value that
+    succeeded (the range's bottom when none did) and the smallest that failed (None: none)."""
+
+    next: float | int | None
+    largest_ok: float | int
+    smallest_failed: float | int | None
+
+
+def bisect(axis: Axis, outcomes: dict[float, bool]) -> Bisection:
+    """A series given its outcomes so far (value → succeeded): the range's top is run first,
+    then the middles between the largest success and the smallest failure, `steps` at most."""
+    ok: float | int = axis.value(axis.lo)
+    failed: float | int | None = None
+    value: float | int | None = axis.value(axis.hi)
+    runs = 0
+    while value is not None and runs <= axis.steps:
+        if value not in outcomes:
+            return Bisection(value, ok, failed)
+        runs += 1
+        if outcomes[value]:
+            ok = value
+        else:
+            failed = value
+        if failed is None:  # the top succeeded: nothing to halve
+            break
+        value = axis.middle(ok, failed)
+    return Bisection(None, ok, failed)
 
 
 def check_scenario(data: dict, base: Path) -> Scenario:
@@ -136,8 +324,9 @@ def _timeout(path: Path, data: dict) -> float:
     return float(timeout)
 
 
-def _expand(path: Path, data: dict) -> list[dict[str, object]]:
-    """The points' field values: grid × samples, then the explicit points."""
+def _expand(path: Path, data: dict, bisecting: bool = False) -> list[dict[str, object]]:
+    """The points' field values: grid × samples, then the explicit points (a bisecting sweep
+    may have none: its one point is then the base scenario)."""
     grid = data.get("grid", {})
     for name, values in grid.items():
         if not isinstance(values, list) or not values:
@@ -150,6 +339,8 @@ def _expand(path: Path, data: dict) -> list[dict[str, object]]:
     if not isinstance(explicit, list) or not all(isinstance(p, dict) for p in explicit):
         raise SweepError(f"{path}: [[points]] must be tables of field = value")
     combos = [c for c in combos if c] + [dict(p) for p in explicit]
+    if not combos and bisecting:
+        return [{}]
     if not combos:
         raise SweepError(f"{path}: no points: give a [grid], a [sample] or [[points]]")
     return combos
