@@ -33,8 +33,9 @@ COMMAND_QUEUE = 128
 # default: one query could make the sim process allocate that much). A larger one is dropped by
 # Zenoh unanswered (its sender's query times out); up to this size a payload over the protocol's
 # MAX_PAYLOAD_BYTES (16 KiB) is refused with a reply naming the cap (lab/runtime/intake.py), the
-# wire fuzz's 1 MB payloads included (tests/runtime/test_fuzz_wire.py).
-MAX_MESSAGE_BYTES = 1536 * 1024
+# wire fuzz's largest commands included (tests/runtime/test_fuzz_wire.py: up to four fields of
+# 1 MB each; at 1.5 MiB such a command went unanswered).
+MAX_MESSAGE_BYTES = 8 * 1024 * 1024
 INTAKE_STOP_S = 2.0  # how long `close` waits for the intake thread
 MAX_CLIENT_CHANGES = 1024  # clients' liveliness changes kept between two commands (the oldest go)
 # Encoded messages waiting for the publisher thread; beyond this the caller puts them itself.
