@@ -11,6 +11,7 @@ cross at every run that failed.
 """
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.colors import LogNorm
@@ -18,6 +19,9 @@ from matplotlib.colors import LogNorm
 from lab.experiments.sweep.spec import Sweep, succeeded
 from lab.experiments.sweep.table import ERROR
 from lab.protocol.realism import KNOBS
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 FORCE, DIRECTION = "push.force_n", "push.direction_deg"
 COM_ERROR = "metrics.cog_error_max_m"
@@ -62,6 +66,13 @@ def plot_push_map(rows: list[dict[str, object]], png: str | Path, title: str) ->
     if disc is not None:
         fig.colorbar(disc, ax=list(axes), shrink=0.7, label="max CoG error (m)")
     fig.suptitle(f"{title}: ● survived, × fell, ■ did not run; angle = push direction, radius = N")
+    return _save(fig, png)
+
+
+def _save(fig: "Figure", png: str | Path) -> Path:
+    """Write `fig` to `png` (its folder made) and close it."""
+    import matplotlib.pyplot as plt  # imported already by the caller (Agg chosen there)
+
     png = Path(png)
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(png, dpi=100)
@@ -136,11 +147,7 @@ def plot_robustness(sweep: Sweep, rows: list[dict[str, object]], png: str | Path
         panel.set_xlabel(f"{name.removeprefix('realism.')}{unit}")
         panel.invert_yaxis()
     fig.suptitle(f"{sweep.name}: ● succeeded, × fell or failed; bar: the largest that succeeded")
-    png = Path(png)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    return png
+    return _save(fig, png)
 
 
 def _series_label(fields: dict[str, object]) -> str:

@@ -179,17 +179,7 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SweepError(f"{path}: unknown keys {sorted(unknown)}")
     if "base" not in data:
         raise SweepError(f"{path}: needs `base`, the path of the scenario to vary")
-    base = (path.parent / data["base"]).resolve()
-    try:
-        base_data = tomllib.loads(base.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as error:
-        raise SweepError(f"{path}: base scenario: {error}") from error
-    # A point changes the scenario (its duration too): the base's [expect] is not the point's.
-    base_data.pop("expect", None)
-    if "duration" in data:
-        base_data["duration"] = data["duration"]
-    for name, value in data.get("set", {}).items():
-        _apply(base_data, name, value, f"{path}: [set]")
+    base, base_data = _own_base(path, data["base"], data, str(path))
     combos = _expand(path, data, bisecting="bisect" in data)
     sweep = Sweep(data.get("name", path.stem), base, timeout=_timeout(path, data))
     bases: dict[str, tuple[Path, dict]] = {}
@@ -229,7 +219,9 @@ def load_sweep(path: str | Path) -> Sweep:
 
 
 def _own_base(path: Path, relative: object, sweep: dict, where: str) -> tuple[Path, dict]:
-    """A point's own base scenario (`base` in [[points]]), prepared as the sweep's is."""
+    """A base scenario (the sweep's `base`, or a point's own in [[points]]) prepared for its
+    points: the sweep's `duration` and [set] applied. A point changes the scenario (its duration
+    too): the base's [expect] is not the point's, and is dropped."""
     if not isinstance(relative, str):
         raise SweepError(f"{where}: base must be a path, got {relative!r}")
     base = (path.parent / relative).resolve()
