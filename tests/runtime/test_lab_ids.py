@@ -8,6 +8,7 @@ import pytest
 import zenoh
 
 from lab.client import LabClient, LabNotFound
+from lab.client_core import find_labs, open_session
 from lab.directory import LabDirectory, next_online
 from lab.protocol import LabIdError, LabKeys, default_lab_id, lab_id_of
 from lab.runtime.transport import ServerTransport, server_config
@@ -83,6 +84,13 @@ class TwoLabs:
             name: ServerTransport(server_config(free_port(), connect=[self.endpoint]), name)
             for name in ("ids-alpha", "ids-beta")
         }
+        # both tokens at the router before a test looks: on a busy machine one lab's join can
+        # lag the other's, and a client would then see one lab and take it
+        session = open_session(self.endpoint, WAIT_S)
+        try:
+            wait_for(lambda: len(find_labs(session, WAIT_S)) == 2, "both labs at the router")
+        finally:
+            session.close()
 
     def close(self) -> None:
         for transport in self.labs.values():
