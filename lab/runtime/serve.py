@@ -253,6 +253,7 @@ def serve_main(argv: list[str]) -> int:
         ),
         switcher=(switcher := Switcher(worker=args.switch_worker, nice=args.nice)),
     )
+    switcher.keep(session.config)  # a switch back to the first robot loads it (switch.py)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())

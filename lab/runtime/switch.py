@@ -22,6 +22,7 @@ allocations can start Python's full garbage collection, which holds the GIL for 
 scans: the realtime loop freezes what exists when it starts (loop.py), so that it scans little.
 """
 
+import contextlib
 import functools
 import queue
 import threading
@@ -32,6 +33,7 @@ from lab.runtime.intake import Request
 from lab.runtime.loop_config import LoopConfig
 from lab.runtime.scheduling import request_nice
 from lab.runtime.world_cache import WorldCache
+from lab.world.compiled import KeptWorlds, WorldKey, world_key
 from lab.world.memory import release_free_memory
 from lab.world.session_parts import SessionConfig, SessionParts, build_parts
 
@@ -50,22 +52,25 @@ class Switcher:
 
     def __init__(
         self,
-        build: Callable[[SessionConfig], SessionParts] = build_parts,
+        build: Callable[[SessionConfig], SessionParts] | None = None,
         nice: int | None = LoopConfig.nice,
         worker: bool = False,
     ) -> None:
-        """`build` makes a switch's parts; with `worker`, `build_parts` with its robot and
-        MuJoCo model from the worker process and its cache (`worlds`, see the module). `nice`:
-        the thread's (None: as it starts; a refusal leaves it so)."""
+        """`build` makes a switch's parts; by default `build_parts` with its robot and MuJoCo
+        model kept per robot and scene in this process (`kept`), or with `worker` from the
+        worker process and its cache (`worlds`, see the module). `nice`: the thread's (None: as
+        it starts; a refusal leaves it so)."""
         self._nice = nice
         self.worlds = WorldCache()
+        self.kept = KeptWorlds()
         self._start_worker = worker  # the first switch need not wait for its start
-        if worker:
-            build = functools.partial(build_parts, world=self.worlds.world)
+        self._world = self.worlds.world if worker else self.kept.world
+        if build is None:
+            build = functools.partial(build_parts, world=self._world)
         self._build = build
-        self._jobs: queue.SimpleQueue[tuple[Request, SessionConfig] | SessionParts | None] = (
-            queue.SimpleQueue()
-        )
+        self._jobs: queue.SimpleQueue[
+            tuple[Request, SessionConfig] | SessionParts | WorldKey | None
+        ] = queue.SimpleQueue()
         self._done: queue.SimpleQueue[Built] = queue.SimpleQueue()
         self.pending: Request | None = None  # the switch under way
         self._thread = threading.Thread(target=self._run, name="session-switch", daemon=True)
@@ -75,6 +80,13 @@ class Switcher:
         """Build the parts of `config` for `request` (only when no switch is `pending`)."""
         self.pending = request
         self._jobs.put((request, config))
+
+    def keep(self, config: SessionConfig) -> None:
+        """Compile the world of `config` (robot, scene) on the thread and keep it (`kept`), so
+        that a later switch to it loads rather than parses and compiles (with `worker`, the
+        worker builds it): the running session's, as `lab serve` starts, so that a switch back
+        to it is no first build."""
+        self._jobs.put(world_key(config.robot, config.scene, config.timestep, config.terrain_seed))
 
     def finished(self) -> Built | None:
         """The switch built since the last call, if any (then nothing is pending)."""
@@ -101,6 +113,10 @@ class Switcher:
         if self._start_worker:
             self.worlds.start()
         while (job := self._jobs.get()) is not None:
+            if isinstance(job, WorldKey):
+                with contextlib.suppress(KeyError, ValueError):  # a switch to it will say why
+                    self._world(job)
+                continue
             if isinstance(job, SessionParts):
                 del job  # the last reference: the old session's parts are freed here
                 release_free_memory()

@@ -8,6 +8,8 @@ a switch's work and pickles, so a switch can build it in a worker process and ke
 world is the same either way (tests/runtime/test_switch.py).
 """
 
+import copy
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import mujoco
@@ -19,6 +21,7 @@ from lab.scenes import START_RISE
 from lab.world.plant_model import build_spec
 
 MJB_NAME = "world.mjb"  # the virtual file a pickled world's MjModel is loaded from
+MAX_KEPT = 8  # worlds `KeptWorlds` keeps (Solo12's: 7.4 MB of MuJoCo model, most of it meshes)
 
 
 @dataclass(frozen=True)
@@ -73,3 +76,34 @@ def compile_world(key: WorldKey) -> CompiledWorld:
         robot = with_raised_contact(robot, *START_RISE[key.scene])
     spec = build_spec(robot, key.scene, key.timestep, key.terrain_seed)
     return CompiledWorld(robot, spec.compile())
+
+
+class KeptWorlds:
+    """Worlds compiled in this process and kept per key, the last `max_worlds`, for switches
+    built on a thread beside the loop (lab/runtime/switch.py): a switch back to a robot and
+    scene shares the robot (a `Robot` is never changed: the controller's model is a copy,
+    lab/realism/model_error.py) and copies MuJoCo's model as compiled (`mj_copyModel`: Solo12's
+    7.4 MB in 1.5-2 ms of CPU; loading it from its binary took 14-20 ms) instead of parsing the
+    URDF again (pinocchio's parser keeps the GIL: 2-16 ms of CPU) and compiling. Used by one
+    thread at a time."""
+
+    def __init__(self, max_worlds: int = MAX_KEPT) -> None:
+        self.max_worlds = max_worlds
+        self._worlds: OrderedDict[WorldKey, CompiledWorld] = OrderedDict()
+        self.built = 0  # worlds compiled here
+        self.hits = 0  # worlds served from what was kept
+
+    def world(self, key: WorldKey) -> CompiledWorld:
+        """The world of `key`, its MjModel a new copy each call (a plant changes its own): from
+        what is kept, else compiled (and kept); raises as `compile_world` does."""
+        kept = self._worlds.get(key)
+        if kept is None:
+            kept = compile_world(key)
+            self.built += 1
+            self._worlds[key] = kept
+            while len(self._worlds) > self.max_worlds:
+                self._worlds.popitem(last=False)
+        else:
+            self.hits += 1
+            self._worlds.move_to_end(key)
+        return CompiledWorld(kept.robot, copy.copy(kept.mj_model))

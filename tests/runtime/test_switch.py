@@ -21,7 +21,7 @@ from lab.runtime.intake import Request
 from lab.runtime.loop import LoopConfig, SimLoop
 from lab.runtime.switch import Switcher
 from lab.runtime.world_cache import WorldCache
-from lab.world.compiled import world_key
+from lab.world.compiled import KeptWorlds, world_key
 from lab.world.session import Session, SessionConfig
 from lab.world.session_parts import SessionParts, build_parts
 
@@ -176,8 +176,10 @@ def _stepped(parts: SessionParts, steps: int = 20) -> tuple[np.ndarray, np.ndarr
 
 def test_a_world_from_the_worker_or_its_cache_is_the_one_built_here() -> None:
     """The robot and MuJoCo's model built in the worker process (and the same world again from
-    the cache) are what the session builds in-process: sizes, masses, geometry, and the same
-    MuJoCo steps from one state. On rough terrain: meshes, terrain geoms and a seed."""
+    the cache), or kept in this process and loaded again (`KeptWorlds`, what `lab serve`'s
+    switches use), are what the session builds in-process: sizes, masses, geometry, and the
+    same MuJoCo steps from one state. On rough terrain: meshes, terrain geoms and a seed. A
+    plant's change to its model (a payload's mass) is not in the next world loaded."""
     config = SessionConfig(robot="solo12", scene="rough", terrain_seed=3)
     here = build_parts(config)
     cache = WorldCache()
@@ -186,6 +188,16 @@ def test_a_world_from_the_worker_or_its_cache_is_the_one_built_here() -> None:
     finally:
         cache.close()
     assert (cache.built, cache.hits) == (1, 1)
+    kept = KeptWorlds()
+    loaded = build_parts(config, world=kept.world)  # compiled here, its model kept
+    loaded.plant.set_payload(loaded.robot.base_link, 5.0, np.zeros(3))  # then changed
+    worlds.append(build_parts(config, world=kept.world))  # loaded: without the payload
+    assert (kept.built, kept.hits) == (1, 1)
+    assert loaded.robot is worlds[-1].robot  # the robot shared (never changed)
+    base = here.plant.mj_model.body(here.robot.base_link).id
+    assert loaded.plant.mj_model.body_mass[base] == pytest.approx(
+        here.plant.mj_model.body_mass[base] + 5.0, abs=1e-12
+    )
     m0, q0, v0 = here.plant.mj_model, *_stepped(here)
     for parts in worlds:
         m = parts.plant.mj_model
@@ -208,7 +220,8 @@ def test_a_world_from_the_worker_or_its_cache_is_the_one_built_here() -> None:
         np.testing.assert_array_equal(q, q0)
         np.testing.assert_array_equal(v, v0)
     assert np.linalg.norm(v0) > 0.01  # the torques moved the robot: the steps compared something
-    assert worlds[0].plant.mj_model is not worlds[1].plant.mj_model  # each plant its own model
+    models = [parts.plant.mj_model for parts in [loaded, *worlds]]
+    assert len({id(model) for model in models}) == len(models)  # each plant its own model
 
 
 def test_a_world_the_worker_cannot_build_is_its_error_and_the_next_one_builds() -> None:
