@@ -93,6 +93,8 @@ def build_parts(
     gains = dict(description.gains)
     for name, overrides in config.gains.items():
         gains[name] = replace(gains.get(name, TaskGains()), **overrides)
+    # the state a session starts from (the plant stands at rest): the swap takes this Balance
+    model.update(*plant.state())
     standing = Balance(model, robot.q_standing)
     controller = NativeController(
         model,
