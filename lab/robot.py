@@ -49,6 +49,29 @@ class Robot:
         )
 
     @cached_property
+    def drawn_frames(self) -> tuple[int, ...]:
+        """The pinocchio frames `FramePlacements` places: each URDF link with a visual, the base
+        link, the contact frames. Read once per robot: a switch back to it shares it
+        (lab/world/compiled.py), and the URDF's visuals cost milliseconds to read."""
+        model, desc = self.model, self.description
+        drawn = {visual.link for visual in read_visuals(desc.urdf_path, desc.package_dirs)}
+        drawn.add(self.base_link)
+        ids = [
+            i
+            for i, f in enumerate(model.frames)
+            if f.type == pin.FrameType.BODY and f.name in drawn
+        ]
+        links = {model.frames[i].name for i in ids}
+        ids += [model.getFrameId(c.frame) for c in self.contacts if c.frame not in links]
+        return tuple(ids)
+
+    @cached_property
+    def serialized_model(self) -> str:
+        """`model.saveToString()` (pinocchio's serialization, which the native kernel's objects
+        load without the GIL; made with it: 0.5-2 ms of CPU), made once per robot."""
+        return self.model.saveToString()
+
+    @cached_property
     def joint_names(self) -> tuple[str, ...]:
         """Actuated joints in pinocchio order (the order of τ and of q[7:], v[6:]); read once
         (the drawing state sends them with every message)."""
@@ -191,25 +214,17 @@ class FramePlacements:
     without it (or `native=False`) pinocchio's Python bindings and scipy do."""
 
     def __init__(self, robot: Robot, native: bool | None = None) -> None:
-        model, desc = robot.model, robot.description
-        drawn = {visual.link for visual in read_visuals(desc.urdf_path, desc.package_dirs)}
-        drawn.add(robot.base_link)
-        ids = [
-            i
-            for i, f in enumerate(model.frames)
-            if f.type == pin.FrameType.BODY and f.name in drawn
-        ]
-        links = {model.frames[i].name for i in ids}
-        ids += [model.getFrameId(c.frame) for c in robot.contacts if c.frame not in links]
-        self.ids = tuple(ids)  # pinocchio frame indices (a joint and its link share a name)
-        self.names = tuple(model.frames[i].name for i in ids)
+        model = robot.model
+        self.ids = robot.drawn_frames  # pinocchio frame indices (a joint and its link share a name)
+        self.names = tuple(model.frames[i].name for i in self.ids)
         self._name_list = list(self.names)
+        ids = list(self.ids)
         if native and _kernel is None:
             raise RuntimeError("the native kernel (lab._kernel) is not built")
         self.native = _kernel is not None and native is not False
         self._placements = np.empty((len(ids), 7))  # rows: x, y, z, qx, qy, qz, qw
         if self.native:
-            self._kernel = _kernel.FramePlacements(model.saveToString(), ids)
+            self._kernel = _kernel.FramePlacements(robot.serialized_model, ids)
         else:
             self._joints = np.array([model.frames[i].parentJoint for i in ids])
             self._in_joint = np.array([model.frames[i].placement.homogeneous for i in ids])
