@@ -14,11 +14,14 @@ interval between two ticks meanwhile; over the switches the median and the large
 longest intervals, and the same of the longest interval in windows as long as the median
 switch cut from the time outside switches (`outside`: the machine's own noise in the same run;
 a switch that costs the loop nothing has the same distribution); the longest tick's work, the
-longest pause of the garbage collector (it stops every thread), the on-time fraction and the
-resident memory.
+longest pause of the garbage collector (it stops every thread), the on-time fraction, the
+resident memory, and where the switch's thread was after each gap over HOLDER_GAP_S (the C call
+that kept the GIL, or what it was doing while the machine held the loop back). Each switcher
+keeps the first robot's world first, as `lab serve` does, so that `compiled` is a robot's
+first build and `cached` a switch back (lab/world/compiled.py, `KeptWorlds`).
 
     .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
-        [--modes worker,thread,loop]
+        [--modes worker,thread,loop] [--nices=-10,none,10]
 """
 
 import argparse
@@ -37,6 +40,39 @@ from lab.runtime.switch import Switcher
 from lab.world.session import Session, SessionConfig
 
 MODES = ("worker", "thread", "loop")
+HOLDER_GAP_S = 4e-3  # a gap in a switch longer than this records where the switch's thread is
+
+
+def switch_thread_frame() -> str:
+    """Where the switch's thread is now (its three innermost Python frames): read by the loop
+    as soon as it runs again after a long gap, that is where the thread gave the GIL back, so
+    the C call it came out of is the one on the innermost line (or the machine preempted the
+    loop, and the thread was anywhere: MuJoCo's compile, say, which runs without the GIL)."""
+    thread = next((t for t in threading.enumerate() if t.name == "session-switch"), None)
+    frame = None if thread is None else sys._current_frames().get(thread.ident)
+    where = []
+    while frame is not None and len(where) < 3:
+        code = frame.f_code
+        where.append(f"{Path(code.co_filename).name}:{frame.f_lineno} {code.co_name}")
+        frame = frame.f_back
+    return " < ".join(where) or "(no switch thread)"
+
+
+def holders_summary(holders: list[tuple[float, str]]) -> list[dict]:
+    """The places the switch's thread was after long gaps, by summed gap, largest first."""
+    by_place: dict[str, list[float]] = {}
+    for gap, place in holders:
+        by_place.setdefault(place, []).append(gap * 1e3)
+    rows = [
+        {
+            "where": where,
+            "gaps": len(gaps),
+            "sum_ms": round(sum(gaps), 1),
+            "max_ms": round(max(gaps), 1),
+        }
+        for where, gaps in by_place.items()
+    ]
+    return sorted(rows, key=lambda row: -row["sum_ms"])[:8]
 
 
 def rss_mb() -> float:
@@ -55,15 +91,17 @@ class Switching:
     def __init__(
         self, robots: list[str], every: float, count: int, stop: threading.Event, cache: bool
     ) -> None:
-        """`cache`: whether a robot's world is kept after its first build (mode `worker`)."""
+        """`cache`: whether a robot's world is kept after its first build (by the switcher)."""
         self.robots, self.every, self.count, self.stop = robots, every, count, stop
         self.cache = cache
         self.loop: SimLoop | None = None
         self.next_at = time.monotonic() + every
         self.switch: dict | None = None  # the switch under way, if any
-        self.built: set[str] = set()  # robots whose world the worker built
+        self.built: set[str] = set()  # robots whose world the switcher built
         self.errors: list[str] = []
         self.switches: list[dict] = []
+        # (gap, where the switch's thread was when the loop ran again) for gaps in switches
+        self.holders: list[tuple[float, str]] = []
         self.last_tick: float | None = None
         self.longest_outside = 0.0  # between two ticks while no switch is under way (s)
         # (tick, interval before it) outside switches, one list between two switches
@@ -79,6 +117,8 @@ class Switching:
             self.outside[-1].append((now, gap))
         else:
             switch["longest_gap"] = max(switch["longest_gap"], gap)
+            if gap > HOLDER_GAP_S:
+                self.holders.append((gap, switch_thread_frame()))
             if "reply_s" in switch:  # the first tick after the reply: the switch is over
                 self._finish(switch)
             return None
@@ -146,12 +186,14 @@ def spread(values: list[float]) -> dict[str, float]:
     return {"p50": round(middle, 2), "max": round(largest, 2), "n": len(values)}
 
 
-def run(mode: str, robots: list[str], every: float, count: int) -> dict:
+def run(mode: str, robots: list[str], every: float, count: int, nice: int | None) -> dict:
     session = Session(SessionConfig(robot=robots[0]))
     stop = threading.Event()
-    transport = Switching(robots, every, count, stop, cache=mode == "worker")
-    switcher = {"worker": lambda: Switcher(worker=True), "thread": Switcher}.get(mode)
-    switcher = switcher() if switcher is not None else None
+    transport = Switching(robots, every, count, stop, cache=mode != "loop")
+    switcher = None if mode == "loop" else Switcher(worker=mode == "worker", nice=nice)
+    if switcher is not None:
+        switcher.keep(session.config)  # as `lab serve` does
+        transport.built.add(robots[0])
     loop = SimLoop(session, transport, LoopConfig(sched="other"), switcher=switcher)
     transport.loop = loop
     before = rss_mb()
@@ -163,6 +205,7 @@ def run(mode: str, robots: list[str], every: float, count: int) -> dict:
     outside = windows_longest_ms(transport.outside, window)
     return {
         "built": mode,
+        "switch_thread_nice": nice,
         "load_average": [round(x, 1) for x in os.getloadavg()],
         "error": None if loop.error is None else repr(loop.error),
         "refused": transport.errors,
@@ -181,6 +224,9 @@ def run(mode: str, robots: list[str], every: float, count: int) -> dict:
         "on_time_fraction": round(stats.on_time / max(1, stats.ticks), 4),
         "rss_mb": {"before": round(before, 1), "after": round(rss_mb(), 1)},
         "switches": switches,
+        f"where_the_switch_thread_was_after_gaps_over_{HOLDER_GAP_S * 1e3:g}_ms": holders_summary(
+            transport.holders
+        ),
     }
 
 
@@ -190,12 +236,20 @@ def main() -> int:
     parser.add_argument("--every", type=float, default=1.5, help="s between switches")
     parser.add_argument("--robots", default="solo12,bolt")
     parser.add_argument("--modes", default=",".join(MODES), help="of " + ", ".join(MODES))
+    parser.add_argument(
+        "--nices",
+        default=str(LoopConfig.nice),
+        help="the switch's thread's nice values, one run of each mode per value ('none': as the "
+        "thread starts)",
+    )
     args = parser.parse_args()
     robots = args.robots.split(",")
+    nices = [None if n == "none" else int(n) for n in args.nices.split(",")]
     for mode in args.modes.split(","):
         if mode not in MODES:
             parser.error(f"unknown mode {mode!r} (modes: {', '.join(MODES)})")
-        print(json.dumps(run(mode, robots, args.every, args.switches)), flush=True)
+        for nice in nices if mode != "loop" else [None]:
+            print(json.dumps(run(mode, robots, args.every, args.switches, nice)), flush=True)
     return 0
 
 
