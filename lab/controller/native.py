@@ -53,13 +53,14 @@ def native_available() -> bool:
     return not NOT_BUILT
 
 
-def kernel_for(controller: WholeBodyController) -> "_kernel.Kernel":
-    """A native kernel on the controller's very model (pinocchio's serialization), with its
-    contacts, limits and hands; stack, gains and references are set separately."""
+def kernel_for(controller: WholeBodyController, serialized: str | None = None) -> "_kernel.Kernel":
+    """A native kernel on the controller's very model (pinocchio's serialization; `serialized`:
+    that model's `saveToString()` made already), with its contacts, limits and hands; stack,
+    gains and references are set separately."""
     robot, limits = controller.robot, controller.config.limits
     lower, upper = controller.joint_limits()
     kernel = _kernel.Kernel(
-        robot.model.saveToString(),
+        robot.model.saveToString() if serialized is None else serialized,
         [(c.name, c.frame, c.kind, c.radius, c.half_length, c.half_width) for c in robot.contacts],
         controller.torque_limits(),
         lower,
@@ -138,7 +139,10 @@ class NativeController(WholeBodyController):
         references: References,
         config: ControllerConfig,
         torque_limits: np.ndarray,
+        serialized_model: str | None = None,
     ) -> None:
+        """`serialized_model`: `robot.model.saveToString()` if made already (a robot kept for
+        switches makes it once: it keeps the GIL for 0.5-2 ms)."""
         if config.kernel not in KERNELS:
             raise KeyError(f"unknown kernel {config.kernel!r} (kernels: {', '.join(KERNELS)})")
         self._native: _kernel.Kernel | None = None
@@ -148,7 +152,7 @@ class NativeController(WholeBodyController):
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
         if _kernel is not None:
-            self._native = kernel_for(self)
+            self._native = kernel_for(self, serialized_model)
             self._native.mirror_model(robot.arrays())
             self._mirror_stack(config.stack)
             for name, task in self.tasks.items():

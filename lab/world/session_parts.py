@@ -109,6 +109,8 @@ def build_parts(
             kernel=config.kernel or description.kernel or "native",
         ),
         robot.torque_limits,
+        # the same model's serialization, made once per robot, unless model error changed it
+        robot.serialized_model if knobs.model_error[:2] == (0.0, 0.0) else None,
     )
     controller.set_hands(tuple(frame for _, frame in description.hands))
     native_tick = NativeTick(plant, controller)
