@@ -11,7 +11,10 @@ While it builds, the thread shares the GIL with the loop: the loop's `switch_int
 (LoopConfig) bounds how long the loop waits for it while the thread runs Python, but a C call
 keeps the GIL to its end unless it releases it. MuJoCo's compile releases it; pinocchio's URDF
 parser and model serialization keep it for milliseconds; the native kernel's set-up no longer
-keeps it. With `worker=True` the robot and MuJoCo's model are built in a worker process and kept
+keeps it. So the robot and MuJoCo's model are kept per robot and scene (`kept`,
+lab/world/compiled.py `KeptWorlds`; `keep` builds the running robot's as `lab serve` starts):
+a switch back shares the robot and copies the model, without the URDF parse and the compile.
+With `worker=True` the robot and MuJoCo's model are built in a worker process and kept
 per robot and scene (world_cache.py): a switch back costs a load, but a robot's first build
 there left the 1 kHz loop gaps of seconds on a machine at load 33-45, for reasons not found, so
 it is off by default (docs/reliability.md, "Robot switches").
