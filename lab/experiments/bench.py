@@ -20,6 +20,7 @@ names what ran (`controller.ran`: kernel, method, solver).
 """
 
 import argparse
+import gc
 import json
 import time
 from dataclasses import dataclass
@@ -105,22 +106,30 @@ def bench_one(
     # the native kernel's stages (update, rows, method and torques), timed inside it
     stages_us = np.full((ticks, len(KERNEL_STAGES)), np.nan)
     capped = 0  # nullspace: ticks whose active-set search stopped at its cap
-    wall_start = time.perf_counter()
-    for i in range(ticks):
-        if i == ticks // 2:
-            push = {"body": session.robot.base_link, "force": [0.0, force, 0.0]}
-            session.handle("push", {**push, "duration": duration})
-        session.tick()
-        # from the status, not `session.solution`: a native tick builds its HierarchySolution
-        # only when read (telemetry reads it at 100 Hz); read here every tick it cost 8-10 µs
-        # of CPU a tick under the cascade and 29-40 under nullspace (its active sets become
-        # arrays), the benchmark's own cost counted in the session's real-time factor
-        capped += session.status.status == "capped"
-        control_us[i] = session.control_us
-        inside = session.controller.kernel_seconds
-        if inside is not None:
-            stages_us[i] = inside
-    wall = time.perf_counter() - wall_start
+    # As the server's loop does before its first tick (runtime/loop.py): what exists now goes
+    # to the permanent generation, so the collections the ticks' allocations trigger scan only
+    # what came after; a full collection of the imports' objects costs tens of ms, ~1 µs a tick
+    # on average (perf: gc_collect_main ~1 % of Talos's standing tick). Unfrozen after the row.
+    gc.freeze()
+    try:
+        wall_start = time.perf_counter()
+        for i in range(ticks):
+            if i == ticks // 2:
+                push = {"body": session.robot.base_link, "force": [0.0, force, 0.0]}
+                session.handle("push", {**push, "duration": duration})
+            session.tick()
+            # from the status, not `session.solution`: a native tick builds its HierarchySolution
+            # only when read (telemetry reads it at 100 Hz); read here every tick it cost 8-10 µs
+            # of CPU a tick under the cascade and 29-40 under nullspace (its active sets become
+            # arrays), the benchmark's own cost counted in the session's real-time factor
+            capped += session.status.status == "capped"
+            control_us[i] = session.control_us
+            inside = session.controller.kernel_seconds
+            if inside is not None:
+                stages_us[i] = inside
+        wall = time.perf_counter() - wall_start
+    finally:
+        gc.unfreeze()
     stages_us *= 1e6
     kernel_us = stages_us.sum(axis=1)
     solve_us = np.zeros(SOLVE_REPEATS)
