@@ -88,6 +88,7 @@ class NativeOutput(ControlOutput):
         self.tau, self.qdd, self.forces = tau, x[:nv], x[nv:]
         self._x, self._outcome = x, outcome
         self._solution: HierarchySolution | None = None
+        self._status: SolveStatus | None = None
 
     @property
     def solution(self) -> HierarchySolution:  # type: ignore[override]
@@ -117,13 +118,16 @@ class NativeOutput(ControlOutput):
 
     def solve_status(self) -> SolveStatus:
         """ok, or fallback, capped (nullspace) or violated (wbosc) with its level and reason:
-        the solution is built only then."""
-        o = self._outcome
-        return (
-            self.solution.solve_status()
-            if o.fallback_levels or o.capped or o.violations
-            else SOLVED
-        )
+        the solution is built only then. Kept: the session reads it each tick, and `lab bench`
+        again (three crossings each, two of them building tuples)."""
+        if self._status is None:
+            o = self._outcome
+            self._status = (
+                self.solution.solve_status()
+                if o.capped or o.fallback_levels or o.violations
+                else SOLVED
+            )
+        return self._status
 
     def torques_finite(self) -> bool:
         """True: the kernel fails a tick whose τ is not finite."""

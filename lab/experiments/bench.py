@@ -17,9 +17,12 @@ median of each of those stages (`kernel_stages_us`). `--solvers daqp
 clarabel` times both QP backends; the native kernel solves with DAQP only, so a Clarabel run
 asked of it runs on the Python kernel and its row says so (kernel python, `note`). Every row
 names what ran (`controller.ran`: kernel, method, solver).
+`--cpu-time` takes the real-time factor on the loop thread's CPU time (a shared machine's
+descheduling left out; the JSON's `realtime_clock` says which clock).
 """
 
 import argparse
+import gc
 import json
 import time
 from dataclasses import dataclass
@@ -86,9 +89,11 @@ def bench_one(
     kernel: str = "python",
     gait: str = "stand",
     solver: str = "daqp",
+    cpu_time: bool = False,
 ) -> dict:
     """One run: the ticks of `seconds` of `gait` with a push, then the solve repeated; the row
-    names what ran (kernel, method, solver) and the note when it is not what was asked."""
+    names what ran (kernel, method, solver) and the note when it is not what was asked.
+    `cpu_time`: the real-time factor on this thread's CPU time instead of the wall clock."""
     session = Session(SessionConfig(robot=robot, method=method, kernel=kernel, solver=solver))
     for verb, payload in GAITS[gait].commands:
         reply = session.handle(verb, payload)
@@ -105,22 +110,31 @@ def bench_one(
     # the native kernel's stages (update, rows, method and torques), timed inside it
     stages_us = np.full((ticks, len(KERNEL_STAGES)), np.nan)
     capped = 0  # nullspace: ticks whose active-set search stopped at its cap
-    wall_start = time.perf_counter()
-    for i in range(ticks):
-        if i == ticks // 2:
-            push = {"body": session.robot.base_link, "force": [0.0, force, 0.0]}
-            session.handle("push", {**push, "duration": duration})
-        session.tick()
-        # from the status, not `session.solution`: a native tick builds its HierarchySolution
-        # only when read (telemetry reads it at 100 Hz); read here every tick it cost 8-10 µs
-        # of CPU a tick under the cascade and 29-40 under nullspace (its active sets become
-        # arrays), the benchmark's own cost counted in the session's real-time factor
-        capped += session.status.status == "capped"
-        control_us[i] = session.control_us
-        inside = session.controller.kernel_seconds
-        if inside is not None:
-            stages_us[i] = inside
-    wall = time.perf_counter() - wall_start
+    # As the server's loop does before its first tick (runtime/loop.py): what exists now goes
+    # to the permanent generation, so the collections the ticks' allocations trigger scan only
+    # what came after; a full collection of the imports' objects costs tens of ms, ~1 µs a tick
+    # on average (perf: gc_collect_main ~1 % of Talos's standing tick). Unfrozen after the row.
+    gc.freeze()
+    try:
+        clock = time.thread_time if cpu_time else time.perf_counter
+        wall_start = clock()
+        for i in range(ticks):
+            if i == ticks // 2:
+                push = {"body": session.robot.base_link, "force": [0.0, force, 0.0]}
+                session.handle("push", {**push, "duration": duration})
+            session.tick()
+            # from the status, not `session.solution`: a native tick builds its HierarchySolution
+            # only when read (telemetry reads it at 100 Hz); read here every tick it cost 8-10 µs
+            # of CPU a tick under the cascade and 29-40 under nullspace (its active sets become
+            # arrays), the benchmark's own cost counted in the session's real-time factor
+            capped += session.status.status == "capped"
+            control_us[i] = session.control_us
+            inside = session.controller.kernel_seconds
+            if inside is not None:
+                stages_us[i] = inside
+        wall = clock() - wall_start
+    finally:
+        gc.unfreeze()
     stages_us *= 1e6
     kernel_us = stages_us.sum(axis=1)
     solve_us = np.zeros(SOLVE_REPEATS)
@@ -147,6 +161,7 @@ def bench_one(
         ),
         "solve_us": _stats(solve_us),
         "realtime_factor": session.time / wall,
+        "realtime_clock": "thread CPU" if cpu_time else "wall",
         "fell": session.fell,
         "capped_ticks": capped,
         "qp_failures": session.qp_failures,
@@ -169,6 +184,12 @@ def bench_main(argv: list[str]) -> int:
         help="stand: every robot; trot: the quadrupeds; single: Talos on one sole; "
         "biped_step: Bolt walking",
     )
+    parser.add_argument(
+        "--cpu-time",
+        action="store_true",
+        help="real-time factor on the loop thread's CPU time, not the wall clock (a shared "
+        "machine: descheduled time does not count; caches shared with other work still do)",
+    )
     args = parser.parse_args(argv)
     if "native" in args.kernels and NOT_BUILT:
         print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
@@ -181,7 +202,7 @@ def bench_main(argv: list[str]) -> int:
         if _applies(r, m, g)
     ]
     asked = [(r, g, m, s, k) for r, m, g in runs for s in args.solvers for k in args.kernels]
-    rows = [bench_one(r, m, args.seconds, k, g, s) for r, g, m, s, k in asked]
+    rows = [bench_one(r, m, args.seconds, k, g, s, args.cpu_time) for r, g, m, s, k in asked]
     if args.json:
         print(json.dumps({"controller_tick": rows}))
         return 0
@@ -190,6 +211,8 @@ def bench_main(argv: list[str]) -> int:
         f"{'tick p99 µs':>12} {'solve p50 µs':>13} {'solve p99 µs':>13} "
         f"{'kernel p50/p99 µs':>18} {'RTF':>6}  fell  capped"
     )
+    if args.cpu_time:
+        print("(RTF: simulated time over the loop thread's CPU time, not the wall clock)")
     for row in rows:
         tick, solve, inside = row["controller_us"], row["solve_us"], row["kernel_us"]
         kernel = f"{inside['p50']:.0f} / {inside['p99']:.0f}" if inside else "-"
