@@ -108,7 +108,7 @@ def build_parts(
         ),
         robot.torque_limits,
     )
-    controller.set_hands(tuple(frame for _, frame in description.hands))
+    controller.set_hands(tuple(frame for _, frame in description.hands), description.hand_joints)
     native_tick = NativeTick(plant, controller)
     layer = realism_layer(knobs, model.na, config.timestep)
     placements = FramePlacements(robot)
