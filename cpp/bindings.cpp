@@ -470,8 +470,10 @@ NB_MODULE(_kernel, m) {
            "The internal-force task's F_int,ref (N) and sensed source (contacts or torques); "
            "raises ValueError for a non-finite reference or another source.")
       .def("set_hands", &lab::Kernel::set_hands, "frames"_a,
+           "joints"_a = std::vector<std::string>{},
            "The frames the hands task moves, one hand each, in the order of the references' "
-           "hand rows; raises ValueError naming a frame the model lacks.")
+           "hand rows, and the joints each may use ('all' or 'arm'; empty: all); raises "
+           "ValueError naming a frame the model lacks or a bad option.")
       .def(
           "set_sensing",
           [](lab::Kernel& k, const Doubles& foot_forces, const InVector& applied_torques) {

@@ -165,8 +165,9 @@ void Kernel::set_internal_force(double reference, const std::string& source) {
   lab::set_internal_force(*tasks_.at("internal_force"), reference, source);
 }
 
-void Kernel::set_hands(const std::vector<std::string>& frames) {
-  lab::set_hand_frames(*tasks_.at("hands"), robot_, frames);
+void Kernel::set_hands(const std::vector<std::string>& frames,
+                       const std::vector<std::string>& joints) {
+  lab::set_hand_frames(*tasks_.at("hands"), robot_, frames, joints);
   hand_count_ = static_cast<Eigen::Index>(frames.size());
 }
 

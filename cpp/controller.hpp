@@ -66,9 +66,10 @@ class Kernel {
   void release_momentum_gain();
   /// The internal-force task's reference (N) and sensed source (`contacts` or `torques`).
   void set_internal_force(double reference, const std::string& source);
-  /// The frames the hands task moves, one hand each (WholeBodyController.set_hands); throws
-  /// std::invalid_argument naming a frame the model lacks and keeps the old ones.
-  void set_hands(const std::vector<std::string>& frames);
+  /// The frames the hands task moves, one hand each, and the joints each may use ("all" or
+  /// "arm"; empty: all) (WholeBodyController.set_hands); throws std::invalid_argument naming a
+  /// frame the model lacks or a bad option and keeps the old ones.
+  void set_hands(const std::vector<std::string>& frames, const std::vector<std::string>& joints);
   /// What the sensors measured over the last step, for the internal force's feedback (Kim
   /// eqs. 12–13): the terrain's force on each foot ((n_contacts, 3) flat, N, world) and the joint
   /// torques applied (N m); throws std::invalid_argument for other sizes or non-finite entries.

@@ -69,6 +69,8 @@ class RobotDescription:
     footholds: str | None = None
     # The hands task's hands, (name, frame) each, in the order of the references' hand rows.
     hands: tuple[tuple[str, str], ...] = ()
+    # Each hand's joints option, "all" or "arm" (lab/controller/tasks/hands.py), in that order.
+    hand_joints: tuple[str, ...] = ()
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -117,6 +119,7 @@ def read_description(path: Path) -> RobotDescription:
     gains = {task: TaskGains(**values) for task, values in data.get("gains", {}).items()}
     torque_limit = data.get("torque_limit")
     kernel = data.get("kernel")
+    hands = _hands(name, data.get("hands", {}))
     if kernel not in (None, "native", "python"):
         raise ValueError(f"robot {name!r}: kernel must be 'native' or 'python', got {kernel!r}")
     return RobotDescription(
@@ -135,14 +138,31 @@ def read_description(path: Path) -> RobotDescription:
         kernel=kernel,
         standing_joints={j: float(a) for j, a in data.get("standing_joints", {}).items()},
         footholds=data.get("footholds"),
-        hands=_hands(name, data.get("hands", {})),
+        hands=tuple((hand, frame) for hand, frame, _ in hands),
+        hand_joints=tuple(joints for _, _, joints in hands),
     )
 
 
-def _hands(name: str, table: object) -> tuple[tuple[str, str], ...]:
-    """`[hands]`: hand name = frame name, both strings."""
-    if not isinstance(table, dict) or not all(
-        isinstance(k, str) and isinstance(v, str) for k, v in table.items()
-    ):
+def _hands(name: str, table: object) -> list[tuple[str, str, str]]:
+    """`[hands]`: hand name = frame name, or = { frame = ..., joints = "all" | "arm" } (the
+    joints its rows may use, lab/controller/tasks/hands.py; a bare frame name: "all"); (hand,
+    frame, joints) each."""
+    if not isinstance(table, dict):
         raise ValueError(f"robot {name!r}: [hands] must map hand names to frame names")
-    return tuple(table.items())
+    hands = []
+    for hand, entry in table.items():
+        if isinstance(entry, str):
+            hands.append((hand, entry, "all"))
+            continue
+        if (
+            not isinstance(entry, dict)
+            or set(entry) - {"frame", "joints"}
+            or not isinstance(entry.get("frame"), str)
+            or entry.get("joints", "all") not in ("all", "arm")
+        ):
+            raise ValueError(
+                f"robot {name!r}: [hands] {hand!r} must be a frame name or "
+                '{ frame = "<frame>", joints = "all" | "arm" }'
+            )
+        hands.append((hand, entry["frame"], entry.get("joints", "all")))
+    return hands

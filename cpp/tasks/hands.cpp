@@ -1,6 +1,7 @@
 // The hands task (lab/controller/tasks/hands.py): each hand frame the kernel was given tracks its
-// pose target in the references, 6 rows per hand, in world axes or in the trunk's heading frame.
-// References without hand targets give no rows.
+// pose target in the references, 6 rows per hand, in world axes or in the trunk's heading frame,
+// with all the robot's joints or only the hand's chain from the trunk ("arm"). References without
+// hand targets give no rows.
 #include <cmath>
 #include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/jacobian.hpp>
@@ -33,7 +34,7 @@ double heading_rate(const Eigen::Matrix3d& base_rotation, const Eigen::Vector3d&
 /// Per hand, J q̈ + J̇v = [p̈_ref + kp (p_ref − p) + kd (ṗ_ref − ṗ); kp log₃(R_ref Rᵀ) + kd (ω_ref −
 /// ω)] (Raiola eqs. 7–9, world axes); the error is [p_ref − p; log₃(R_ref Rᵀ)] per hand. A target
 /// in the heading frame tracks the hand relative to the base: rows J − J_b, its turning fed forward
-/// (hands.py's docstring).
+/// (hands.py's docstring). An "arm" hand's rows keep only its chain's columns of J.
 class HandsTask : public Task {
  public:
   void compute(const RobotModel& robot, const References& refs) override {
@@ -82,6 +83,8 @@ class HandsTask : public Task {
         R_ref = turn * R_ref;
         w_ref = rate * up;
       }
+      for (const Eigen::Index column : other_columns[static_cast<std::size_t>(k)])
+        A.block<6, 1>(6 * k, column).setZero();  // an arm hand: its chain's columns only
       const Eigen::Vector3d e_p = p_ref - placement.translation();
       const Eigen::Vector3d e_r =
           pinocchio::log3(Eigen::Matrix3d(R_ref * placement.rotation().transpose()));
@@ -94,6 +97,7 @@ class HandsTask : public Task {
   }
 
   std::vector<pinocchio::FrameIndex> frame_ids;
+  std::vector<std::vector<Eigen::Index>> other_columns;  // zeroed per hand (empty: all joints)
 
  private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian_, base_jacobian_;
@@ -104,15 +108,38 @@ class HandsTask : public Task {
 
 void add_hands_tasks(TaskRegistry& tasks) { tasks["hands"] = std::make_unique<HandsTask>(); }
 
-void set_hand_frames(Task& hands, const RobotModel& robot, const std::vector<std::string>& frames) {
+void set_hand_frames(Task& hands, const RobotModel& robot, const std::vector<std::string>& frames,
+                     const std::vector<std::string>& joints) {
+  const pinocchio::Model& model = *robot.model;
+  if (!joints.empty() && joints.size() != frames.size())
+    throw std::invalid_argument(std::to_string(joints.size()) + " hand joints options for " +
+                                std::to_string(frames.size()) + " hands");
+  for (const auto& option : joints)
+    if (option != "all" && option != "arm")
+      throw std::invalid_argument("hand joints must be 'all' or 'arm', got '" + option + "'");
   std::vector<pinocchio::FrameIndex> ids;
   for (const auto& frame : frames) {
     // the body frame: a URDF's fixed joint and its child link share a name (hands.py)
-    if (!robot.model->existFrame(frame, pinocchio::BODY))
+    if (!model.existFrame(frame, pinocchio::BODY))
       throw std::invalid_argument("no frame '" + frame + "' in the robot's model");
-    ids.push_back(robot.model->getFrameId(frame, pinocchio::BODY));
+    ids.push_back(model.getFrameId(frame, pinocchio::BODY));
   }
-  dynamic_cast<HandsTask&>(hands).frame_ids = std::move(ids);
+  std::vector<std::vector<Eigen::Index>> others(ids.size());
+  for (std::size_t k = 0; k < joints.size(); ++k) {
+    if (joints[k] != "arm") continue;
+    // the chain from the trunk: the supports of the frame's joint past the free flyer (hands.py)
+    std::vector<bool> arm(static_cast<std::size_t>(model.nv), false);
+    for (const auto joint : model.supports[model.frames[ids[k]].parentJoint]) {
+      if (joint <= kBaseJoint) continue;
+      for (int i = 0; i < model.joints[joint].nv(); ++i)
+        arm[static_cast<std::size_t>(model.joints[joint].idx_v() + i)] = true;
+    }
+    for (Eigen::Index column = 0; column < model.nv; ++column)
+      if (!arm[static_cast<std::size_t>(column)]) others[k].push_back(column);
+  }
+  auto& task = dynamic_cast<HandsTask&>(hands);
+  task.frame_ids = std::move(ids);
+  task.other_columns = std::move(others);
 }
 
 }  // namespace lab

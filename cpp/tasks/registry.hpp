@@ -40,10 +40,12 @@ void hold_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::Array<bool
 /// The next tick asks the schedule again (the Python schedule changed outside a tick).
 void release_momentum_gain(Task& momentum);
 
-/// The frames the hands task moves, one hand each, in the order of the references' hand rows
-/// (tasks/hands.cpp); throws std::invalid_argument naming a frame the model lacks and keeps the
-/// old ones then.
-void set_hand_frames(Task& hands, const RobotModel& robot, const std::vector<std::string>& frames);
+/// The frames the hands task moves, one hand each, in the order of the references' hand rows,
+/// and the joints each may use, "all" or "arm" (tasks/hands.cpp; empty: all); throws
+/// std::invalid_argument naming a frame the model lacks or a bad option and keeps the old ones
+/// then.
+void set_hand_frames(Task& hands, const RobotModel& robot, const std::vector<std::string>& frames,
+                     const std::vector<std::string>& joints);
 
 /// The internal-force task's reference F_int,ref (N) and where F_int,act comes from (`contacts`
 /// or `torques`, tasks/internal_force.cpp); throws std::invalid_argument for a non-finite

@@ -204,15 +204,23 @@ class WholeBodyController:
             for names in stack.levels
         ]
 
-    def set_hands(self, frames: tuple[str, ...]) -> None:
+    def set_hands(self, frames: tuple[str, ...], joints: tuple[str, ...] | None = None) -> None:
         """The frames the `hands` task moves, one hand each, in the order of the references' hand
-        rows; raises ValueError naming a frame the model lacks, and changes nothing then."""
-        self._task(HandsTask).set_frames(self.robot, tuple(frames))
+        rows, and the joints each may use ("all" or "arm", tasks/hands.py; None: all); raises
+        ValueError naming a frame the model lacks or a bad option, and changes nothing then."""
+        self._task(HandsTask).set_frames(
+            self.robot, tuple(frames), None if joints is None else tuple(joints)
+        )
 
     @property
     def hands(self) -> tuple[str, ...]:
         """The frames the `hands` task moves (`set_hands`)."""
         return self._task(HandsTask).frames
+
+    @property
+    def hand_joints(self) -> tuple[str, ...]:
+        """Each hand's joints option, "all" or "arm" (`set_hands`)."""
+        return self._task(HandsTask).joints
 
     def _task(self, kind: type[_T]) -> _T:
         """The controller's task of class `kind` (one of each, TASK_TYPES), typed as it."""

@@ -69,7 +69,7 @@ def kernel_for(controller: WholeBodyController, serialized: str | None = None) -
         limits.normal_min,
         limits.normal_max,
     )
-    kernel.set_hands(list(controller.hands))
+    kernel.set_hands(list(controller.hands), list(controller.hand_joints))
     return kernel
 
 
@@ -210,11 +210,11 @@ class NativeController(WholeBodyController):
         if self._native is not None:
             self._native.forget_last_solution()
 
-    def set_hands(self, frames: tuple[str, ...]) -> None:
+    def set_hands(self, frames: tuple[str, ...], joints: tuple[str, ...] | None = None) -> None:
         """As WholeBodyController.set_hands, mirrored into the kernel."""
-        super().set_hands(frames)
+        super().set_hands(frames, joints)
         if self._native is not None:
-            self._native.set_hands(list(frames))
+            self._native.set_hands(list(frames), list(self.hand_joints))
 
     def set_stack(self, stack: Stack) -> None:
         """As WholeBodyController.set_stack, mirrored into the kernel."""

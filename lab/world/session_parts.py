@@ -112,7 +112,7 @@ def build_parts(
         # the same model's serialization, made once per robot, unless model error changed it
         robot.serialized_model if knobs.model_error[:2] == (0.0, 0.0) else None,
     )
-    controller.set_hands(tuple(frame for _, frame in description.hands))
+    controller.set_hands(tuple(frame for _, frame in description.hands), description.hand_joints)
     native_tick = NativeTick(plant, controller)
     layer = realism_layer(knobs, model.na, config.timestep)
     placements = FramePlacements(robot)

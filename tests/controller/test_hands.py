@@ -7,6 +7,7 @@ import pytest
 
 from lab.controller.hand_targets import HandTarget, HandTargets
 from lab.controller.native import kernel_for, send_references
+from lab.controller.tasks.base import TaskRows
 from lab.controller.tasks.hands import heading, heading_rate
 from lab.description import load_description
 from lab.protocol.validation import CommandError, parse_command
@@ -30,9 +31,17 @@ def test_the_hands_rows_agree_between_kernels(name: str) -> None:
     kernel = kernel_for(controller)  # which mirrors them
     model, refs = controller.robot, controller.references
     rng = np.random.default_rng(29)
-    h = len(frames_of(name))
-    assert controller.hands == frames_of(name)
-    for i in range(4):
+    frames = frames_of(name)
+    h = len(frames)
+    assert controller.hands == frames
+    for i in range(6):
+        # the robot's own joints options, then each hand on its arm by turns, then all of them
+        joints = tuple(
+            "arm" if (i >= 2 and (k + i) % 2 == 0) or i == 5 else "all" for k in range(h)
+        )
+        if i > 0:
+            controller.set_hands(frames, joints)
+            kernel.set_hands(list(frames), list(joints))
         q, v = random_state(robot, rng)
         model.update(q, v)
         kernel.update(q, v)
@@ -46,7 +55,7 @@ def test_the_hands_rows_agree_between_kernels(name: str) -> None:
             [pin.rpy.rpyToMatrix(*rng.uniform(-3, 3, 3)) for _ in range(h)]
         )
         # world targets, then each hand's in the heading frame by turns, then all of them
-        refs.hand_heading = np.array([(i > 0 and (k + i) % 2 == 0) or i == 3 for k in range(h)])
+        refs.hand_heading = np.array([(i > 0 and (k + i) % 3 == 0) or i == 3 for k in range(h)])
         send_references(kernel, refs)
         python = controller.tasks["hands"].rows(model, refs)
         assert python.A.shape == (6 * h, model.nx)
@@ -76,6 +85,51 @@ def test_a_heading_target_moves_with_the_trunk_and_leaves_its_linear_motion_alon
     there = task.rows(model, refs)
     np.testing.assert_allclose(there.error[:3], turn @ here.error[:3], atol=1e-9)
     np.testing.assert_allclose(np.linalg.norm(there.error[3:]), np.linalg.norm(here.error[3:]))
+
+
+def test_an_arm_hand_s_rows_use_its_chain_from_the_trunk_only() -> None:
+    """B1-Z1's hand with joints = "arm": its rows are the full Jacobian's on the Z1's six joints
+    and zero on the base's and the legs' columns (the hand cannot push the trunk), and its error
+    and right-hand side are those of the same hand with all joints."""
+    controller, robot = controller_for("b1_z1")
+    assert controller.hand_joints == ("all",)  # robots/b1_z1.toml
+    controller.set_hands(frames_of("b1_z1"), ("arm",))
+    model, refs = controller.robot, controller.references
+    arm = [model.model.joints[model.model.getJointId(f"joint{i}")].idx_v for i in range(1, 7)]
+    rng = np.random.default_rng(7)
+    q, v = random_state(robot, rng)
+    model.update(q, v)
+    refs.hand_position, refs.hand_rotation = np.array([[0.5, 0.1, 0.9]]), np.eye(3)[None]
+    refs.hand_velocity, refs.hand_acceleration = np.ones((1, 3)), np.zeros((1, 3))
+    task = controller.tasks["hands"]
+    mine = task.rows(model, refs)
+    mine = TaskRows(mine.A.copy(), mine.b.copy(), mine.error.copy())
+    controller.set_hands(frames_of("b1_z1"), ("all",))
+    full = task.rows(model, refs)
+    others = np.setdiff1d(np.arange(model.nx), arm)
+    assert np.abs(full.A[:, :6]).max() > 0.1  # the base moves the hand in the world
+    np.testing.assert_array_equal(mine.A[:, others], 0.0)
+    np.testing.assert_array_equal(mine.A[:, arm], full.A[:, arm])
+    np.testing.assert_array_equal(mine.b, full.b)
+    np.testing.assert_array_equal(mine.error, full.error)
+
+
+def test_a_bad_joints_option_is_refused_on_both_kernels_and_changes_nothing() -> None:
+    controller, _ = controller_for("b1_z1")
+    frames = frames_of("b1_z1")
+    controller.set_hands(frames, ("arm",))
+    with pytest.raises(ValueError, match="hand joints must be 'all' or 'arm', got 'legs'"):
+        controller.set_hands(frames, ("legs",))
+    with pytest.raises(ValueError, match="2 hand joints options for 1 hands"):
+        controller.set_hands(frames, ("arm", "arm"))
+    assert controller.hand_joints == ("arm",)
+    _kernel = pytest.importorskip("lab._kernel", reason="the native kernel is not built")
+    del _kernel
+    kernel = kernel_for(controller)
+    with pytest.raises(ValueError, match="hand joints must be 'all' or 'arm', got 'legs'"):
+        kernel.set_hands(list(frames), ["legs"])
+    with pytest.raises(ValueError, match="2 hand joints options for 1 hands"):
+        kernel.set_hands(list(frames), ["arm", "arm"])
 
 
 def test_the_heading_rate_is_the_yaw_s_derivative() -> None:

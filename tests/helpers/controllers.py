@@ -26,7 +26,9 @@ def controller_for(name: str, method: str = "cascade", solver: str = "daqp"):
     )
     refs = standing_references(model, robot.q_standing)
     controller = WholeBodyController(model, refs, config, robot.torque_limits)
-    controller.set_hands(tuple(frame for _, frame in description.hands))  # as a session does
+    controller.set_hands(  # as a session does
+        tuple(frame for _, frame in description.hands), description.hand_joints
+    )
     return controller, robot
 
 

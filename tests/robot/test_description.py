@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from lab.controller.behaviours.footholds import FOOTHOLD_PLANNERS
-from lab.description import ROBOT_NAMES, load_description
+from lab.description import ROBOT_NAMES, ROBOTS_DIR, load_description, read_description
 from lab.robot import build_robot
 
 HEIGHT_TOL = 1e-9  # m: the base height is solved so the lowest contact is at z = 0 exactly
@@ -99,3 +99,32 @@ def test_locked_joints_are_welded_at_the_reference_posture() -> None:
         reduced = data.oMf[robot.model.getFrameId(link)]
         original = data_full.oMf[full.getFrameId(link)]
         assert np.allclose(reduced.homogeneous, original.homogeneous, atol=1e-12), link
+
+
+def b1_z1_with_hand(tmp_path, entry: str):
+    """robots/b1_z1.toml copied into tmp_path with its hand `arm = <entry>`."""
+    text = (ROBOTS_DIR / "b1_z1.toml").read_text()
+    start = text.index("[hands]")
+    end = text.index("\n\n", start)
+    path = tmp_path / "b1_z1.toml"
+    path.write_text(text[:start] + f"[hands]\narm = {entry}" + text[end:])
+    return path
+
+
+@pytest.mark.parametrize(
+    ("entry", "joints"),
+    [('"gripperStator"', "all"), ('{ frame = "gripperStator", joints = "arm" }', "arm")],
+)
+def test_a_hand_is_a_frame_name_or_a_table_with_its_joints(tmp_path, entry, joints) -> None:
+    description = read_description(b1_z1_with_hand(tmp_path, entry))
+    assert description.hands == (("arm", "gripperStator"),)
+    assert description.hand_joints == (joints,)
+
+
+@pytest.mark.parametrize(
+    "entry", ['{ frame = "gripperStator", joints = "legs" }', '{ link = "gripperStator" }', "3"]
+)
+def test_a_bad_hand_entry_names_the_hand_and_the_forms(tmp_path, entry) -> None:
+    path = b1_z1_with_hand(tmp_path, entry)
+    with pytest.raises(ValueError, match="robot 'b1_z1': \\[hands\\] 'arm' must be a frame name"):
+        read_description(path)

@@ -15,6 +15,15 @@ is J − J_b (the base's own linear motion cancels: the hand is not asked to dra
 and r̈_ref = R_ψ p̈_rel + 2 ψ̇ ẑ × R_ψ ṗ_rel + ψ̇² ẑ × (ẑ × R_ψ p_rel), the frame's turning fed
 forward at the measured yaw rate ψ̇ (ω_ref = ψ̇ ẑ); its yaw acceleration is not (a steered trot's
 yaw rate changes only with the command).
+
+Each hand declares which joints its rows may use (`joints`, robots/*.toml's `[hands]`): `"all"`
+(the whole robot: a world-frame error is also corrected by moving the base, so a heavily weighted
+hand steers the trunk), or `"arm"`: only the hand's own chain from the trunk (the joints that
+support it, the free flyer excluded: the Z1's six on the B1, the waist's and the arm's on a
+humanoid). An arm hand's rows keep the full J̇v and the measured ṗ, ω, but zero the other
+columns of J: the hand cannot push the base or the legs around, and the base's motion reaches the
+hand only as an error its PD corrects (as OpenSoT's Cartesian task on a `base_link` or pink's and
+mink's relative frame tasks, but with the target still in the world or heading frame).
 """
 
 import numpy as np
@@ -28,6 +37,7 @@ from lab.controller.tasks.base import Task, TaskGains, TaskRows, no_task_rows
 FRAME = pin.LOCAL_WORLD_ALIGNED
 BASE_JOINT = 1  # the free-flyer joint: the trunk
 UP = np.array([0.0, 0.0, 1.0])
+JOINTS = ("all", "arm")  # which joints a hand's rows use (module docstring)
 
 
 def heading(base_rotation: np.ndarray) -> np.ndarray:
@@ -64,6 +74,33 @@ def hand_frame_ids(model: pin.Model, frames: tuple[str, ...]) -> tuple[int, ...]
     return tuple(int(model.getFrameId(frame, pin.BODY)) for frame in frames)
 
 
+def arm_columns(model: pin.Model, frame_id: int) -> np.ndarray:
+    """The velocity indices of the joints that carry this frame from the trunk: its parent
+    joint's supports without the universe and the free flyer (BASE_JOINT)."""
+    joints = [j for j in model.supports[model.frames[frame_id].parentJoint] if j > BASE_JOINT]
+    return np.array(
+        [
+            v
+            for j in joints
+            for v in range(model.joints[j].idx_v, model.joints[j].idx_v + model.joints[j].nv)
+        ],
+        dtype=int,
+    )
+
+
+def hand_joints(frames: tuple[str, ...], joints: tuple[str, ...] | None) -> tuple[str, ...]:
+    """Each hand's `joints` option ("all" when None); raises ValueError for another count or an
+    unknown value."""
+    if joints is None:
+        return ("all",) * len(frames)
+    if len(joints) != len(frames):
+        raise ValueError(f"{len(joints)} hand joints options for {len(frames)} hands")
+    unknown = [j for j in joints if j not in JOINTS]
+    if unknown:
+        raise ValueError(f"hand joints must be 'all' or 'arm', got {', '.join(map(repr, unknown))}")
+    return tuple(joints)
+
+
 class HandsTask(Task):
     """Every hand tracks its pose target (module docstring); 6 rows per hand."""
 
@@ -73,12 +110,23 @@ class HandsTask(Task):
         super().__init__(gains)
         self.frames: tuple[str, ...] = ()
         self.frame_ids: tuple[int, ...] = ()
+        self.joints: tuple[str, ...] = ()
+        self._other_columns: tuple[np.ndarray | None, ...] = ()  # zeroed per hand; None: all
 
-    def set_frames(self, robot: RobotModel, frames: tuple[str, ...]) -> None:
-        """Track these frames, one hand each, in the order of the references' hand rows; raises
-        ValueError naming a frame the model lacks, and keeps the old ones then."""
-        self.frame_ids = hand_frame_ids(robot.model, frames)
-        self.frames = frames
+    def set_frames(
+        self, robot: RobotModel, frames: tuple[str, ...], joints: tuple[str, ...] | None = None
+    ) -> None:
+        """Track these frames, one hand each, in the order of the references' hand rows, each
+        with the joints its `joints` option names ("all" or "arm", module docstring; None: all);
+        raises ValueError naming a frame the model lacks or a bad option, and keeps the old ones
+        then."""
+        ids, options = hand_frame_ids(robot.model, frames), hand_joints(frames, joints)
+        everything = np.arange(robot.nv)
+        self.frame_ids, self.frames, self.joints = ids, frames, options
+        self._other_columns = tuple(
+            np.setdiff1d(everything, arm_columns(robot.model, fid)) if option == "arm" else None
+            for fid, option in zip(ids, options, strict=True)
+        )
         self._fixed = FixedRows()  # another number of rows
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
@@ -127,6 +175,9 @@ class HandsTask(Task):
                     + rate**2 * np.cross(UP, np.cross(UP, r_ref))
                 )
                 R_ref, w_ref = turn @ R_ref, rate * UP
+            others = self._other_columns[k]
+            if others is not None:  # an arm hand: its chain's columns only
+                A[rows, others] = 0.0
             e_p = p_ref - placement.translation
             e_r = pin.log3(R_ref @ placement.rotation.T)
             error[rows] = np.concatenate((e_p, e_r))
