@@ -69,6 +69,9 @@ class RobotDescription:
     footholds: str | None = None
     # The hands task's hands, (name, frame) each, in the order of the references' hand rows.
     hands: tuple[tuple[str, str], ...] = ()
+    # `[touchdown]`: the haptic touch detector's thresholds on the estimated contact force
+    # (lab/realism/contact_estimate.py's TouchThresholds fields; absent: its defaults).
+    touchdown: dict[str, float] = field(default_factory=dict)
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -136,7 +139,21 @@ def read_description(path: Path) -> RobotDescription:
         standing_joints={j: float(a) for j, a in data.get("standing_joints", {}).items()},
         footholds=data.get("footholds"),
         hands=_hands(name, data.get("hands", {})),
+        touchdown=_touchdown(name, data.get("touchdown", {})),
     )
+
+
+TOUCHDOWN_KEYS = {"on", "off", "min_force", "accel_filter_hz"}
+
+
+def _touchdown(name: str, table: object) -> dict[str, float]:
+    """`[touchdown]`: known keys, numbers."""
+    if not isinstance(table, dict) or not all(isinstance(v, int | float) for v in table.values()):
+        raise ValueError(f"robot {name!r}: [touchdown] must map names to numbers")
+    unknown = set(table) - TOUCHDOWN_KEYS
+    if unknown:
+        raise ValueError(f"robot {name!r}: unknown [touchdown] keys {sorted(unknown)}")
+    return {key: float(value) for key, value in table.items()}
 
 
 def _hands(name: str, table: object) -> tuple[tuple[str, str], ...]:
