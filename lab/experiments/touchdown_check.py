@@ -13,6 +13,7 @@ import sys
 import numpy as np
 
 from lab.controller.behaviours.gait import LegState
+from lab.controller.behaviours.walking import Walking
 from lab.realism.knobs import knobs_from, preset
 from lab.world.session import Session, SessionConfig
 
@@ -44,11 +45,15 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
     session.handle("gait", {"name": "trot"})
     session.handle("velocity", {"vx": 0.5})
     onset: dict[int, float] = {}
-    delays, false, gave_up = [], 0, 0
+    delays: list[float] = []
+    false = gave_up = 0
     last: list = []
 
     def each_tick() -> None:
-        stance = [leg.state is LegState.STANCE for leg in session.behaviour.scheduler.legs]
+        behaviour, estimator = session.behaviour, session._contact_estimator
+        assert isinstance(behaviour, Walking) and behaviour.scheduler is not None
+        assert estimator is not None  # the knob is on: the tick made it
+        stance = [leg.state is LegState.STANCE for leg in behaviour.scheduler.legs]
         touch = session.plant.feet_touching(TOUCH_FORCE)
         if last:
             was_stance, was_touch = last
@@ -59,7 +64,7 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
                     onset.pop(i, None)
                 if not before and now:
                     nonlocal false, gave_up
-                    detected = bool(session._contact_estimator.touch[i])
+                    detected = bool(estimator.touch[i])
                     false += int(detected and not touch[i])
                     gave_up += int(not detected)
                     delays.append(session.time - onset.get(i, -math.inf))
