@@ -71,6 +71,9 @@ class RobotDescription:
     hands: tuple[tuple[str, str], ...] = ()
     # Each hand's joints option, "all" or "arm" (lab/controller/tasks/hands.py), in that order.
     hand_joints: tuple[str, ...] = ()
+    # `[touchdown]`: the haptic touch detector's thresholds on the estimated contact force
+    # (lab/realism/contact_estimate.py's TouchThresholds fields; absent: its defaults).
+    touchdown: dict[str, float] = field(default_factory=dict)
 
 
 def _contact(name: str, table: dict) -> tuple[ContactSpec, ContactFrame | None]:
@@ -140,7 +143,21 @@ def read_description(path: Path) -> RobotDescription:
         footholds=data.get("footholds"),
         hands=tuple((hand, frame) for hand, frame, _ in hands),
         hand_joints=tuple(joints for _, _, joints in hands),
+        touchdown=_touchdown(name, data.get("touchdown", {})),
     )
+
+
+TOUCHDOWN_KEYS = {"on", "off", "min_force", "accel_filter_hz"}
+
+
+def _touchdown(name: str, table: object) -> dict[str, float]:
+    """`[touchdown]`: known keys, numbers."""
+    if not isinstance(table, dict) or not all(isinstance(v, int | float) for v in table.values()):
+        raise ValueError(f"robot {name!r}: [touchdown] must map names to numbers")
+    unknown = set(table) - TOUCHDOWN_KEYS
+    if unknown:
+        raise ValueError(f"robot {name!r}: unknown [touchdown] keys {sorted(unknown)}")
+    return {key: float(value) for key, value in table.items()}
 
 
 def _hands(name: str, table: object) -> list[tuple[str, str, str]]:

@@ -16,6 +16,7 @@ from lab.controller.controller import ControlOutput, Ran
 from lab.controller.hand_targets import HandTargets
 from lab.controller.momentum import GainFuture, LqrProblem
 from lab.controller.stack import Stack
+from lab.realism.contact_estimate import ContactEstimator
 from lab.realism.knobs import PRESET_NAMES as REALISM_PRESETS
 from lab.realism.knobs import preset
 from lab.stack_presets import load_stack_preset
@@ -152,6 +153,7 @@ class SessionBase(SessionParts):
         self.realism.reset(self.robot.q_standing)
         self._true_state = self.plant.state()  # this tick's, read by _measure
         self.estimator.reset(*self._true_state)
+        self._contact_estimator: ContactEstimator | None = None  # realism's, at first use
         self.controller.forget_last_solution()  # the last tick's was of the state left behind
         if standing is None:
             self._set_behaviour(Balance.name)

@@ -14,7 +14,7 @@ import numpy as np
 from lab.controller.hierarchy import HierarchySolution
 from lab.controller.hierarchy.solution import SOLVED, SolveStatus
 from lab.controller.model import BASE_DOF
-from lab.realism.contact_estimate import estimated_contact_forces
+from lab.realism.contact_estimate import ContactEstimator, TouchThresholds
 from lab.world.native_tick import TickStatus
 from lab.world.plant import SimulationDiverged
 from lab.world.session_base import (
@@ -32,11 +32,6 @@ FALL_CHECK_PERIOD = 10  # ticks between fall checks
 # blind trot over tiles grazes a shin on a tile edge for a stance phase (≤ 0.35 s) and walks on.
 FALL_CONTACT_S = 0.5
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
-# With the contact force estimated from torques (realism's contact_estimate, Raiola eq. 18): a
-# foot touches when its estimated normal force exceeds this fraction of its share of the weight.
-# The estimate neglects the leg's acceleration: ANYmal's swinging legs read up to 0.65 of it
-# (trotting at 0.3 m/s), stance legs 1.5-2.4; at 0.15 false touchdowns felled the trot.
-ESTIMATED_TOUCH_FRACTION = 0.8
 # A fallen robot's joints are damped, as drives in a fall protection's damping mode: b = τ_max /
 # this speed, so the drive's full torque brakes a joint turning at it. Undamped, Solo12's 38 g
 # shanks spun at up to 900 rad/s (1 ms steps) and MuJoCo's integration diverged
@@ -129,12 +124,17 @@ class SessionTick(SessionBase):
         delay and actuator model of the realism layer (`tau` itself when it is ideal)."""
         return self.tau if self.realism.ideal else self.realism.actuate(self.tau, *self._true_state)
 
-    def _touch_from_torques(self, flags: np.ndarray) -> np.ndarray:
+    def _touch_from_torques(self, flags: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Which feet touch, from the contact forces estimated from last tick's applied torques
-        at this tick's model (Raiola eq. 18); a foot it cannot estimate keeps its `flags`."""
-        normal = estimated_contact_forces(self.model, self.applied_tau)[:, 2]
-        share = self.model.mass * 9.81 / len(self.model.contacts)
-        return np.where(np.isnan(normal), flags, normal > ESTIMATED_TOUCH_FRACTION * share)
+        and the measured joint velocities `v`'s differences at this tick's model (Raiola eq. 18
+        with the leg's acceleration, lab/realism/contact_estimate.py); a foot it cannot
+        estimate keeps its `flags`."""
+        if self._contact_estimator is None:
+            thresholds = TouchThresholds(**self.robot.description.touchdown)
+            self._contact_estimator = ContactEstimator(
+                thresholds, self.config.timestep, self.model.na, len(self.model.contacts)
+            )
+        return self._contact_estimator.update(self.model, self.applied_tau, v[BASE_DOF:], flags)
 
     def _control(self, idle: bool, native: bool) -> int | None:
         """This tick's torques and planned contact forces: the controller's, or fallback ones.
@@ -162,7 +162,7 @@ class SessionTick(SessionBase):
                     else:
                         controller.update(q, v)
                         if self.realism.knobs.contact_estimate:
-                            touching = self._touch_from_torques(touching)
+                            touching = self._touch_from_torques(touching, v)
                         if controller.reads_sensing:  # measured only for a task that reads it
                             controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim 12
                         behaviour.update(self.time, self.model, self.velocity, touching)
