@@ -31,18 +31,21 @@ SETTLE = 0.5  # s: the first half second (the force builds up from zero) is not 
 class InternalForceMetrics:
     def __init__(self, session: "Session") -> None:
         self.errors: list[float] = []
-        self.start: np.ndarray | None = None
+        self.start: list[list[float]] | None = None  # each foot's (x, y) at SETTLE
         self.slide = 0.0
 
     def update(self, session: "Session") -> None:
         if session.time < SETTLE or session.fell:
             return
         model = session.model
+        # Python floats: with numpy calls on the feet's 2-vectors the metric cost a third of a
+        # native tick (benchmarks/bench_scenarios.py)
+        feet = model.contact_positions[:, :2].tolist()
         if self.start is None:
-            self.start = model.contact_positions[:, :2].copy()
-        slide = np.linalg.norm(model.contact_positions[:, :2] - self.start, axis=1)
-        self.slide = max(self.slide, float(slide.max()))
-        if not np.all(session.controller.references.contact_active):
+            self.start = feet
+        for (x, y), (x0, y0) in zip(feet, self.start, strict=True):
+            self.slide = max(self.slide, math.sqrt((x - x0) ** 2 + (y - y0) ** 2))
+        if not all(session.controller.references.contact_active.tolist()):
             return
         measured = internal_forces(model.contact_positions, session.plant.foot_forces())
         self.errors.append(float(measured[0]) - session.controller.internal_force.reference)
