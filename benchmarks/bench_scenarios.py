@@ -213,6 +213,29 @@ def print_rows(rows: list[dict]) -> None:
             print(f"  {row['scenario']:32} {metric:34} {bounds:28} {', '.join(values)}")
 
 
+def print_markdown(rows: list[dict]) -> None:
+    """docs/performance.md's table: one row a scenario, a dash where a kernel did not run."""
+    print(
+        "| scenario | sim s | fell native / python | [expect] met native / python | largest "
+        "[expect] difference (tolerance) | native RTF wall / CPU | native tick p50 / p99 µs |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    yes = {True: "yes", False: "**no**", None: "-"}
+    for row in rows:
+        n, p = row.get("native"), row.get("python")
+        fell = " / ".join("-" if r is None else ("fell" if r["fell"] else "stood") for r in (n, p))
+        met = " / ".join("-" if r is None else yes[r["expect_passed"]] for r in (n, p))
+        diff = row.get("largest_difference")
+        agree = "" if diff is None or row["agree"] else " **over**"
+        difference = "-" if diff is None else f"{diff:.1e} ({row['tolerance']:g}){agree}"
+        rtf = "-" if n is None else f"{n['realtime_factor']:.2f} / {n['cpu_realtime_factor']:.2f}"
+        mark = "" if n is None or n["cpu_realtime_factor"] >= TARGET_RTF else " **<3**"
+        tick = "-" if n is None else f"{n['tick_us']['p50']:.0f} / {n['tick_us']['p99']:.0f}"
+        sim = (n or p)["sim_time_s"]
+        cells = (f"`{row['scenario']}`", f"{sim:.1f}", fell, met, difference, rtf + mark, tick)
+        print(f"| {' | '.join(cells)} |")
+
+
 def run_all(runs: list[tuple[str, str]], jobs: int, reports: Path) -> None:
     """Run each (scenario, kernel) whose report `reports` lacks, at most `jobs` at a time, and
     save each report there as it ends (so that an interrupted run resumes)."""
@@ -249,6 +272,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--fresh", action="store_true", help="run again what --reports holds")
     parser.add_argument("--json", type=Path, help="write every row to this file")
+    parser.add_argument(
+        "--table-only",
+        action="store_true",
+        help="run nothing: tabulate the reports --reports holds (a kernel's missing runs: -)",
+    )
+    parser.add_argument("--markdown", action="store_true", help="docs/performance.md's table too")
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error("--jobs must be at least 1")
@@ -263,16 +292,23 @@ def main(argv: list[str] | None = None) -> int:
             report_path(args.reports, *run).unlink(missing_ok=True)
     start = time.monotonic()
     print(f"load average at start: {os.getloadavg()}", flush=True)
-    run_all(runs, args.jobs, args.reports)
+    if not args.table_only:
+        run_all(runs, args.jobs, args.reports)
     rows = []
     for name in names:
         found = {k: report_path(args.reports, name, k) for k in kernels}
-        rows.append(compare(name, {k: json.loads(f.read_text()) for k, f in found.items()}))
+        reports = {k: json.loads(f.read_text()) for k, f in found.items() if f.exists()}
+        if reports:
+            rows.append(compare(name, reports))
     print_rows(rows)
-    slow = [
-        r["scenario"] for r in rows if "native" in r and r["native"]["realtime_factor"] < TARGET_RTF
-    ]
-    print(f"\nbelow {TARGET_RTF:g}x real time, native: {', '.join(slow) or 'none'}")
+    if args.markdown:
+        print()
+        print_markdown(rows)
+    for clock, key in (("wall", "realtime_factor"), ("CPU", "cpu_realtime_factor")):
+        slow = [r["scenario"] for r in rows if "native" in r and r["native"][key] < TARGET_RTF]
+        print(
+            f"\nbelow {TARGET_RTF:g}x real time, native, by {clock} time: {', '.join(slow) or 'none'}"
+        )
     print(f"wall {time.monotonic() - start:.0f} s, {args.jobs} at a time")
     print(f"load average at end: {os.getloadavg()}")
     if args.json:
