@@ -306,9 +306,8 @@ def main(argv: list[str] | None = None) -> int:
         print_markdown(rows)
     for clock, key in (("wall", "realtime_factor"), ("CPU", "cpu_realtime_factor")):
         slow = [r["scenario"] for r in rows if "native" in r and r["native"][key] < TARGET_RTF]
-        print(
-            f"\nbelow {TARGET_RTF:g}x real time, native, by {clock} time: {', '.join(slow) or 'none'}"
-        )
+        below = ", ".join(slow) or "none"
+        print(f"\nbelow {TARGET_RTF:g}x real time, native, by {clock} time: {below}")
     print(f"wall {time.monotonic() - start:.0f} s, {args.jobs} at a time")
     print(f"load average at end: {os.getloadavg()}")
     if args.json:
