@@ -13,9 +13,10 @@ wall s of the whole session: MuJoCo, realism, behaviour, controller, metrics), t
 `session.tick()`'s time; both depend on the machine's load, so say it (`uptime`) with them.
 
 The kernels' difference is the largest relative difference |a − b| / max(|a|, |b|) over the
-`[expect]` metrics, against TOLERANCES: where the two runs follow one path (the robot keeps its
-contacts) the metrics agree to the rounding of a tick; where contacts are made and broken (a
-walk, a slip) the two paths part by rounding and the tolerance is looser (TOLERANCES says why).
+`[expect]` metrics, against `tolerance(name)`: where the two runs follow one path (the robot
+keeps its contacts) the metrics agree to the rounding of a tick; where contacts are made and
+broken (a walk, a slip) or sensors quantize, the two paths part by rounding and the tolerance is
+looser (each says why).
 """
 
 import argparse
@@ -54,18 +55,30 @@ class Tolerance:
 SAME_PATH = Tolerance(1e-9, "one path: replications.md measured 1e-11; allowed 1e-9")
 # A walk makes and breaks contacts every step: a touchdown a tick earlier on one kernel (its
 # contact force crossing the threshold at a different rounding) moves every later state, so the
-# two walks part after a few steps, as two runs on one kernel with 1e-12 apart in the initial
-# state do. No doc states a tolerance for it; the one stated here: both kernels within the
-# scenario's [expect] bounds and the metrics within 10 % of each other (the [expect] bounds are
-# 30-100 % wide around the values replications.md quotes).
-PARTED_PATH = Tolerance(0.10, "walk or slip: paths part by rounding; stated here: 10 %")
-# Scenarios whose path parts: Bolt's walks and the wedge that slips (Kim Fig. 7)
-PARTED = ("bolt_", "kim_wedges_10n")
+# two walks part after a few steps. No doc states a tolerance for it; the one stated here: both
+# kernels within the scenario's [expect] bounds and the metrics within 10 % of each other (the
+# [expect] bounds are 30-100 % wide around the values replications.md quotes).
+PARTED_PATH = Tolerance(0.10, "walk: paths part by rounding; stated here: 10 %")
+# Sensors that quantize and add noise (`realism = "typical"`): a rounding difference that moves a
+# joint across an encoder step becomes a whole step (the noise itself is drawn the same on both
+# kernels, docs/realism.md). No doc states a tolerance; stated here: 1 %, a tenth of the [expect]
+# bands of kim_wedges_100n_typical.
+SENSED_PATH = Tolerance(0.01, "quantized sensors: a rounding becomes an encoder step; 1 %")
+# A run that slips and falls (Kim Fig. 7): once a foot slides down its wedge the two runs part
+# without bound, and the round-11 page that first compared the kernels (`git show
+# fe8d29c:docs/performance.md`) compared only the outcome: fell on both, [expect] met on both.
+FALL = Tolerance(math.inf, "falls: after the slip the paths part; outcome only (round 11)")
 
 
 def tolerance(name: str) -> Tolerance:
     """The tolerance of scenario `name` on the kernels' difference."""
-    return PARTED_PATH if name.startswith(PARTED) else SAME_PATH
+    if name == "kim_wedges_10n":
+        return FALL
+    if name.startswith("bolt_"):
+        return PARTED_PATH
+    if name.endswith("_typical"):
+        return SENSED_PATH
+    return SAME_PATH
 
 
 def scenario_names(only: list[str] | None) -> list[str]:
@@ -227,7 +240,8 @@ def print_markdown(rows: list[dict]) -> None:
         met = " / ".join("-" if r is None else yes[r["expect_passed"]] for r in (n, p))
         diff = row.get("largest_difference")
         agree = "" if diff is None or row["agree"] else " **over**"
-        difference = "-" if diff is None else f"{diff:.1e} ({row['tolerance']:g}){agree}"
+        allowed = "outcome only" if math.isinf(row["tolerance"]) else f"{row['tolerance']:g}"
+        difference = "-" if diff is None else f"{diff:.1e} ({allowed}){agree}"
         rtf = "-" if n is None else f"{n['realtime_factor']:.2f} / {n['cpu_realtime_factor']:.2f}"
         mark = "" if n is None or n["cpu_realtime_factor"] >= TARGET_RTF else " **<3**"
         tick = "-" if n is None else f"{n['tick_us']['p50']:.0f} / {n['tick_us']['p99']:.0f}"
