@@ -222,7 +222,7 @@ class RenderLoop:
         tel = batch[-1]
         app.telemetry = tel
         run = (app.link.lab_id, tel["robot"], tel["scene"])
-        self._live.add_newest(time.monotonic(), tel, run)
+        self._live.add_newest(time.monotonic(), tel, run, live=not app.replaying())
         before = app.lab_lock.other()
         if app.lab_lock.seen(tel):
             self._log_lock_holder(before)

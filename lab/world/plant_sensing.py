@@ -74,15 +74,21 @@ class PlantSensing:
     def foot_pressure_centres(self) -> np.ndarray:
         """Measured centre of pressure of each foot (n_contacts, 3), m, world frame: its contact
         points weighted by their normal forces; NaN for a foot that does not press."""
-        total = np.zeros(len(self._forces))
-        moment = np.zeros((len(self._forces), 3))
+        # Python floats, the same sums in the same order: numpy's per-element indexing and
+        # in-place adds cost 36 µs a tick for Talos's eight sole contacts (sole_cop metric)
+        total = [0.0] * len(self._forces)
+        moment = [[0.0, 0.0, 0.0] for _ in self._forces]
         efc_force, points = self.mj_data.efc_force, self.mj_data.contact.pos
         for i, foot, row, _ in self._terrain_contacts():
-            if foot >= 0 and row >= 0 and efc_force[row] > 0.0:
-                total[foot] += efc_force[row]
-                moment[foot] += efc_force[row] * points[i]
+            if foot >= 0 and row >= 0 and (force := float(efc_force[row])) > 0.0:
+                total[foot] += force
+                x, y, z = points[i].tolist()
+                m = moment[foot]
+                m[0] += force * x
+                m[1] += force * y
+                m[2] += force * z
         with np.errstate(invalid="ignore", divide="ignore"):
-            return moment / total[:, None]
+            return np.array(moment) / np.array(total)[:, None]
 
     def foot_forces(self) -> np.ndarray:
         """Measured terrain force on each foot (n_contacts, 3), N, world frame.

@@ -30,6 +30,7 @@ from lab.ui.plot_buffer import RollingBuffer
 from lab.ui.plot_export import Shown, shown_csv, shown_png
 from lab.ui.push_controls import default_push_newtons
 from lab.ui.status import (
+    LiveStatus,
     LoopFigures,
     LoopWindow,
     RealtimeFactor,
@@ -376,6 +377,30 @@ def test_realtime_factor_restarts_with_the_sim_clock() -> None:
     assert rtf.value() == pytest.approx(0.5)
     rtf.add(3.0, 0.3, ("talos", "flat"))  # a switch starts again even if the clock went on
     assert math.isnan(rtf.value())
+
+
+def test_a_starved_page_times_its_figures_by_the_loops_clock() -> None:
+    """A UI process short of CPU receives telemetry in bursts. The loop keeps real time with 90 %
+    of its ticks on time (its clock and counters say so); the page received the messages of
+    the last 4 s in the last 0.5 s. Timed by receipt it showed 3.3× real time; timed by the
+    loop's `clock_s` it shows the loop's own figures. A replay (not live) keeps receipt time."""
+
+    def message(k: int) -> dict:
+        loop = {"ticks": 100 * k, "on_time_fraction": 0.9, "overruns": 0, "clock_s": 0.1 * k}
+        return {"t": 0.1 * k, "loop": loop, "qp": {"solve_us": 50.0}}
+
+    def received(k: int) -> float:  # on time for 1 s, then 4 s of messages in 0.5 s
+        return 0.1 * k if k <= 10 else 1.0 + (k - 10) * 0.5 / 40
+
+    live, replay = LiveStatus(), LiveStatus()
+    for k in range(51):
+        live.add_newest(100.0 + received(k), message(k), ("bolt", "flat"))
+        replay.add_newest(100.0 + received(k), message(k), ("bolt", "flat"), live=False)
+    assert live.rtf.value() == pytest.approx(1.0)
+    window = live.loop.window()
+    assert window is not None and window.on_time_fraction == pytest.approx(0.9)
+    assert window.seconds == pytest.approx(5.0)
+    assert replay.rtf.value() == pytest.approx(10 / 3)  # by receipt: what the page showed
 
 
 def _telemetry(**changes) -> dict:

@@ -5,9 +5,10 @@ Every scenario reports the `standing` metrics; a scenario file lists more by nam
 `result() -> dict[str, float]`; register it in METRICS.
 """
 
+import math
 from typing import TYPE_CHECKING, Protocol
 
-import numpy as np
+import pinocchio as pin
 
 from lab.experiments.metrics.cop import CopBindingMetrics
 from lab.experiments.metrics.estimation import EstimationMetrics
@@ -31,16 +32,21 @@ class Metric(Protocol):
 
 
 class StandingMetrics:
-    """Largest base-orientation and base-height errors, peak measured normal force."""
+    """Largest base-orientation and base-height errors, peak measured normal force. Every
+    scenario runs it every tick: Python floats, no numpy call on a small vector (12-15 µs a tick
+    with them, a tenth of a native tick)."""
 
     def __init__(self, session: "Session") -> None:
         self.reference_height = session.controller.references.base_height
         self.orientation = self.height = self.peak_normal = 0.0
 
     def update(self, session: "Session") -> None:
-        self.orientation = max(self.orientation, session.base_orientation_error())
-        self.height = max(self.height, abs(session.model.q[2] - self.reference_height))
-        self.peak_normal = max(self.peak_normal, float(np.max(session.plant.foot_forces()[:, 2])))
+        # Session.base_orientation_error, its norm as np.linalg.norm computes it
+        rotation = session.controller.references.base_rotation.T @ session.model.base_rotation
+        error = pin.log3(rotation)
+        self.orientation = max(self.orientation, math.sqrt(error @ error))
+        self.height = max(self.height, abs(float(session.model.q[2]) - self.reference_height))
+        self.peak_normal = max(self.peak_normal, max(session.plant.foot_forces()[:, 2].tolist()))
 
     def result(self) -> dict[str, float]:
         return {

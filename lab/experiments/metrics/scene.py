@@ -5,9 +5,11 @@ For each scripted joint of a scene's moving bodies (`lab.scenes.terrain`), its l
 position over the run (`<joint>_min`, `<joint>_max`: m for a slide, rad for a hinge). For the soles,
 the largest distance each one's centre moved from where it started, measured in the frame of the
 scene's (first) moving body, or the world's in a static scene (`sole_slip_max_m`: a sole that
-sticks to a rolling platform stays near 0).
+sticks to a rolling platform stays near 0). The scene's frame is read once a tick, not once a
+sole.
 """
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,21 +23,23 @@ class SceneMotionMetrics:
         joints = session.plant.scripted_joint_positions()
         self.low = dict.fromkeys(joints, np.inf)
         self.high = dict.fromkeys(joints, -np.inf)
-        self.start = [self._local(session, i) for i in range(len(session.model.contacts))]
+        self.start = self._local(session)
         self.slip = 0.0
 
     @staticmethod
-    def _local(session: "Session", i: int) -> np.ndarray:
-        """Contact i's position in the frame of the scene's first moving body (or the world)."""
+    def _local(session: "Session") -> list[np.ndarray]:
+        """Each contact's position in the frame of the scene's first moving body (or the
+        world)."""
         position, rotation = session.plant.terrain_frame()
-        return rotation.T @ (session.model.contact_positions[i] - position)
+        return [rotation.T @ (p - position) for p in session.model.contact_positions]
 
     def update(self, session: "Session") -> None:
         for name, value in session.plant.scripted_joint_positions().items():
             self.low[name] = min(self.low[name], value)
             self.high[name] = max(self.high[name], value)
-        for i, start in enumerate(self.start):
-            self.slip = max(self.slip, float(np.linalg.norm(self._local(session, i) - start)))
+        for local, start in zip(self._local(session), self.start, strict=True):
+            moved = local - start
+            self.slip = max(self.slip, math.sqrt(moved @ moved))  # as np.linalg.norm computes it
 
     def result(self) -> dict[str, float]:
         ranges = {}
