@@ -3,8 +3,8 @@ page shared by the tests in file order: Bolt steps under `biped_step` picked in 
 dropdown and Kim 2016's live plots draw (uPlot's own y ranging gave the CoM phase portraits a NaN
 scale: no points, no y axis; `lab/ui/plot_range.py`); then a Reset stands it on its default
 stack, and the split wedges' set-up from the page holds it, across a Reset too; last, a push
-from the page reaches the server (the robot and scene walk, test_ui_walk.py, leaves Bolt and
-split_wedges to this file)."""
+from the page reaches the server (the robot and scene walk of test_ui_browser.py leaves Bolt
+and split_wedges to this file)."""
 
 import time
 from collections.abc import Iterator
