@@ -27,6 +27,7 @@ from lab.protocol import MAX_PAYLOAD_BYTES
 from lab.runtime.loop import MAX_BEHIND_S
 from lab.runtime.transport import encode
 from tests.helpers.ports import free_port
+from tests.helpers.processes import wait_for
 
 STARTUP_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 10.0  # a hung shutdown never ends; a loaded 2-core machine took > 2 s
@@ -105,10 +106,11 @@ def collect(endpoint: str, seconds: float) -> dict[str, list[dict]]:
     with LabClient(endpoint) as listener:
         listener.subscribe_telemetry(received["telemetry"].append)
         listener.subscribe_state(received["state"].append)
-        end = time.monotonic() + STARTUP_TIMEOUT_S
-        while not (received["telemetry"] and received["state"]):
-            assert time.monotonic() < end, "no telemetry or state reached a new client"
-            time.sleep(0.05)
+        wait_for(
+            lambda: received["telemetry"] and received["state"],
+            STARTUP_TIMEOUT_S,
+            "telemetry and state at a new client",
+        )
         time.sleep(seconds)
     return received
 
