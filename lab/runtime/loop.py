@@ -175,6 +175,12 @@ class SimLoop:
         finally:
             sys.setswitchinterval(interval)
             self.stats.gc.remove()
+            if not self.config.fast:
+                # What was frozen goes back to the collector: the first session's objects are
+                # in reference cycles (its native kernel, plant step and server tick among
+                # them) that only a collection frees. Left frozen, they outlived the loop and the
+                # process's last collection, and nanobind listed them as leaked at exit.
+                gc.unfreeze()
 
     def _run(self, stop: threading.Event) -> None:
         period, clock, fast = self.period, self.clock, self.config.fast

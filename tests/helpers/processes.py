@@ -76,6 +76,11 @@ class LiveServer:
         try:
             self.client.subscribe_events(self.events.append)
             self.client.wait_telemetry(timeout=WAIT_S)
+            # A refused command's event back: the server has the subscription (the command
+            # follows it on the client's one link), so no injected fault's event is published
+            # before the client listens.
+            assert not self.client.command("velocity", vx=99.0)["ok"]
+            self.event("rejected_command")
         except BaseException:
             self.client.close()
             self._stop_loop()

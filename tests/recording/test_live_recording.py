@@ -119,9 +119,10 @@ def test_a_recording_is_served_like_a_live_session(live_recording: Path, tmp_pat
             assert 0.45 <= shown["t"] <= 0.5 and shown["robot"] == "anymal"
             assert shown["replay"]["t"] == 0.5 and shown["replay"]["paused"]  # the timeline
             assert not lab.command("reset")["ok"]
-            assert lab.command("resume")["ok"] and lab.command("speed", factor=4.0)["ok"]
-            ended = []
+            ended = []  # subscribed before the replay resumes: the server has the subscription
+            # before the commands below (one link, in order), so the end cannot come first
             lab.subscribe_events(lambda e: ended.append(e) if e["type"] == "replay_ended" else None)
+            assert lab.command("resume")["ok"] and lab.command("speed", factor=4.0)["ok"]
             deadline = time.monotonic() + WAIT_S
             while not ended and time.monotonic() < deadline:
                 time.sleep(0.1)

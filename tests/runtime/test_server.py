@@ -27,6 +27,7 @@ from lab.protocol import MAX_PAYLOAD_BYTES
 from lab.runtime.loop import MAX_BEHIND_S
 from lab.runtime.transport import encode
 from tests.helpers.ports import free_port
+from tests.helpers.processes import wait_for
 
 STARTUP_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 10.0  # a hung shutdown never ends; a loaded 2-core machine took > 2 s
@@ -98,12 +99,18 @@ def info(lab: LabClient) -> dict:
 
 
 def collect(endpoint: str, seconds: float) -> dict[str, list[dict]]:
-    """Telemetry, state and events received by a fresh client during `seconds`."""
-    received: dict[str, list[dict]] = {"telemetry": [], "state": [], "events": []}
+    """Telemetry and state received by a fresh client for `seconds` from when both flow (a
+    subscriber just declared receives nothing until the server knows it: on a loaded machine
+    that took longer than a fixed wait)."""
+    received: dict[str, list[dict]] = {"telemetry": [], "state": []}
     with LabClient(endpoint) as listener:
         listener.subscribe_telemetry(received["telemetry"].append)
         listener.subscribe_state(received["state"].append)
-        listener.subscribe_events(received["events"].append)
+        wait_for(
+            lambda: received["telemetry"] and received["state"],
+            STARTUP_TIMEOUT_S,
+            "telemetry and state at a new client",
+        )
         time.sleep(seconds)
     return received
 
@@ -323,10 +330,14 @@ def test_rejections_are_reported_on_events(lab: LabClient, server: Server) -> No
     events: list[dict] = []
     with LabClient(server.endpoint) as listener:
         listener.subscribe_events(events.append)
-        time.sleep(0.2)
-        for _ in range(3):
+        # Rejected again until the listener has an event: its subscription reaches the server
+        # in its own time (the commands come from another client), and events of one kind are
+        # folded to one per second, so a rejection before then is never seen.
+        end = time.monotonic() + STARTUP_TIMEOUT_S
+        while not any(e["type"] == "rejected_command" for e in events):
+            assert time.monotonic() < end, f"no rejected_command event; received {events}"
             assert not lab.command("velocity", vx=99.0)["ok"]
-        time.sleep(1.2)  # events of one kind are folded to one per second
+            time.sleep(0.3)
     rejected = [e for e in events if e["type"] == "rejected_command"]
     assert rejected and rejected[-1]["verb"] == "velocity" and "vx" in rejected[-1]["error"]
 
