@@ -22,7 +22,6 @@ descheduling left out; the JSON's `realtime_clock` says which clock).
 """
 
 import argparse
-import gc
 import json
 import time
 from dataclasses import dataclass
@@ -31,6 +30,7 @@ import numpy as np
 
 from lab.controller.native import NOT_BUILT
 from lab.description import ROBOT_NAMES
+from lab.world.memory import long_lived_objects_frozen
 from lab.world.session import Session, SessionConfig
 
 ROBOTS = ("anymal", "hyq", "solo12", "talos", "bolt")  # the default rows; --robots takes any
@@ -110,12 +110,9 @@ def bench_one(
     # the native kernel's stages (update, rows, method and torques), timed inside it
     stages_us = np.full((ticks, len(KERNEL_STAGES)), np.nan)
     capped = 0  # nullspace: ticks whose active-set search stopped at its cap
-    # As the server's loop does before its first tick (runtime/loop.py): what exists now goes
-    # to the permanent generation, so the collections the ticks' allocations trigger scan only
-    # what came after; a full collection of the imports' objects costs tens of ms, ~1 µs a tick
-    # on average (perf: gc_collect_main ~1 % of Talos's standing tick). Unfrozen after the row.
-    gc.freeze()
-    try:
+    # as `lab run` and the server's loop tick (perf: gc_collect_main was ~1 % of Talos's
+    # standing tick with the imports' objects scanned)
+    with long_lived_objects_frozen():
         clock = time.thread_time if cpu_time else time.perf_counter
         wall_start = clock()
         for i in range(ticks):
@@ -133,8 +130,6 @@ def bench_one(
             if inside is not None:
                 stages_us[i] = inside
         wall = clock() - wall_start
-    finally:
-        gc.unfreeze()
     stages_us *= 1e6
     kernel_us = stages_us.sum(axis=1)
     solve_us = np.zeros(SOLVE_REPEATS)

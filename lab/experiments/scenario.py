@@ -42,6 +42,7 @@ from lab.realism.knobs import RealismKnobs, knobs_from, preset
 from lab.recording.record import Recorder
 from lab.scenes import SEEDED_SCENES
 from lab.stack_presets import check_gains, load_stack_preset
+from lab.world.memory import long_lived_objects_frozen
 from lab.world.session import Session, SessionConfig
 
 SCENARIO_KEYS = {
@@ -281,23 +282,24 @@ def run_scenario(
     metrics = [METRICS[name](session) for name in scenario.metrics]
     rejected = []
     wall_start = time.perf_counter()
-    for i in range(ticks):
-        while pending and pending[0].t <= session.time + 1e-9:
-            event = pending.pop(0)
-            reply = session.handle(event.verb, event.payload)
+    with long_lived_objects_frozen():  # as the server's loop ticks (world/memory.py)
+        for i in range(ticks):
+            while pending and pending[0].t <= session.time + 1e-9:
+                event = pending.pop(0)
+                reply = session.handle(event.verb, event.payload)
+                if recorder is not None:
+                    recorder.command(session, event.verb, event.payload, reply)
+                if not reply["ok"]:
+                    rejected.append(f"t={event.t}: {event.verb}: {reply['error']}")
+            start = time.perf_counter()
+            session.tick()
+            tick_us[i] = (time.perf_counter() - start) * 1e6
+            for metric in metrics:
+                metric.update(session)
             if recorder is not None:
-                recorder.command(session, event.verb, event.payload, reply)
-            if not reply["ok"]:
-                rejected.append(f"t={event.t}: {event.verb}: {reply['error']}")
-        start = time.perf_counter()
-        session.tick()
-        tick_us[i] = (time.perf_counter() - start) * 1e6
-        for metric in metrics:
-            metric.update(session)
-        if recorder is not None:
-            recorder.after_tick(session)
-        if session.fell or session.divergences:  # a diverged run ends as a fallen one does
-            break
+                recorder.after_tick(session)
+            if session.fell or session.divergences:  # a diverged run ends as a fallen one does
+                break
     wall = time.perf_counter() - wall_start
     if recorder is not None:
         recorder.close()

@@ -10,9 +10,12 @@ returned (docs/reliability.md). A flood of commands does the same through Zenoh'
 (lab/runtime/heap_trim.py); `heap_usage` tells the two apart (in use, or free and kept).
 """
 
+import contextlib
 import ctypes
 import ctypes.util
 import functools
+import gc
+from collections.abc import Iterator
 
 
 class _MallInfo2(ctypes.Structure):
@@ -70,3 +73,16 @@ def heap_usage() -> dict[str, float] | None:
         "in_use": round((info.uordblks + info.hblkhd) * mb, 1),
         "free_kept": round(info.fordblks * mb, 1),
     }
+
+
+@contextlib.contextmanager
+def long_lived_objects_frozen() -> Iterator[None]:
+    """Within: what exists now is in the garbage collector's permanent generation, so the
+    collections that ticking triggers scan only what came after (a full collection of the
+    imports' objects takes tens of ms; the realtime loop does the same, runtime/loop.py).
+    Unfrozen after, so that the last collection at exit still frees them."""
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
