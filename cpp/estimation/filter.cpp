@@ -56,16 +56,15 @@ void LeggedEkf::step(const Eigen::Vector3d& accel, const Eigen::Vector3d& gyro,
                      const Flags& contacts) {
   if (contacts.size() != layout_.n)
     throw std::invalid_argument("LeggedEkf.step: one contact flag per foot");
-  if (rolling_) {
-    const Eigen::Matrix3Xd& spins = kinematics_.spins(joints, joint_velocities);
-    roll_feet(x_, spins, gyro, radii_, contacts_, dt_);
-  }
+  // one forward pass for both: the spins (rolling feet) and the feet's kinematics
+  const Eigen::Matrix3Xd& feet =
+      rolling_ ? kinematics_.feet_and_spins(joints, joint_velocities) : kinematics_.feet(joints);
+  if (rolling_) roll_feet(x_, kinematics_.last_spins(), gyro, radii_, contacts_, dt_);
   const Transition F = transition(x_, accel, gyro, dt_);
   propagate(x_, accel, gyro, gravity_, dt_);
   propagate_covariance(F, layout_, P_, work_);
   process_noise(tuning_, contacts_, dt_, layout_, q_);
   P_.diagonal() += q_;
-  const Eigen::Matrix3Xd& feet = kinematics_.feet(joints);
   for (int i = 0; i < layout_.n; ++i) {
     if (contacts[i] && !contacts_[i]) {
       touchdown(i, feet.col(i));
@@ -123,17 +122,18 @@ void LeggedEkf::correct(const Eigen::Matrix3Xd& feet) {
   times_ht(P_, H_, PHt_);
   times_ht(PHt_.transpose(), H_, S_);                                 // H P Hᵀ (P symmetric)
   for (int k = 0; k < m; ++k) S_.block<3, 3>(3 * k, 3 * k) += noise;  // + N, feet independent
-  K_ = S_.llt().solve(PHt_.transpose()).transpose();                  // P Hᵀ S⁻¹
-  // Joseph's form (I − KH) P (I − KH)ᵀ + K N Kᵀ, reassociated: with M = (I − KH) P =
-  // P − K (P Hᵀ)ᵀ, it is M + (K N − M Hᵀ) Kᵀ
-  work_ = P_;
-  work_.noalias() -= K_ * PHt_.transpose();
-  times_ht(work_, H_, MHt_);
-  for (int k = 0; k < m; ++k) MHt_.middleCols<3>(3 * k) -= K_.middleCols<3>(3 * k) * noise;
-  P_ = work_;
-  P_.noalias() -= MHt_ * K_.transpose();
-  P_ = 0.5 * (P_ + P_.transpose()).eval();
-  inject(K_ * residual_);
+  // filter.py's Joseph form (I − KH) P (I − KH)ᵀ + K N Kᵀ with the optimal K = P Hᵀ S⁻¹ is, in
+  // exact arithmetic, P − K S Kᵀ = P − U Uᵀ, U = P Hᵀ L⁻ᵀ (S = L Lᵀ): one symmetric rank-3m
+  // update instead of two dense 27 × 12 × 27 products;
+  // tests/estimation/test_ekf_native.py holds it to the Joseph form's P every tick
+  llt_.compute(S_);
+  U_ = PHt_;
+  llt_.matrixU().solveInPlace<Eigen::OnTheRight>(U_);
+  P_.selfadjointView<Eigen::Lower>().rankUpdate(U_, -1.0);
+  P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
+  llt_.matrixL().solveInPlace(residual_);  // K r = U L⁻¹ r
+  dx_.noalias() = U_ * residual_;
+  inject(dx_);
 }
 
 void LeggedEkf::inject(const Eigen::VectorXd& dx) {

@@ -4,6 +4,7 @@
 // equal over a recorded trot.
 #pragma once
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <limits>
 
@@ -53,8 +54,9 @@ class LeggedEkf {
   ErrorLayout layout_;
   bool rolling_;
   NominalState x_;
-  Eigen::MatrixXd P_, work_, H_, PHt_, S_, K_, MHt_;  // preallocated after the first ticks
-  Eigen::VectorXd q_, residual_;
+  Eigen::MatrixXd P_, work_, H_, PHt_, S_, U_;  // preallocated after the first ticks
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::VectorXd q_, residual_, dx_;
   Flags contacts_;
   double since_touchdown_ = std::numeric_limits<double>::infinity();
 };

@@ -49,6 +49,16 @@ const Eigen::Matrix3Xd& LegKinematics::spins(
   return spins_;
 }
 
+const Eigen::Matrix3Xd& LegKinematics::feet_and_spins(
+    const Eigen::Ref<const Eigen::VectorXd>& joints,
+    const Eigen::Ref<const Eigen::VectorXd>& joint_velocities) {
+  spins(joints, joint_velocities);  // forwardKinematics at (q, v): the joints' placements too
+  for (std::size_t i = 0; i < frame_ids_.size(); ++i)
+    feet_.col(static_cast<Eigen::Index>(i)) =
+        pinocchio::updateFramePlacement(*model_, *data_, frame_ids_[i]).translation();
+  return feet_;
+}
+
 void foot_innovation(const NominalState& x, int i, const Eigen::Vector3d& measured,
                      const ErrorLayout& layout, Eigen::Ref<Eigen::Vector3d> residual,
                      Eigen::Ref<Eigen::MatrixXd> H) {

@@ -24,6 +24,10 @@ class LegKinematics {
   /// (3 × n): each foot's angular velocity relative to the base (rad/s, base frame).
   const Eigen::Matrix3Xd& spins(const Eigen::Ref<const Eigen::VectorXd>& joints,
                                 const Eigen::Ref<const Eigen::VectorXd>& joint_velocities);
+  /// Both of the above in one forward pass; the spins then in `last_spins`.
+  const Eigen::Matrix3Xd& feet_and_spins(const Eigen::Ref<const Eigen::VectorXd>& joints,
+                                         const Eigen::Ref<const Eigen::VectorXd>& joint_velocities);
+  const Eigen::Matrix3Xd& last_spins() const { return spins_; }
   const pinocchio::Model& model() const { return *model_; }
   int size() const { return static_cast<int>(frame_ids_.size()); }
 
