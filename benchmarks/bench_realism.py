@@ -1,10 +1,12 @@
 """The realism layer's cost per tick (docs/realism.md): the C++ layer alone (lab._kernel's
 RealismLayer, what the native tick calls) and the Python reference, every knob on (`harsh` with
-the SEA), and the whole session tick (ANYmal standing, native controller and plant) with realism
-ideal against typical and against every knob on (the SEA, friction, saturation, model error and
-a 5 kg payload too), the layer in C++ inside the native tick (the session's default when
-lab._kernel is built), then typical on the Python tick with the C++ and the Python layer. Each
-row says which tick path ran (telemetry's `ran.tick`); the ratios are to the ideal tick.
+the SEA), the EKF alone (lab._kernel's EkfEstimator, four feet in contact), and the whole
+session tick (ANYmal standing, native controller and plant) with realism ideal against typical
+and against every knob on (the SEA, friction, saturation, model error and a 5 kg payload too;
+with the EKF: `estimator = "ekf"`, and without), the layer and the EKF in C++ inside the native
+tick (the session's default when lab._kernel is built), then typical on the Python tick with
+the C++ and the Python layer. Each row says which tick path ran (telemetry's `ran.tick`); the
+ratios are to the ideal tick.
 
     .venv/bin/python benchmarks/bench_realism.py [--ticks N]
 
@@ -18,8 +20,9 @@ from collections.abc import Callable
 import numpy as np
 
 from lab import _kernel
-from lab.realism.knobs import knobs_from, preset
+from lab.realism.knobs import RealismKnobs, knobs_from, preset
 from lab.realism.layer import RealismLayer, realism_layer
+from lab.world.estimator import BaseEstimator
 from lab.world.session import Session, SessionConfig
 
 NA, DT = 12, 1e-3
@@ -41,6 +44,19 @@ def _row(label: str, us: np.ndarray) -> float:
     return median
 
 
+def _ekf_alone(knobs: RealismKnobs, ticks: int) -> None:
+    """The C++ EKF's read (accelerometer, predict, correct with four feet) on ANYmal standing."""
+    session = Session(SessionConfig(robot="anymal"))
+    robot, contacts = session.robot, np.ones(len(session.robot.contacts), dtype=bool)
+    q, v = robot.q_standing, np.zeros(robot.model.nv)
+    ekf = BaseEstimator(knobs_from(knobs, {"estimator": "ekf"}), robot, DT)
+    ekf.reset(q, v)
+    _row(
+        "C++ EKF alone, four feet in contact (read)",
+        _times(lambda: ekf.read((q, v), (q, v), contacts), ticks),
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ticks", type=int, default=5000)
@@ -58,11 +74,13 @@ def main() -> None:
             layer.actuate(tau, q, v)
 
         _row(f"{kind} layer, every knob on (measure + actuate)", _times(step, ticks))
+    _ekf_alone(every, ticks)
     sessions = {}
     cases = (  # (name, knobs, the C++ layer, native ticks)
         ("ideal", preset("ideal", "anymal"), True, True),
         ("typical", preset("typical", "anymal"), True, True),
-        ("every knob", every, True, True),
+        ("every knob, EKF", knobs_from(every, {"estimator": "ekf"}), True, True),
+        ("every knob, true estimator", every, True, True),
         ("typical", preset("typical", "anymal"), True, False),
         ("typical", preset("typical", "anymal"), False, False),
     )
@@ -71,7 +89,7 @@ def main() -> None:
         session.native_ticks = native_ticks
         session.realism = realism_layer(knobs, NA, DT, native=native_layer)
         session.realism.reset(session.robot.q_standing)
-        if name == "every knob":
+        if name.startswith("every knob"):
             assert session.handle("payload", {"body": "base", "mass": 5.0})["ok"]
         for _ in range(200):
             session.tick()

@@ -15,6 +15,7 @@
 
 #include "behaviours/python.hpp"  // leg_posture_velocity: the walking behaviour's hot part
 #include "controller.hpp"
+#include "estimation/python.hpp"
 #include "frames.hpp"        // FramePlacements: the drawing state's frames
 #include "tick_outcome.hpp"  // TickOutcome, read_references, bind_server_tick
 #if __has_include("hierarchy/python.hpp")
@@ -283,6 +284,7 @@ NB_MODULE(_kernel, m) {
   lab::bind_hierarchy(m);
 #endif
   lab::bind_realism(m);
+  lab::bind_estimation(m);
   lab::bind_behaviours(m);
 
   m.def(

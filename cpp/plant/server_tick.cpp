@@ -15,14 +15,17 @@
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <tuple>
 #include <vector>
 
 #include "behaviours/native_behaviour.hpp"
+#include "estimation/estimator.hpp"
 #include "plant/mujoco_step.hpp"
 #include "realism/layer.hpp"
 #include "tick_outcome.hpp"
@@ -35,6 +38,7 @@ namespace {
 
 using Indices = nb::ndarray<const long long, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using InFlags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using Clock = std::chrono::steady_clock;
 
 /// How a tick ended (native_tick.py's TickStatus mirrors these values).
@@ -81,11 +85,14 @@ class ServerTick {
 
   /// One server tick (module comment); `behaviour` is null for an idle behaviour (its update
   /// changes nothing: no touch sensing either), `layer` null for an ideal realism layer (the
-  /// controller reads the truth, the plant applies its torques). Returns (status, the
-  /// controller's TickOutcome or None when it did not run).
+  /// controller reads the truth, the plant applies its torques), `estimator` null unless the
+  /// `estimator` knob is ekf (then the base the controller reads is its estimate from the feet
+  /// in `contacts`, the controller's). Returns (status, the controller's TickOutcome or None
+  /// when it did not run).
   nb::tuple tick(nb::handle refs, nb::handle robot, nb::handle owner, TickedBehaviour* behaviour,
                  bool reload, const InVector& command, const InVector& applied_torques,
-                 double touch_force, bool sensing, realism::Layer* layer) {
+                 double touch_force, bool sensing, realism::Layer* layer,
+                 estimation::BaseEstimator* estimator, std::optional<InFlags> contacts) {
     if (command.shape(0) != 3 || applied_torques.shape(0) != static_cast<std::size_t>(tau_.size()))
       throw std::invalid_argument("ServerTick.tick: command needs 3 entries, applied_torques na");
     const auto start = Clock::now();
@@ -96,8 +103,17 @@ class ServerTick {
     if (valid_time_ < 0.0) return nb::make_tuple(static_cast<int>(kDivergedBefore), nb::none());
     tick_time_ = valid_time_;
     plant_.state(q_.data(), v_.data());  // the truth: touch, fall check and actuators read it
-    if (layer != nullptr) {              // the controller reads the measured state
-      std::tie(qm_, vm_) = layer->measure(q_, v_);
+    if (layer != nullptr || estimator != nullptr) {  // the controller reads the measured state
+      if (layer != nullptr)
+        std::tie(qm_, vm_) = layer->measure(q_, v_);
+      else
+        qm_ = q_, vm_ = v_;
+      if (estimator != nullptr) {  // its base estimated (lab/world/estimator.py)
+        if (!contacts || contacts->shape(0) != touching_.size())
+          throw std::invalid_argument("ServerTick.tick: the estimator needs one contact per foot");
+        contacts_ = Eigen::Map<const estimation::Flags>(contacts->data(), contacts->shape(0));
+        estimator->read(q_, v_, qm_, vm_, contacts_);
+      }
       kernel_.update(qm_, vm_);  // fills the Python model's arrays too (Kernel::on_update)
     } else {
       kernel_.update(q_, v_);
@@ -173,6 +189,7 @@ class ServerTick {
   Kernel& kernel_;
   MujocoStep plant_;
   Eigen::VectorXd q_, v_, qm_, vm_, tau_, applied_, x_, foot_forces_, normal_forces_;
+  estimation::Flags contacts_;
   std::vector<char> touching_;  // bools: std::vector<bool> has no data()
   double valid_time_ = 0.0, tick_time_ = 0.0, control_seconds_ = 0.0, call_seconds_ = 0.0;
   bool behaviour_ran_ = false, non_foot_contact_ = false;
@@ -190,10 +207,12 @@ void bind_server_tick(nb::module_& m) {
            "On a Kernel and the plant's MjModel and MjData, with PlantStep's indices.")
       .def("tick", &ServerTick::tick, "refs"_a, "robot"_a, "owner"_a, "behaviour"_a.none(),
            "reload"_a, "command"_a, "applied_torques"_a, "touch_force"_a, "sensing"_a,
-           "realism"_a.none(),
+           "realism"_a.none(), "estimator"_a.none() = nb::none(), "contacts"_a.none() = nb::none(),
            "One server tick: (status, TickOutcome or None); status 0 stepped, 1 diverged "
            "before control, 2 the controller failed (nothing applied), 3 diverged after the step. "
-           "`realism`: a RealismLayer between plant and controller, None when ideal.")
+           "`realism`: a RealismLayer between plant and controller, None when ideal; "
+           "`estimator`: an EkfEstimator for the base the controller reads, from the feet in "
+           "`contacts`.")
       .def("buffers", &ServerTick::buffers,
            "Views of the arrays each tick writes (q, v, tau, applied, x, foot_forces, "
            "normal_forces).")

@@ -1,5 +1,5 @@
-"""The IMU's accelerometer, which the state estimator reads (issue 30 item 1; Python only, no
-C++ twin yet: the estimator runs on the Python tick).
+"""The IMU's accelerometer, which the state estimator reads (issue 30 item 1; its C++ twin,
+cpp/realism/accelerometer.cpp, draws the same numbers inside lab._kernel's EkfEstimator).
 
 It measures the specific force at the base origin in the base frame, f = Rᵀ (a − g), from the
 plant's true motion: a is the base's mean acceleration over the last tick,

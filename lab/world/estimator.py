@@ -9,10 +9,14 @@ layer's encoders) of the feet the controller has in contact (its references' `co
 the behaviour's schedule and touchdowns, not MuJoCo's contact flags), the joints still the
 layer's. Either way it keeps the truth of the tick beside what the controller read:
 telemetry's `estimator` reports the errors.
-Runs on the session's Python tick (no C++ twin yet: the native tick does not call it).
+Where lab._kernel is built, the EKF and the accelerometer run there (`EkfEstimator`,
+cpp/estimation: the same arithmetic and draws, tests/estimation/test_ekf_native.py): the native
+tick calls it inside its one crossing (lab/world/native_tick.py), a Python tick through `read`,
+so the filter's state lives in one place whichever tick runs.
 """
 
 import math
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -23,6 +27,11 @@ from lab.realism.accelerometer import Accelerometer, base_rotation
 from lab.realism.knobs import RealismKnobs
 from lab.robot import Robot
 
+try:
+    from lab import _kernel
+except ImportError:  # not built: the Python filter runs
+    _kernel = None
+
 BASE_Q, BASE_V = 7, 6  # free-flyer coordinates of q and v
 
 
@@ -32,25 +41,39 @@ def _yaw(rotation: np.ndarray) -> float:
 
 class BaseEstimator:
     """The controller's view of the base under `knobs.estimator`, for `robot` ticked every
-    `dt` s (module docstring)."""
+    `dt` s (module docstring): under `ekf`, the C++ twin (`native`) when lab._kernel is built
+    and `native` is True, else the Python filter (`filter`)."""
 
-    def __init__(self, knobs: RealismKnobs, robot: Robot, dt: float) -> None:
+    def __init__(self, knobs: RealismKnobs, robot: Robot, dt: float, native: bool = True) -> None:
         self.name = knobs.estimator
         self.accelerometer: Accelerometer | None = None
         self.filter: LeggedEkf | None = None
+        self.native: Any = None  # lab._kernel.EkfEstimator, when the twin runs
         if self.name == "ekf":
             gravity = np.array(robot.model.gravity.linear)
-            self.accelerometer = Accelerometer(knobs, dt, gravity)
-            kinematics = LegKinematics(robot.model, [c.frame for c in robot.contacts])
+            frames = [c.frame for c in robot.contacts]
             radii = np.array([c.radius if c.kind == "point" else 0.0 for c in robot.contacts])
-            self.filter = LeggedEkf(kinematics, radii, gravity, dt)
+            if native and _kernel is not None:
+                self.native = _kernel.EkfEstimator(
+                    robot.model.saveToString(), frames, radii, gravity, dt, knobs.values()
+                )
+            else:
+                self.accelerometer = Accelerometer(knobs, dt, gravity)
+                self.filter = LeggedEkf(LegKinematics(robot.model, frames), radii, gravity, dt)
         self.truth: tuple[np.ndarray, np.ndarray] | None = None  # the last read's
         self.estimate: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def active(self) -> bool:
+        """Whether the base the controller reads is estimated (`ekf`), in either kernel."""
+        return self.filter is not None or self.native is not None
 
     def reset(self, q: np.ndarray, v: np.ndarray) -> None:
         """A new run from the true state (q, v): the filter starts there (the lab's world frame
         is the start's), nothing read yet."""
-        if self.filter is not None and self.accelerometer is not None:
+        if self.native is not None:
+            self.native.reset(q, v)
+        elif self.filter is not None and self.accelerometer is not None:
             self.accelerometer.reset(q, v)
             self.filter.reset(q, v)
         self.truth = self.estimate = None
@@ -64,7 +87,9 @@ class BaseEstimator:
         """The state (q, v) the controller reads this tick, from the `truth` and the realism
         layer's `measured` state (pinocchio's conventions), `contacts` the feet the controller
         has in contact (the `true` estimator reads none)."""
-        if self.filter is None or self.accelerometer is None or contacts is None:
+        if contacts is not None and self.native is not None:
+            estimate = self.native.read(*truth, *measured, np.asarray(contacts, dtype=bool))
+        elif self.filter is None or self.accelerometer is None or contacts is None:
             estimate = measured
         else:
             qm, vm = measured
@@ -78,10 +103,18 @@ class BaseEstimator:
         self.truth, self.estimate = truth, estimate
         return estimate
 
+    def read_elsewhere(
+        self, truth: tuple[np.ndarray, np.ndarray], estimate: tuple[np.ndarray, np.ndarray]
+    ) -> None:
+        """The native tick read (q, v) `estimate` at the true state `truth` (views of its
+        buffers and of the model's arrays, current until the next tick): `report` uses them."""
+        self.truth, self.estimate = truth, estimate
+
     def report(self, exact: bool = False) -> dict:
         """Telemetry's `estimator`: which ran, and the last read's estimate − truth: base
         position and linear velocity (world axes), yaw and whole orientation (rad); zeros when
-        `exact` (the controller read the true state itself: the native tick) or before a read."""
+        `exact` (the controller read the true state itself: a native tick without the EKF) or
+        before a read."""
         errors = {
             "position_error": [0.0] * 3,
             "velocity_error": [0.0] * 3,

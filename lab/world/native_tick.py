@@ -23,6 +23,7 @@ from lab.controller.behaviours.native import NativeTwin
 from lab.controller.controller import ControlOutput
 from lab.controller.native import NativeController
 from lab.realism.layer import NativeRealismLayer, RealismLayer
+from lab.world.estimator import BaseEstimator
 from lab.world.plant import MujocoPlant
 
 try:
@@ -92,11 +93,14 @@ class NativeTick:
         applied: np.ndarray,
         touch_force: float,
         realism: RealismLayer | NativeRealismLayer,
+        estimator: BaseEstimator,
     ) -> tuple[int, ControlOutput]:
         """One tick (`note` said it can run), its state measured and its torques applied
-        through `realism` unless that is ideal: the status (a TickStatus value, as an int:
-        STEPPED, or DIVERGED_AFTER: the caller's `plant.check()` then raises, as the Python
-        tick's step does, after the tick's bookkeeping) and the controller's output. Raises
+        through `realism` unless that is ideal, its base estimated by `estimator`'s C++ twin
+        when it has one (the session's note keeps a Python filter off this path): the status
+        (a TickStatus value, as an int: STEPPED, or DIVERGED_AFTER: the caller's
+        `plant.check()` then raises, as the Python tick's step does, after the tick's
+        bookkeeping) and the controller's output. Raises
         `SimulationDiverged` when the state was not valid before control (the plant's check
         names why) and the controller's QPFailure when it failed: nothing was applied then, the
         caller falls back."""
@@ -110,6 +114,8 @@ class NativeTick:
             if isinstance(realism, NativeRealismLayer) and not realism.ideal
             else None
         )
+        ekf = estimator.native  # the feet it reads: the controller's, as Session._measure
+        contacts = None if ekf is None else np.asarray(controller.references.contact_active, bool)
         controller.prepare_native_tick()
         try:
             status, outcome = tick.tick(
@@ -123,6 +129,8 @@ class NativeTick:
                 touch_force,
                 sensing,
                 layer,
+                ekf,
+                contacts,
             )
         finally:
             if twin is not None and tick.behaviour_ran:

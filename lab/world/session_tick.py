@@ -59,7 +59,7 @@ class SessionTick(SessionBase):
         idle = behaviour.idle and not controller.reads_sensing
         if not self.native_ticks:
             self.tick_note = "native ticks are off (Session.native_ticks)"
-        elif not self.fell and self.estimator.filter is not None:
+        elif not self.fell and self.estimator.filter is not None:  # the Python filter's
             self.tick_note = (
                 f"the state estimator ({self.estimator.name}) runs in Python (realism.md)"
             )
@@ -75,6 +75,8 @@ class SessionTick(SessionBase):
                 truth = native_tick.true_state
                 assert truth is not None  # a native tick ran: its buffers exist
                 self._true_state = truth
+                if self.estimator.native is not None:  # what the controller read: its model's
+                    self.estimator.read_elsewhere(truth, (self.model.q, self.model.v))
                 self.applied_tau = self.tau if self.realism.ideal else native_tick.applied_torques()
             else:  # the Python tick, or the fallback torques of a failed native control
                 if self.tick_note:
@@ -150,7 +152,13 @@ class SessionTick(SessionBase):
             try:
                 if native:
                     stepped, out = self.native_tick.run(
-                        behaviour, idle, self.velocity, self.tau, TOUCH_FORCE, self.realism
+                        behaviour,
+                        idle,
+                        self.velocity,
+                        self.tau,
+                        TOUCH_FORCE,
+                        self.realism,
+                        self.estimator,
                     )
                 else:
                     q, v = self._measure()
@@ -274,7 +282,7 @@ class SessionTick(SessionBase):
         (None: ask the plant)."""
         # the lab judges the true state (pinocchio conventions: quaternion x, y, z, w); with the
         # realism layer ideal, the model's state is it
-        exact = self.realism.ideal and self.estimator.filter is None
+        exact = self.realism.ideal and not self.estimator.active
         q = self.model.q if exact else self._true_state[0]
         height = q[2]
         upright = 1.0 - 2.0 * (q[3] ** 2 + q[4] ** 2)  # z of the base z axis, from the quaternion

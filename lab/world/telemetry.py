@@ -302,7 +302,9 @@ def telemetry_in_two(session: SessionView) -> tuple[dict, Callable[[], None]]:
         },
         # what the controller read of the base against the truth (lab/world/estimator.py); the
         # native tick reads the true state itself
-        "estimator": session.estimator.report(exact=session.tick_report()["tick"] == "native"),
+        "estimator": session.estimator.report(
+            exact=session.tick_report()["tick"] == "native" and not session.estimator.active
+        ),
         "status": status.report(),
         "controller_warnings": session.recent_warnings(),
         "qp": {

@@ -134,8 +134,7 @@ KNOWN_FAILURES: dict[str, str] = {}
 # Scenarios run only by `./dev test -m long` (the suite's budget), with the reason: each is still
 # a scenario run with its [expect] checked, in the long run.
 LONG: dict[str, str] = {
-    "anymal_trot_ekf": "60 s on the Python tick (the EKF has no C++ twin yet): ~2 processor "
-    "minutes, more than a whole group",
+    "anymal_trot_ekf": "60 s of trot with the EKF (native tick): ~30 processor seconds",
     "anymal_robustness": "the robustness map's base (sweeps/robustness_map.toml): 37.5 s, ~9 "
     "processor seconds",
     "bolt_robustness": "the robustness map's WBOSC base: 30.5 s of Bolt walking",

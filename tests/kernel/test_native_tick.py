@@ -132,29 +132,30 @@ def every_knob(robot: str) -> RealismKnobs:
     return knobs_from(preset("harsh", robot), {**sea, "sea_kp": 1800.0, "sea_kd": 10.0})
 
 
-def bolt_typical_without_ekf() -> RealismKnobs:
-    """Bolt's `typical` with the base read through the layer (`estimator = "true"`)."""
-    return knobs_from(preset("typical", "bolt"), {"estimator": "true"})
-
-
 @pytest.mark.parametrize(
     ("robot", "knobs", "gait", "command"),
     [
         ("anymal", every_knob("anymal"), None, None),
         ("anymal", preset("typical", "anymal"), "trot", {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0}),
-        # Bolt's `typical` reads its base from the EKF, which runs on the Python tick: here the
-        # layer's stand-in noise on the base instead, so that both ticks run the C++ layer
-        ("bolt", bolt_typical_without_ekf(), "biped_step", {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}),
+        # Bolt's `typical` reads its base from the EKF: its C++ twin on both paths
+        ("bolt", preset("typical", "bolt"), "biped_step", {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}),
+        (
+            "anymal",
+            knobs_from(preset("typical", "anymal"), {"estimator": "ekf"}),
+            "trot",
+            {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0},
+        ),
     ],
-    ids=["anymal-every-knob", "anymal-trot-typical", "bolt-step-typical"],
+    ids=["anymal-every-knob", "anymal-trot-typical", "bolt-step-typical", "anymal-trot-ekf"],
 )
 def test_the_native_tick_with_realism_agrees_with_the_python_tick(
     robot, knobs, gait, command
 ) -> None:
     """With the realism layer on (same seed; a 2 kg payload on the base as well), the native
-    tick, which calls the C++ layer inside its one crossing, gives the Python tick's τ, applied
-    torques, F and next state, tick by tick, to 1e-12 of their scale: the Python tick calls the
-    same C++ layer from Python, so the two differ only in the path."""
+    tick, which calls the C++ layer (and the EKF's twin under `ekf`) inside its one crossing,
+    gives the Python tick's τ, applied torques, F and next state, tick by tick, to 1e-12 of their
+    scale: the Python tick calls the same C++ layer and EKF from Python, so the two differ only
+    in the path."""
     base = {"body": "base", "mass": 2.0, "offset": [0.0, 0.0, 0.05]}
     payload = base if robot == "anymal" else None
     native, python = pair(SessionConfig(robot=robot, realism=knobs), gait, command, payload)

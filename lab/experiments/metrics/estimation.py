@@ -23,7 +23,8 @@ class EstimationMetrics:
         self.time = 0.0
 
     def update(self, session: "Session") -> None:
-        report = session.estimator.report(exact=session.tick_report()["tick"] == "native")
+        native = session.tick_report()["tick"] == "native"
+        report = session.estimator.report(exact=native and not session.estimator.active)
         position = report["position_error"]
         self.height = max(self.height, abs(position[2]))
         self.horizontal = max(self.horizontal, math.hypot(position[0], position[1]))
