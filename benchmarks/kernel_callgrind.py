@@ -59,7 +59,9 @@ def count(robot: str, method: str, ticks: int, top: int) -> tuple[int, list[str]
             method,
             str(ticks),
         ]
-        subprocess.run(command, check=True, capture_output=True)
+        run = subprocess.run(command, capture_output=True, text=True)
+        if run.returncode:
+            raise SystemExit(f"kernel_callgrind: {robot} {method} failed:\n{run.stderr[-2000:]}")
         report = subprocess.run(
             ["callgrind_annotate", "--inclusive=yes", str(out)],
             check=True,
