@@ -25,6 +25,31 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
   return Z.allFinite() && x.allFinite();
 }
 
+void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
+                         Eigen::MatrixXd& out) {
+  const Eigen::Index m = A.rows(), n = A.cols();
+  out.resize(m, Z.cols());
+  // A row is sparse with at most a quarter of its entries nonzero: below that the strided sum
+  // over its entries costs less than the vectorised dense product.
+  const Eigen::Index sparse_limit = n / 4;
+  bool any_sparse = false;
+  for (Eigen::Index i = 0; i < m && !any_sparse; ++i)
+    any_sparse = (A.row(i).array() != 0.0).count() <= sparse_limit;
+  if (!any_sparse) {
+    out.noalias() = A * Z;
+    return;
+  }
+  for (Eigen::Index i = 0; i < m; ++i) {
+    if ((A.row(i).array() != 0.0).count() > sparse_limit) {
+      out.row(i).noalias() = A.row(i) * Z;
+      continue;
+    }
+    out.row(i).setZero();
+    for (Eigen::Index j = 0; j < n; ++j)
+      if (A(i, j) != 0.0) out.row(i) += A(i, j) * Z.row(j);
+  }
+}
+
 bool full_rank_by_margin(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, double frobenius,
                          Eigen::MatrixXd& R_inverse) {
   const Eigen::Index rows = qr.rows(), cols = qr.cols();
@@ -112,7 +137,7 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
     step.AZ.noalias() = A.leftCols<kBaseRows>().lazyProduct(Z.topRows<kBaseRows>());
     step.AZ += A.rightCols(cols);
   } else {
-    step.AZ.noalias() = A * Z;
+    sparse_rows_product(A, Z, step.AZ);
   }
   step.r = b;
   step.r.noalias() -= A * x;

@@ -26,6 +26,14 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
                                               Eigen::MatrixXd& Z, Eigen::VectorXd& x,
                                               BaseBlockLU& lu);
 
+/// out = A Z, row by row where A's rows are sparse: a row with at most a quarter of its entries
+/// nonzero (the posture and force tasks' selection rows, the friction and CoP rows) sums only
+/// those entries' rows of Z, any other row is a dense row-times-matrix product; with no sparse
+/// row it is one dense product. A selection row's product is then a copy of a row of Z, the
+/// dense product's value exactly (its other terms are exact zeros). `out` must not alias Z.
+void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
+                         Eigen::MatrixXd& out);
+
 /// Whether B (rows >= cols, factorized as `qr`, B = Q R) has full column rank by a margin that
 /// the rank rule of RowSpaceQR, applied to B^T, cannot miss. That rule's pivoted QR of B^T keeps at
 /// each step a column at least sigma_min(B) / sqrt(rows) long (projected off the columns chosen

@@ -1,0 +1,99 @@
+"""The native kernel's instructions per tick, counted by valgrind's callgrind: repeatable whatever
+the machine's load, so before/after comparisons of a C++ change hold on a shared machine.
+
+    .venv/bin/python benchmarks/kernel_callgrind.py [--robots g1 talos_arms anymal] [--ticks 200]
+
+Per robot and method: a headless session standing on the native kernel for `--ticks` ticks, run
+under `valgrind --tool=callgrind` with collection on only inside `Kernel::update` and
+`Kernel::solve` (the model update, then the rows, the hierarchy method and τ); prints the
+instructions per tick and the heaviest functions (inclusive) of that count. The session's first
+WARMUP ticks settle the robot onto its feet, uninstrumented and not counted.
+"""
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+COLLECT = ("lab::Kernel::update*", "lab::Kernel::solve()*")
+WARMUP = 100  # ticks before the count: the robot settles onto its feet
+
+
+def stand(robot: str, method: str, ticks: int) -> None:
+    """The body that runs under valgrind: `ticks` standing ticks of a native session."""
+    from lab.world.session import Session, SessionConfig
+
+    session = Session(SessionConfig(robot=robot, method=method, kernel="native"))
+    for _ in range(WARMUP):
+        session.tick()
+    # Instrumentation on from here only (valgrind runs the imports and set-up uninstrumented,
+    # several times faster); callgrind reads the request on its next poll.
+    subprocess.run(["callgrind_control", "--instr=on", str(os.getpid())], check=True)
+    time.sleep(1.0)
+    for _ in range(ticks):
+        session.tick()
+    if session.controller.kernel_ran != "native":
+        raise SystemExit(f"kernel_callgrind: {robot} {method} did not run native")
+    if session.fell:
+        raise SystemExit(f"kernel_callgrind: {robot} fell")
+
+
+def count(robot: str, method: str, ticks: int, top: int) -> tuple[int, list[str]]:
+    """Instructions per tick inside the kernel, and the `top` heaviest inclusive lines."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "callgrind.out"
+        command = [
+            "valgrind",
+            "--tool=callgrind",
+            "--instr-atstart=no",
+            f"--callgrind-out-file={out}",
+            *(f"--toggle-collect={pattern}" for pattern in COLLECT),
+            sys.executable,
+            __file__,
+            "--body",
+            robot,
+            method,
+            str(ticks),
+        ]
+        run = subprocess.run(command, capture_output=True, text=True)
+        if run.returncode:
+            raise SystemExit(f"kernel_callgrind: {robot} {method} failed:\n{run.stderr[-2000:]}")
+        report = subprocess.run(
+            ["callgrind_annotate", "--inclusive=yes", str(out)],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
+    total = int(
+        re.search(r"([\d,]+) \(100\.0%\)\s+PROGRAM TOTALS", report).group(1).replace(",", "")
+    )
+    lines = [line for line in report.splitlines() if re.match(r"\s*[\d,]+ \(", line)]
+    return total // ticks, lines[1 : top + 1]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", nargs="+", default=["g1", "talos_arms", "anymal"])
+    parser.add_argument("--methods", nargs="+", default=["cascade"])
+    parser.add_argument("--ticks", type=int, default=200)
+    parser.add_argument("--top", type=int, default=25, help="heaviest functions to print")
+    parser.add_argument("--body", nargs=3, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.body:
+        robot, method, ticks = args.body
+        stand(robot, method, int(ticks))
+        return
+    print(f"load average {os.getloadavg()[0]:.1f}; {args.ticks} ticks each")
+    for robot in args.robots:
+        for method in args.methods:
+            per_tick, lines = count(robot, method, args.ticks, args.top)
+            print(f"{robot} {method}: {per_tick:,} instructions per tick")
+            print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
