@@ -19,11 +19,10 @@ here. It is opt-in: its first builds stalled the loop on a busy machine (docs/re
 import multiprocessing
 import os
 import pickle
-from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
-from lab.world.compiled import CompiledWorld, WorldKey, compile_world
+from lab.world.compiled import CompiledWorld, RecentWorlds, WorldKey, compile_world
 
 MAX_WORLDS = 8  # pickled worlds kept (Solo12's 7.5 MB, most of it meshes)
 # The worker's niceness: its imports and MuJoCo's compile (threads of its own) share the
@@ -43,31 +42,18 @@ def _pickled_world(key: WorldKey) -> bytes:
     return pickle.dumps(compile_world(key), protocol=pickle.HIGHEST_PROTOCOL)
 
 
-class WorldCache:
+class WorldCache(RecentWorlds[bytes]):
     """Worlds built in one worker process and kept per key (module docstring); used by one
     thread at a time (the switcher's)."""
 
     def __init__(self, max_worlds: int = MAX_WORLDS) -> None:
-        self.max_worlds = max_worlds
+        super().__init__(max_worlds)
         self._pool: ProcessPoolExecutor | None = None
-        self._worlds: OrderedDict[WorldKey, bytes] = OrderedDict()
-        self.built = 0  # worlds the worker built
-        self.hits = 0  # worlds served from the cache
 
     def world(self, key: WorldKey) -> CompiledWorld:
         """The world of `key`, a new copy each call (a plant changes its MjModel): from the
         cache, else built by the worker (its KeyError or ValueError raised here)."""
-        pickled = self._worlds.get(key)
-        if pickled is None:
-            pickled = self._build(key)
-            self.built += 1
-            self._worlds[key] = pickled
-            while len(self._worlds) > self.max_worlds:
-                self._worlds.popitem(last=False)
-        else:
-            self.hits += 1
-            self._worlds.move_to_end(key)
-        return pickle.loads(pickled)
+        return pickle.loads(self.kept_or_made(key, self._build))
 
     def _pool_started(self) -> ProcessPoolExecutor:
         if self._pool is None:

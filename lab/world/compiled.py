@@ -10,7 +10,9 @@ world is the same either way (tests/runtime/test_switch.py).
 
 import copy
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 import mujoco
 import numpy as np
@@ -21,6 +23,7 @@ from lab.scenes import START_RISE
 from lab.world.plant_model import build_spec
 
 MJB_NAME = "world.mjb"  # the virtual file a pickled world's MjModel is loaded from
+Kept = TypeVar("Kept")
 MAX_KEPT = 8  # worlds `KeptWorlds` keeps (Solo12's: 7.4 MB of MuJoCo model, most of it meshes)
 
 
@@ -78,7 +81,33 @@ def compile_world(key: WorldKey) -> CompiledWorld:
     return CompiledWorld(robot, spec.compile())
 
 
-class KeptWorlds:
+class RecentWorlds(Generic[Kept]):
+    """What is kept per world key, the last `max_worlds` used (the least recently used goes
+    first), with how many were made and how many served from what was kept: the store of
+    `KeptWorlds` here and of the worker's `WorldCache` (lab/runtime/world_cache.py)."""
+
+    def __init__(self, max_worlds: int) -> None:
+        self.max_worlds = max_worlds
+        self._worlds: OrderedDict[WorldKey, Kept] = OrderedDict()
+        self.built = 0  # worlds made (not found kept)
+        self.hits = 0  # worlds served from what was kept
+
+    def kept_or_made(self, key: WorldKey, make: Callable[[WorldKey], Kept]) -> Kept:
+        """What is kept for `key`, else `make(key)`, kept (its exceptions raised here)."""
+        kept = self._worlds.get(key)
+        if kept is None:
+            kept = make(key)
+            self.built += 1
+            self._worlds[key] = kept
+            while len(self._worlds) > self.max_worlds:
+                self._worlds.popitem(last=False)
+        else:
+            self.hits += 1
+            self._worlds.move_to_end(key)
+        return kept
+
+
+class KeptWorlds(RecentWorlds[CompiledWorld]):
     """Worlds compiled in this process and kept per key, the last `max_worlds`, for switches
     built on a thread beside the loop (lab/runtime/switch.py): a switch back to a robot and
     scene shares the robot (a `Robot` is never changed: the controller's model is a copy,
@@ -88,22 +117,10 @@ class KeptWorlds:
     thread at a time."""
 
     def __init__(self, max_worlds: int = MAX_KEPT) -> None:
-        self.max_worlds = max_worlds
-        self._worlds: OrderedDict[WorldKey, CompiledWorld] = OrderedDict()
-        self.built = 0  # worlds compiled here
-        self.hits = 0  # worlds served from what was kept
+        super().__init__(max_worlds)
 
     def world(self, key: WorldKey) -> CompiledWorld:
         """The world of `key`, its MjModel a new copy each call (a plant changes its own): from
         what is kept, else compiled (and kept); raises as `compile_world` does."""
-        kept = self._worlds.get(key)
-        if kept is None:
-            kept = compile_world(key)
-            self.built += 1
-            self._worlds[key] = kept
-            while len(self._worlds) > self.max_worlds:
-                self._worlds.popitem(last=False)
-        else:
-            self.hits += 1
-            self._worlds.move_to_end(key)
+        kept = self.kept_or_made(key, compile_world)
         return CompiledWorld(kept.robot, copy.copy(kept.mj_model))
