@@ -14,8 +14,8 @@ Beside it: the settings (loop_config.py), the deadline statistics (deadline_stat
 thread's Linux scheduling (scheduling.py).
 """
 
+import contextlib
 import functools
-import gc
 import math
 import os
 import sys
@@ -41,6 +41,7 @@ from lab.runtime.scheduling import (
     usable_cpus,
 )
 from lab.runtime.wake_margin import WakeMargin
+from lab.world.memory import long_lived_objects_frozen
 
 MAX_BEHIND_S = 0.05  # after a longer stall (e.g. a robot switch) re-anchor instead of catching up
 COMMAND_BUDGET_S = 3e-4  # stop taking commands in one tick after this much time on them
@@ -149,38 +150,37 @@ class SimLoop:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
         self.stats.gc.install()
         interval = sys.getswitchinterval()
-        try:
-            if not self.config.fast:
-                # A full collection scans every object Python tracks (84,000 here, most of them
-                # the imports'): 30 ms of CPU holding the GIL, whichever thread starts it, and
-                # one ran inside a robot switch's build. What exists now (the imports, the
-                # first session) goes to the permanent generation: later ones scan only what
-                # came after (0.1 ms; docs/reliability.md, "A switch beside the loop").
-                gc.freeze()
-                if self.config.switch_interval_s is not None:
-                    sys.setswitchinterval(self.config.switch_interval_s)
-                lower_timer_slack()
-                if self.wanted_sched == "fifo" and request_fifo():
-                    self.stats.sched = "fifo"
-                else:
-                    if self.config.nice is not None:
-                        self.stats.nice = request_nice(self.config.nice)
-                    if self.config.slice_s is not None:
-                        granted = request_slice(self.config.slice_s)
-                        self.stats.slice_us = None if granted is None else round(granted * 1e6, 1)
-            self._run(stop)
-        except BaseException as exc:
-            self.error = exc
-            stop.set()
-        finally:
-            sys.setswitchinterval(interval)
-            self.stats.gc.remove()
-            if not self.config.fast:
-                # What was frozen goes back to the collector: the first session's objects are
-                # in reference cycles (its native kernel, plant step and server tick among
-                # them) that only a collection frees. Left frozen, they outlived the loop and the
-                # process's last collection, and nanobind listed them as leaked at exit.
-                gc.unfreeze()
+        # A full collection scans every object Python tracks (84,000 here, most of them the
+        # imports'): 30 ms of CPU holding the GIL, whichever thread starts it, and one ran inside
+        # a robot switch's build. What exists now (the imports, the first session) is frozen
+        # while the loop runs: later collections scan only what came after (0.1 ms;
+        # docs/reliability.md, "A switch beside the loop"). Unfrozen when it stops: the first
+        # session's objects sit in reference cycles (its native kernel, plant step and server
+        # tick) that only a collection frees; left frozen, nanobind listed them as leaked at exit.
+        frozen = contextlib.nullcontext() if self.config.fast else long_lived_objects_frozen()
+        with frozen:
+            try:
+                if not self.config.fast:
+                    if self.config.switch_interval_s is not None:
+                        sys.setswitchinterval(self.config.switch_interval_s)
+                    lower_timer_slack()
+                    if self.wanted_sched == "fifo" and request_fifo():
+                        self.stats.sched = "fifo"
+                    else:
+                        if self.config.nice is not None:
+                            self.stats.nice = request_nice(self.config.nice)
+                        if self.config.slice_s is not None:
+                            granted = request_slice(self.config.slice_s)
+                            self.stats.slice_us = (
+                                None if granted is None else round(granted * 1e6, 1)
+                            )
+                self._run(stop)
+            except BaseException as exc:
+                self.error = exc
+                stop.set()
+            finally:
+                sys.setswitchinterval(interval)
+                self.stats.gc.remove()
 
     def _run(self, stop: threading.Event) -> None:
         period, clock, fast = self.period, self.clock, self.config.fast
