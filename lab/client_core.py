@@ -213,11 +213,16 @@ def client_id(session: zenoh.Session, role: str = "") -> str:
 
 def find_labs(session: zenoh.Session, timeout: float) -> list[str]:
     """The ids of the labs reachable through `session` now (their liveliness tokens), sorted;
-    waits up to `timeout` s for at least one (a sim process may still be starting)."""
+    waits up to `timeout` s for at least one (a sim process may still be starting).
+
+    Each look waits for every lab's answer for the rest of `timeout` (at least 1 s): a get ends
+    as soon as all have answered, and a lab whose answer is late on a busy machine must not be
+    missed (a client would then take the one that answered as the only lab)."""
     end = time.monotonic() + timeout
     while True:
         found = set()
-        for reply in session.liveliness().get(ALL_LABS_ALIVE, timeout=1.0):
+        wait_s = max(1.0, end - time.monotonic())
+        for reply in session.liveliness().get(ALL_LABS_ALIVE, timeout=wait_s):
             if reply.ok is not None and (lab_id := lab_id_of(str(reply.ok.key_expr))):
                 found.add(lab_id)
         if found or time.monotonic() > end:

@@ -18,6 +18,7 @@ from lab.ui.push_controls import default_push_newtons
 from tests.helpers.browser import (
     CHROMIUM,
     CHROMIUM_ARGS,
+    LOAD_TIMEOUT_MS,
     PAGE_TIMEOUT_MS,
     UI_ACTION_TIMEOUT_S,
     VIEWPORT,
@@ -86,7 +87,7 @@ def page(serve: LabServe, lab: LabClient):
         pg.ws_frames = frames
         serve.wait_ui()
         pg.goto(serve.url)
-        pg.get_by_text("You hold control").wait_for()
+        pg.get_by_text("You hold control").wait_for(timeout=LOAD_TIMEOUT_MS)  # the first load
         wait_drawn(pg, "bolt")
         yield pg
         browser.close()

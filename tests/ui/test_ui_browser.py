@@ -83,7 +83,7 @@ def page(browser, serve: LabServe, lab: LabClient):
     pg.console_errors = console_errors(pg)
     serve.wait_ui()
     pg.goto(serve.url)
-    pg.get_by_text("You hold control").wait_for()
+    pg.get_by_text("You hold control").wait_for(timeout=LOAD_TIMEOUT_MS)  # the page's first load
     pg.ws_frames = frames
     yield pg
     context.close()
@@ -280,7 +280,7 @@ def test_a_second_browser_is_read_only_until_it_takes_control(browser, serve, pa
     second = context.new_page()
     second.set_default_timeout(PAGE_TIMEOUT_MS)
     second.goto(serve.url)
-    second.get_by_text("Read-only").wait_for()
+    second.get_by_text("Read-only").wait_for(timeout=LOAD_TIMEOUT_MS)  # its first load
     assert second.get_by_role("button", name="Stop").is_disabled()
     assert second.get_by_label("Gait", exact=True).first.is_disabled()
     assert second.get_by_role("button", name="Load preset").is_disabled()
@@ -718,7 +718,7 @@ def test_plots_opened_before_the_lab_follow_the_data_across_a_switch_and_a_reset
         while time.monotonic() < end and not serves_http(ui_port):
             time.sleep(0.3)  # (an HTTP probe: a bare TCP one makes a handshake traceback)
         pg.goto(f"http://127.0.0.1:{ui_port}")
-        pg.get_by_text("WBC lab").first.wait_for()  # open before the lab starts
+        pg.get_by_text("WBC lab").first.wait_for(timeout=LOAD_TIMEOUT_MS)  # open, no lab yet
         sim = LabServe(tmp_path / "sim.log", "--headless", port=port)
         with sim.client() as lab:
             lab.wait_telemetry(lambda m: m["t"] > 2.0, timeout=60.0)
@@ -784,7 +784,7 @@ def test_lab_replay_serve_starts_the_page_with_floor_timeline_and_controls_greye
         pg.set_default_timeout(PAGE_TIMEOUT_MS)
         errors = console_errors(pg)
         pg.goto(f"http://127.0.0.1:{ui_port}")
-        pg.get_by_text("A recording").first.wait_for()
+        pg.get_by_text("A recording").first.wait_for(timeout=LOAD_TIMEOUT_MS)
         pg.get_by_text("Timeline [s]").first.wait_for()  # in the Replay folder, expanded
         assert pg.get_by_label("Gait", exact=True).first.is_disabled()
         assert pg.get_by_label("Robot", exact=True).first.is_disabled()
