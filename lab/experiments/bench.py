@@ -4,25 +4,27 @@ A benchmark, not a test: it prints medians and p99 for a person to read and reco
 docs/performance.md. Each run stands the robot for a while, pushes it sideways (so that the QPs
 have work to do), and times every tick. `--gaits` adds other situations: `trot`, a quadruped
 trotting at 0.3 m/s from the start (its walking stack, Raiola S3, comes with the gait), pushed the
-same way; `single`, Talos shifting onto its left sole and lifting the right (Herzog 2016 §5.4:
-Table 4, LQR), pushed as there (150 N for 35 ms); `biped_step`, Kim's stepping stack on Bolt,
-walking at 0.2 m/s while turning at 0.3 rad/s, its footsteps replanned every tick from 80 % of
-each lift. A gait that brings its stack preset keeps the benched method. The Python and the
-native kernel run back to back on the same run, and the table gives native/python of the
-medians. `tick` is what the session pays per control period (model update, behaviour,
-controller); `solve` is the controller alone (`controller.solve()`, the native kernel's whole
-tick from q, v and references), repeated at the final state. `kernel` is the native kernel's own
-model update + rows + solve per tick, timed inside it (no Python around it), and the JSON gives the
-median of each of those stages (`kernel_stages_us`). `--solvers daqp
-clarabel` times both QP backends; the native kernel solves with DAQP only, so a Clarabel run
-asked of it runs on the Python kernel and its row says so (kernel python, `note`). Every row
-names what ran (`controller.ran`: kernel, method, solver).
+same way; `single`, Talos (its arms locked or free) or G1 shifting onto its left sole and lifting
+the right (Herzog 2016 §5.4: Table 4, LQR), pushed as there (150 N for 35 ms); `biped_step`, Kim's
+stepping stack on Bolt, walking at 0.2 m/s while turning at 0.3 rad/s, its footsteps replanned
+every tick from 80 % of each lift. A gait that brings its stack preset keeps the benched method.
+The Python and the native kernel run back to back on the same run, and the table gives
+native/python of the medians. `tick` is what the session pays per control period (model update,
+behaviour, controller); `solve` is the controller alone (`controller.solve()`, the native kernel's
+whole tick from q, v and references), repeated at the final state. `kernel` is the native kernel's
+own model update + rows + solve per tick, timed inside it (no Python around it), and the JSON gives
+the median of each of those stages (`kernel_stages_us`). `--solvers daqp clarabel` times both QP
+backends; the native kernel solves with DAQP only, so a Clarabel run asked of it runs on the Python
+kernel and its row says so (kernel python, `note`). Every row names what ran (`controller.ran`:
+kernel, method, solver); a robot, gait and method asked that do not go together (trot on a biped)
+get no row, and stderr says why.
 `--cpu-time` takes the real-time factor on the loop thread's CPU time (a shared machine's
 descheduling left out; the JSON's `realtime_clock` says which clock).
 """
 
 import argparse
 import json
+import sys
 import time
 from dataclasses import dataclass
 
@@ -67,14 +69,21 @@ GAITS = {
         ("anymal", "hyq", "solo12", "go2", "a1", "b1"),
         (("gait", {"name": "trot"}), ("velocity", {"vx": TROT_SPEED, "vy": 0.0, "yaw_rate": 0.0})),
     ),
-    "single": Gait(("talos",), (("momentum", {"mode": "lqr"}), ("stance", {"side": "left"}))),
+    "single": Gait(
+        ("talos", "talos_arms", "g1"), (("momentum", {"mode": "lqr"}), ("stance", {"side": "left"}))
+    ),
     "biped_step": Gait(("bolt",), (("gait", {"name": "biped_step"}), ("velocity", STEERING))),
 }
 
 
-def _applies(robot: str, method: str, gait: str) -> bool:
+def _why_not(robot: str, method: str, gait: str) -> str:
+    """Why `robot` has no `gait` / `method` row ('' when it has one)."""
     robots = GAITS[gait].robots
-    return (robots is None or robot in robots) and (method != "wbosc" or robot in WBOSC_ROBOTS)
+    if robots is not None and robot not in robots:
+        return f"gait {gait!r} is timed on {', '.join(robots)} only"
+    if method == "wbosc" and robot not in WBOSC_ROBOTS:
+        return f"wbosc is timed on {', '.join(WBOSC_ROBOTS)} only"
+    return ""
 
 
 def _stats(us: np.ndarray) -> dict[str, float]:
@@ -176,7 +185,8 @@ def bench_main(argv: list[str]) -> int:
         nargs="+",
         default=list(GAITS),
         choices=list(GAITS),
-        help="stand: every robot; trot: the quadrupeds; single: Talos on one sole; "
+        help="stand: every robot; trot: the quadrupeds; single: Talos (arms too) or G1 on one "
+        "sole; "
         "biped_step: Bolt walking",
     )
     parser.add_argument(
@@ -189,13 +199,17 @@ def bench_main(argv: list[str]) -> int:
     if "native" in args.kernels and NOT_BUILT:
         print(f"lab bench: {NOT_BUILT}: timing the Python kernel only")
         args.kernels = ["python"]
-    runs = [
-        (r, m, g)
-        for r in args.robots
-        for g in args.gaits
-        for m in args.methods
-        if _applies(r, m, g)
-    ]
+    combinations = [(r, m, g) for r in args.robots for g in args.gaits for m in args.methods]
+    runs = [c for c in combinations if not _why_not(*c)]
+    skipped = {_why_not(*c) for c in combinations} - {""}
+    for why in sorted(skipped):  # said, never silently left out
+        print(f"lab bench: no row where {why}", file=sys.stderr)
+    if not runs:
+        print(
+            "lab bench: nothing to time: no robot, gait and method asked go together",
+            file=sys.stderr,
+        )
+        return 2
     asked = [(r, g, m, s, k) for r, m, g in runs for s in args.solvers for k in args.kernels]
     rows = [bench_one(r, m, args.seconds, k, g, s, args.cpu_time) for r, g, m, s, k in asked]
     if args.json:
