@@ -20,7 +20,7 @@ from lab.protocol import RobotCommand
 from lab.runtime.intake import Request
 from lab.runtime.loop import LoopConfig, SimLoop
 from lab.runtime.scheduling import ThreadPolicy
-from lab.runtime.switch import SWAP_WAIT_S, SWITCH_FIFO_PRIORITY, Switcher
+from lab.runtime.switch import SWAP_WAIT_S, SWITCH_FIFO_PRIORITY, Realtime, Switcher
 from lab.runtime.world_cache import WorldCache
 from lab.world.compiled import KeptWorlds, world_key
 from lab.world.session import Session, SessionConfig
@@ -155,6 +155,40 @@ def test_a_switch_runs_its_thread_and_the_loops_at_sched_fifo_and_gives_theirs_b
         assert during == [fifo] * 3 and switcher.realtime.rises == 3
     else:
         assert all(loop == before[:2] for loop, _ in during) and switcher.realtime.rises == 0
+
+
+def test_realtime_refused_for_either_thread_leaves_both_as_they_were(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Both threads or neither: the loop's SCHED_FIFO refused after the switch thread's was
+    granted gives the switch thread its own back, and nothing is raised."""
+    me, parked, ready = threading.get_native_id(), threading.Event(), threading.Event()
+    tids: list[int] = []
+
+    def park() -> None:
+        tids.append(threading.get_native_id())
+        ready.set()
+        parked.wait()
+
+    thread = threading.Thread(target=park)
+    thread.start()
+    ready.wait()
+    before = _scheduling(me), _scheduling(tids[0])
+    granted = ThreadPolicy.fifo
+
+    def refused_for_the_loop(policy: ThreadPolicy, priority: int) -> bool:
+        return policy.tid != me and granted(policy, priority)
+
+    monkeypatch.setattr(ThreadPolicy, "fifo", refused_for_the_loop)
+    realtime = Realtime()
+    try:
+        realtime.rise(me, tids[0])
+        assert not realtime.raised and realtime.rises == 0
+        assert (_scheduling(me), _scheduling(tids[0])) == before
+        realtime.release()
+    finally:
+        parked.set()
+        thread.join()
 
 
 class _OneSwitch:
