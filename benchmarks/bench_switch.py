@@ -1,27 +1,32 @@
-"""What a robot switch costs the realtime loop (not a test): the loop at 1 kHz (SCHED_OTHER)
-switching between robots every `--every` s, in one run for each way of building the switch:
+"""What a robot switch costs the realtime loop (not a test): the loop at 1 kHz (SCHED_OTHER,
+or `--loop-sched fifo`) switching between robots every `--every` s, in one run for each way of
+building the switch:
 
 - `worker`: the robot and MuJoCo's model built in a worker process and kept per robot and
   scene (lab/runtime/world_cache.py), the rest of the session's parts on a thread beside the
   loop, swapped in between two ticks (`Switcher(worker=True)`);
 - `thread`: the whole build on the thread beside the loop, as `lab serve` does
-  (lab/runtime/switch.py);
+  (lab/runtime/switch.py), the thread and the loop's at SCHED_FIFO while a switch is under way
+  (`--realtime on`, as `lab serve`; `off`: both at their nice throughout);
 - `loop`: the whole build on the loop's own thread (a loop without a switcher: fast mode).
 
 For each it prints one JSON line: per switch the robot, whether its world was compiled or came
 from the cache, the periods the loop skipped from the command to its reply and the longest
-interval between two ticks meanwhile; over the switches the median and the largest of those
-longest intervals, and the same of the longest interval in windows as long as the median
-switch cut from the time outside switches (`outside`: the machine's own noise in the same run;
-a switch that costs the loop nothing has the same distribution); the longest tick's work, the
-longest pause of the garbage collector (it stops every thread), the on-time fraction, the
-resident memory, and where the switch's thread was after each gap over HOLDER_GAP_S (the C call
-that kept the GIL, or what it was doing while the machine held the loop back). Each switcher
+interval between two ticks meanwhile (and the last of them, `swap_gap_ms`: the one that ends
+with the tick that swapped the new robot in, which covers the build's end and the swap); over
+the switches the median and the largest of those longest intervals, and the same of the
+longest interval in windows as long as the median switch cut from the time outside switches
+(`outside`: the machine's own noise in the same run; a switch that costs the loop nothing has
+the same distribution); the longest tick's work, the longest pause of the garbage collector (it
+stops every thread), the on-time fraction, the resident memory, and where the switch's thread
+was after each gap over HOLDER_GAP_S (the C call that kept the GIL, or what it was doing while
+the machine held the loop back). Each switcher
 keeps the first robot's world first, as `lab serve` does, so that `compiled` is a robot's
 first build and `cached` a switch back (lab/world/compiled.py, `KeptWorlds`).
 
     .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
-        [--modes worker,thread,loop] [--nices=-10,none,10]
+        [--modes worker,thread,loop] [--nices=-10,none,10] [--realtime on,off]
+        [--loop-sched other|fifo]
 """
 
 import argparse
@@ -120,6 +125,7 @@ class Switching:
             if gap > HOLDER_GAP_S:
                 self.holders.append((gap, switch_thread_frame()))
             if "reply_s" in switch:  # the first tick after the reply: the switch is over
+                switch["swap_gap"] = gap
                 self._finish(switch)
             return None
         if now < self.next_at:
@@ -139,6 +145,7 @@ class Switching:
                 "reply_ms": round((switch["reply_s"] - switch["sent"]) * 1e3, 1),
                 "skipped": self.loop.stats.skipped - switch["skipped_before"],
                 "longest_gap_ms": round(switch["longest_gap"] * 1e3, 2),
+                "swap_gap_ms": round(switch["swap_gap"] * 1e3, 2),
                 "duration_s": self.last_tick - switch["sent"],
             }
         )
@@ -186,15 +193,25 @@ def spread(values: list[float]) -> dict[str, float]:
     return {"p50": round(middle, 2), "max": round(largest, 2), "n": len(values)}
 
 
-def run(mode: str, robots: list[str], every: float, count: int, nice: int | None) -> dict:
+def run(
+    mode: str,
+    robots: list[str],
+    every: float,
+    count: int,
+    nice: int | None,
+    realtime: bool,
+    sched: str = "other",
+) -> dict:
     session = Session(SessionConfig(robot=robots[0]))
     stop = threading.Event()
     transport = Switching(robots, every, count, stop, cache=mode != "loop")
-    switcher = None if mode == "loop" else Switcher(worker=mode == "worker", nice=nice)
+    switcher = None
+    if mode != "loop":
+        switcher = Switcher(worker=mode == "worker", nice=nice, realtime=realtime)
     if switcher is not None:
         switcher.keep(session.config)  # as `lab serve` does
         transport.built.add(robots[0])
-    loop = SimLoop(session, transport, LoopConfig(sched="other"), switcher=switcher)
+    loop = SimLoop(session, transport, LoopConfig(sched=sched), switcher=switcher)
     transport.loop = loop
     before = rss_mb()
     loop.run(stop)
@@ -205,7 +222,10 @@ def run(mode: str, robots: list[str], every: float, count: int, nice: int | None
     outside = windows_longest_ms(transport.outside, window)
     return {
         "built": mode,
+        "loop_sched": loop.wanted_sched,
         "switch_thread_nice": nice,
+        # switches run with the switch's thread and the loop's at SCHED_FIFO (lab/runtime/switch.py)
+        "realtime_switches": 0 if switcher is None else switcher.realtime.rises,
         "load_average": [round(x, 1) for x in os.getloadavg()],
         "error": None if loop.error is None else repr(loop.error),
         "refused": transport.errors,
@@ -218,6 +238,7 @@ def run(mode: str, robots: list[str], every: float, count: int, nice: int | None
         },
         # per switch, and per window of the median switch's length outside them
         "longest_gap_per_switch_ms": spread([s["longest_gap_ms"] for s in switches]),
+        "swap_gap_ms": spread([s["swap_gap_ms"] for s in switches]),
         "longest_gap_per_window_outside_ms": {"window_s": round(window, 3), **spread(outside)},
         "longest_tick_work_ms": round(stats.work.max * 1e3, 2),
         "longest_gc_pause_ms": round(stats.gc.pauses.max * 1e3, 2),
@@ -242,14 +263,34 @@ def main() -> int:
         help="the switch's thread's nice values, one run of each mode per value ('none': as the "
         "thread starts)",
     )
+    parser.add_argument(
+        "--realtime",
+        default="on",
+        help="on, off or both (on,off): the switch's thread and the loop's at SCHED_FIFO while a "
+        "switch is under way, one run of each mode per value",
+    )
+    parser.add_argument(
+        "--loop-sched",
+        default="other",
+        choices=("other", "fifo"),
+        help="the loop's own policy (fifo: the windows outside switches at SCHED_FIFO too, as "
+        "the loop is during a switch with --realtime on)",
+    )
     args = parser.parse_args()
     robots = args.robots.split(",")
     nices = [None if n == "none" else int(n) for n in args.nices.split(",")]
+    if not set(values := args.realtime.split(",")) <= {"on", "off"}:
+        parser.error(f"--realtime takes on, off or on,off, not {args.realtime!r}")
+    realtimes = [value == "on" for value in values]
     for mode in args.modes.split(","):
         if mode not in MODES:
             parser.error(f"unknown mode {mode!r} (modes: {', '.join(MODES)})")
         for nice in nices if mode != "loop" else [None]:
-            print(json.dumps(run(mode, robots, args.every, args.switches, nice)), flush=True)
+            for realtime in realtimes if mode != "loop" else [False]:
+                result = run(
+                    mode, robots, args.every, args.switches, nice, realtime, args.loop_sched
+                )
+                print(json.dumps(result), flush=True)
     return 0
 
 

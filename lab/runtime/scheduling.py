@@ -79,14 +79,15 @@ class _SchedAttr(ctypes.Structure):
     ]
 
 
-def _sched_attr_call(table: dict[str, int], attr: _SchedAttr, *extra: int) -> bool:
-    """sched_getattr/sched_setattr on the calling thread; False when refused or unavailable."""
+def _sched_attr_call(table: dict[str, int], attr: _SchedAttr, *extra: int, tid: int = 0) -> bool:
+    """sched_getattr/sched_setattr on thread `tid` (0: the calling one), made with the GIL
+    released (a ctypes call); False when refused or unavailable."""
     number = table.get(platform.machine())
     if number is None:
         return False
     try:
         libc = ctypes.CDLL(None, use_errno=True)
-        return libc.syscall(number, 0, ctypes.byref(attr), *extra, 0) == 0
+        return libc.syscall(number, tid, ctypes.byref(attr), *extra, 0) == 0
     except (OSError, AttributeError):
         return False
 
@@ -147,3 +148,40 @@ def thread_slice() -> float | None:
     if attr is None or attr.sched_runtime == 0:
         return None
     return attr.sched_runtime * 1e-9
+
+
+class ThreadPolicy:
+    """One thread's scheduling attributes as read now (sched_getattr: policy, priority, nice,
+    EEVDF slice), to give it SCHED_FIFO for a while and then these back: what a robot switch
+    does to the loop's thread and its own (lab/runtime/switch.py). Both calls are made with the
+    GIL released, so that a thread lowering its own priority is not preempted holding it."""
+
+    def __init__(self, tid: int, attr: _SchedAttr) -> None:
+        self.tid = tid  # the thread's native id (threading.get_native_id)
+        self._attr = attr
+
+    @classmethod
+    def of(cls, tid: int) -> "ThreadPolicy | None":
+        """Thread `tid`'s attributes now; None when unavailable (not Linux, no such thread)."""
+        attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr))
+        if not _sched_attr_call(_SYS_SCHED_GETATTR, attr, ctypes.sizeof(_SchedAttr), tid=tid):
+            return None
+        return cls(tid, attr)
+
+    @property
+    def fifo_priority(self) -> int:
+        """The thread's SCHED_FIFO priority as read (0 when it was not SCHED_FIFO)."""
+        return int(self._attr.sched_priority) if self._attr.sched_policy == os.SCHED_FIFO else 0
+
+    def fifo(self, priority: int) -> bool:
+        """Put the thread at SCHED_FIFO `priority` (threads it starts later do not inherit it:
+        SCHED_FLAG_RESET_ON_FORK); False when refused (no CAP_SYS_NICE) or unavailable."""
+        attr = _SchedAttr(size=ctypes.sizeof(_SchedAttr), sched_policy=os.SCHED_FIFO)
+        attr.sched_flags = _SCHED_FLAG_RESET_ON_FORK
+        attr.sched_priority = priority
+        return _sched_attr_call(_SYS_SCHED_SETATTR, attr, tid=self.tid)
+
+    def restore(self) -> bool:
+        """Give the thread the attributes it had when read; False when refused or gone."""
+        self._attr.size = ctypes.sizeof(_SchedAttr)
+        return _sched_attr_call(_SYS_SCHED_SETATTR, self._attr, tid=self.tid)

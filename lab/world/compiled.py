@@ -8,9 +8,12 @@ a switch's work and pickles, so a switch can build it in a worker process and ke
 world is the same either way (tests/runtime/test_switch.py).
 """
 
+import contextlib
 import copy
+import functools
 from collections import OrderedDict
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
@@ -20,6 +23,7 @@ import numpy as np
 from lab.description import ROBOTS_DIR, load_description
 from lab.robot import Robot, build_robot, with_raised_contact
 from lab.scenes import START_RISE
+from lab.world.plant import _plant
 from lab.world.plant_model import build_spec
 
 MJB_NAME = "world.mjb"  # the virtual file a pickled world's MjModel is loaded from
@@ -71,14 +75,25 @@ def _loaded_world(robot: Robot, mjb: bytes) -> CompiledWorld:
     return CompiledWorld(robot, mujoco.MjModel.from_binary_path(MJB_NAME, {MJB_NAME: mjb}))
 
 
-def compile_world(key: WorldKey) -> CompiledWorld:
+def copied_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A copy of `model` (`mj_copyModel`): made without the GIL by `lab._plant` when it is
+    built (cpp/plant/plant.cpp), else by MuJoCo's binding, which keeps the GIL meanwhile."""
+    return copy.copy(model) if _plant is None else _plant.copy_model(model)
+
+
+def compile_world(
+    key: WorldKey,
+    compiling: Callable[[], AbstractContextManager[object]] = contextlib.nullcontext,
+) -> CompiledWorld:
     """Build the robot and compile MuJoCo's model of `key`; raises KeyError or ValueError on a
-    robot file or URDF it cannot use (naming what)."""
+    robot file or URDF it cannot use (naming what). MuJoCo's compile runs inside `compiling()`
+    (a switch's thread gives up its realtime priority for it: lab/runtime/switch.py)."""
     robot = build_robot(load_description(key.robot))
     if key.scene in START_RISE:  # one foot starts on a block
         robot = with_raised_contact(robot, *START_RISE[key.scene])
     spec = build_spec(robot, key.scene, key.timestep, key.terrain_seed)
-    return CompiledWorld(robot, spec.compile())
+    with compiling():  # it releases the GIL, and processes meshes on threads of its own
+        return CompiledWorld(robot, spec.compile())
 
 
 class RecentWorlds(Generic[Kept]):
@@ -111,16 +126,22 @@ class KeptWorlds(RecentWorlds[CompiledWorld]):
     """Worlds compiled in this process and kept per key, the last `max_worlds`, for switches
     built on a thread beside the loop (lab/runtime/switch.py): a switch back to a robot and
     scene shares the robot (a `Robot` is never changed: the controller's model is a copy,
-    lab/realism/model_error.py) and copies MuJoCo's model as compiled (`mj_copyModel`: Solo12's
-    7.4 MB in 1.5-2 ms of CPU; loading it from its binary took 14-20 ms) instead of parsing the
-    URDF again (pinocchio's parser keeps the GIL: 2-16 ms of CPU) and compiling. Used by one
-    thread at a time."""
+    lab/realism/model_error.py) and copies MuJoCo's model as compiled (`copied_model`: Solo12's
+    7.4 MB in 1.3 ms of CPU, without the GIL; loading it from its binary took 14-20 ms) instead
+    of parsing the URDF again (pinocchio's parser keeps the GIL: 2-16 ms of CPU) and compiling.
+    Used by one thread at a time; a world compiled here compiles inside `compiling()`
+    (`compile_world`)."""
 
-    def __init__(self, max_worlds: int = MAX_KEPT) -> None:
+    def __init__(
+        self,
+        max_worlds: int = MAX_KEPT,
+        compiling: Callable[[], AbstractContextManager[object]] = contextlib.nullcontext,
+    ) -> None:
         super().__init__(max_worlds)
+        self._compile = functools.partial(compile_world, compiling=compiling)
 
     def world(self, key: WorldKey) -> CompiledWorld:
         """The world of `key`, its MjModel a new copy each call (a plant changes its own): from
         what is kept, else compiled (and kept); raises as `compile_world` does."""
-        kept = self.kept_or_made(key, compile_world)
-        return CompiledWorld(kept.robot, copy.copy(kept.mj_model))
+        kept = self.kept_or_made(key, self._compile)
+        return CompiledWorld(kept.robot, copied_model(kept.mj_model))

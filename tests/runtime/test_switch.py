@@ -19,7 +19,8 @@ import pytest
 from lab.protocol import RobotCommand
 from lab.runtime.intake import Request
 from lab.runtime.loop import LoopConfig, SimLoop
-from lab.runtime.switch import Switcher
+from lab.runtime.scheduling import ThreadPolicy
+from lab.runtime.switch import SWAP_WAIT_S, SWITCH_FIFO_PRIORITY, Realtime, Switcher
 from lab.runtime.world_cache import WorldCache
 from lab.world.compiled import KeptWorlds, world_key
 from lab.world.session import Session, SessionConfig
@@ -79,6 +80,115 @@ def test_rss_after_200_switches_is_within_5_percent_of_after_10() -> None:
         after_10, after_200, robot, fell = pool.submit(_switch_memory).result()
     assert after_200 <= 1.05 * after_10, (after_10, after_200)
     assert robot == ROBOT and not fell
+
+
+def _fifo_allowed() -> bool:
+    """Whether this process may put a thread at SCHED_FIFO (CAP_SYS_NICE), tried on a thread
+    of its own and given back."""
+    allowed = []
+
+    def attempt() -> None:
+        policy = ThreadPolicy.of(threading.get_native_id())
+        allowed.append(policy is not None and policy.fifo(1) and policy.restore())
+
+    thread = threading.Thread(target=attempt)
+    thread.start()
+    thread.join()
+    return allowed[0]
+
+
+def _scheduling(tid: int) -> tuple[int, int, int]:
+    """Thread `tid`'s policy (without SCHED_RESET_ON_FORK), realtime priority and nice."""
+    return (
+        os.sched_getscheduler(tid) & ~os.SCHED_RESET_ON_FORK,
+        os.sched_getparam(tid).sched_priority,
+        os.getpriority(os.PRIO_PROCESS, tid),
+    )
+
+
+def _lowered(switcher: Switcher, within_s: float) -> bool:
+    """Whether the switch's thread gives the threads their scheduling back within `within_s`."""
+    end = time.monotonic() + within_s
+    while switcher.realtime.raised and time.monotonic() < end:
+        time.sleep(0.01)
+    return not switcher.realtime.raised
+
+
+def test_a_switch_runs_its_thread_and_the_loops_at_sched_fifo_and_gives_theirs_back() -> None:
+    """While a switch is built, swapped in and its old parts freed, its thread and the loop's
+    (the thread that asked for it: here this one) run at SCHED_FIFO, the loop's one above, so
+    that nothing at SCHED_OTHER preempts the thread while it holds the GIL and the loop preempts
+    it; then each has its own scheduling back: after a switch, after a refused one, and after
+    one never swapped in (within SWAP_WAIT_S). Without CAP_SYS_NICE neither changes."""
+    me = threading.get_native_id()
+    before = _scheduling(me)
+    during: list[tuple[tuple[int, ...], tuple[int, ...]]] = []  # loop's, own: policy, priority
+
+    def build(config: SessionConfig) -> SessionParts:
+        during.append((_scheduling(me)[:2], _scheduling(threading.get_native_id())[:2]))
+        if config.robot == "nonesuch":
+            raise KeyError("unknown robot 'nonesuch'")
+        return build_parts(config)
+
+    session = Session(SessionConfig(robot=ROBOT))
+    switcher = Switcher(build=build)
+    try:
+        _switch(session, switcher, ROBOT)  # built, swapped in, the old parts handed back
+        assert _lowered(switcher, 10.0) and _scheduling(me) == before
+        command = RobotCommand("nonesuch")  # refused
+        switcher.start(Request("robot", {}, None, None, command), SessionConfig(robot="nonesuch"))
+        while (built := switcher.finished()) is None:
+            time.sleep(0.005)
+        assert built.error is not None and "nonesuch" in built.error
+        assert _lowered(switcher, 10.0) and _scheduling(me) == before
+        command = RobotCommand(ROBOT)  # built, never swapped in
+        switcher.start(Request("robot", {}, None, None, command), session.switch_config(command))
+        while switcher.finished() is None:
+            time.sleep(0.005)
+        assert not _lowered(switcher, 0.5 * SWAP_WAIT_S) or not switcher.realtime.rises
+        assert _lowered(switcher, SWAP_WAIT_S + 10.0) and _scheduling(me) == before
+    finally:
+        switcher.close()
+    assert _scheduling(me) == before and session.config.robot == ROBOT and not session.fell
+    if _fifo_allowed():
+        fifo = (os.SCHED_FIFO, SWITCH_FIFO_PRIORITY + 1), (os.SCHED_FIFO, SWITCH_FIFO_PRIORITY)
+        assert during == [fifo] * 3 and switcher.realtime.rises == 3
+    else:
+        assert all(loop == before[:2] for loop, _ in during) and switcher.realtime.rises == 0
+
+
+def test_realtime_refused_for_either_thread_leaves_both_as_they_were(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Both threads or neither: the loop's SCHED_FIFO refused after the switch thread's was
+    granted gives the switch thread its own back, and nothing is raised."""
+    me, parked, ready = threading.get_native_id(), threading.Event(), threading.Event()
+    tids: list[int] = []
+
+    def park() -> None:
+        tids.append(threading.get_native_id())
+        ready.set()
+        parked.wait()
+
+    thread = threading.Thread(target=park)
+    thread.start()
+    ready.wait()
+    before = _scheduling(me), _scheduling(tids[0])
+    granted = ThreadPolicy.fifo
+
+    def refused_for_the_loop(policy: ThreadPolicy, priority: int) -> bool:
+        return policy.tid != me and granted(policy, priority)
+
+    monkeypatch.setattr(ThreadPolicy, "fifo", refused_for_the_loop)
+    realtime = Realtime()
+    try:
+        realtime.rise(me, tids[0])
+        assert not realtime.raised and realtime.rises == 0
+        assert (_scheduling(me), _scheduling(tids[0])) == before
+        realtime.release()
+    finally:
+        parked.set()
+        thread.join()
 
 
 class _OneSwitch:
