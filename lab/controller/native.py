@@ -15,6 +15,7 @@ no task is asked for by name here.
 
 import contextlib
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 
@@ -155,6 +156,9 @@ class NativeController(WholeBodyController):
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
+        # where the last native tick's report is fetched from when first read (a server tick
+        # that ended plainly: `ticked_elsewhere`), None when `_outcome` is it
+        self._fetch_outcome: Callable[[], _kernel.TickOutcome] | None = None
         if _kernel is not None:
             self._native = kernel_for(self, serialized_model)
             self._native.mirror_model(robot.arrays())
@@ -302,6 +306,12 @@ class NativeController(WholeBodyController):
         return ""
 
     @property
+    def reports_to_tasks(self) -> bool:
+        """Whether a task of the stack takes values back from each native tick (`from_kernel`:
+        a KERNEL_INPUTS task, Kim eq. 12's feedback)."""
+        return bool(self._kernel_inputs)
+
+    @property
     def native_kernel(self) -> "_kernel.Kernel | None":
         """The native kernel this controller mirrors into (None when it is not built)."""
         return self._native
@@ -327,13 +337,34 @@ class NativeController(WholeBodyController):
         which the kernel wrote); raises QPFailure when it failed, warns when nullspace's search
         stopped at its cap."""
         self.kernel_ran = "native"
-        self._outcome = outcome
+        self._outcome, self._fetch_outcome = outcome, None
         for task in self._kernel_inputs:  # what telemetry reads of them (Kim eq. 12's feedback)
             task.from_kernel(outcome)
         if not outcome.ok:
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
         if outcome.capped:  # as nullspace.py's search warns, for the session to show
             warnings.warn(outcome.message, ActiveSetCapWarning, stacklevel=3)
+        return NativeOutput(tau.copy(), x.copy(), self.robot.nv, outcome)
+
+    def ticked_elsewhere(self, fetch: "Callable[[], _kernel.TickOutcome]") -> None:
+        """A server tick's crossing (lab/world/native_tick.py) ran this controller on the kernel
+        and its status was ok (no report to raise or warn about, no KERNEL_INPUTS task to take
+        values back): its report is fetched with `fetch` when first read (`native_output`,
+        `task_errors`), before the next tick."""
+        self.kernel_ran = "native"
+        self._outcome, self._fetch_outcome = None, fetch
+
+    def _last_outcome(self) -> "_kernel.TickOutcome | None":
+        """The last native tick's report (fetched now if a server tick left it in the kernel)."""
+        if self._fetch_outcome is not None:
+            self._outcome, self._fetch_outcome = self._fetch_outcome(), None
+        return self._outcome
+
+    def native_output(self, tau: np.ndarray, x: np.ndarray) -> "NativeOutput":
+        """The output of the last native tick that `ticked_elsewhere` reported, from the `tau`
+        and `x` it wrote (copied)."""
+        outcome = self._last_outcome()
+        assert outcome is not None  # a native tick ran
         return NativeOutput(tau.copy(), x.copy(), self.robot.nv, outcome)
 
     def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
@@ -378,8 +409,8 @@ class NativeController(WholeBodyController):
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
-        outcome = self._outcome
-        if self.kernel_ran == "native" and outcome is not None:
+        outcome = self._last_outcome() if self.kernel_ran == "native" else None
+        if outcome is not None:
             errors: dict[str, float] = outcome.task_errors
             return errors
         return super().task_errors()
