@@ -22,6 +22,7 @@ import numpy as np
 from lab.controller.controller import (
     ControllerConfig,
     ControlOutput,
+    Ran,
     WholeBodyController,
     hierarchy_note,
 )
@@ -317,18 +318,29 @@ class NativeController(WholeBodyController):
         return self._native
 
     def prepare_native_tick(self) -> None:
-        """Before a native tick's crossing: mirror what changed since the last (limits, method,
-        what the stack's tasks hold in Python: `to_kernel`) and mark the tick native."""
-        native = self._built  # a native tick runs only where the kernel is built
-        self._sync_limits()
+        """Before a native tick's crossing: mirror what changed since the last (the method:
+        `native_settings`; the limits and the tasks' inputs: `sync_native_tick`) and mark the
+        tick native."""
+        self.ran = self.native_settings()
+        self.sync_native_tick()
+
+    def native_settings(self) -> Ran:
+        """Mirror the method and formulation into the kernel when they changed; what a native
+        tick computes under the config (a session's tick plan asks once per config)."""
         method = (self.config.method, self.config.formulation)
         if self._native_method != method:  # Python strs: no crossing to compare
-            native.set_method(method[0])
-            native.set_formulation(method[1])
+            self._built.set_method(method[0])  # a native tick runs only where it is built
+            self._built.set_formulation(method[1])
             self._native_method = method
+        return self.ran_on("native")
+
+    def sync_native_tick(self) -> None:
+        """What every native tick mirrors first: the limits given since the last tick (a
+        scenario's overrides replace the arrays or change the numbers in place) and what the
+        stack's tasks hold in Python (`to_kernel`)."""
+        self._sync_limits()
         for task in self._kernel_inputs:
-            task.to_kernel(native, self.robot, self.references)
-        self.ran = self.ran_on("native")
+            task.to_kernel(self._built, self.robot, self.references)
 
     def finish_native_tick(
         self, outcome: "_kernel.TickOutcome", tau: np.ndarray, x: np.ndarray

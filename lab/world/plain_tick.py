@@ -58,7 +58,9 @@ class TickPlan:
         # A plain tick: its crossing alone, then a few assignments (`_plain_native_tick`); a
         # task that senses or takes values back from the kernel runs the whole native path.
         self.plain = False
+        self.ran = controller.ran  # what a native tick computes: set below when it runs
         if not self.note:
+            self.ran = controller.native_settings()
             native.set_parts(behaviour, self.idle, TOUCH_FORCE, realism, session.estimator)
             self.twin = native.twin
             self.plain = not native.sensing and not controller.reports_to_tasks

@@ -63,7 +63,31 @@ class SessionTick(PlainTickResults, SessionBase):
             plan = self._plan = TickPlan(self)
         self.tick_note = plan.note
         if plan.plain:
-            if self._plain_native_tick(plan):
+            # A plain native tick: its crossing (`_plain_crossing`), then its bookkeeping inline
+            # (a call costs as much as several of these lines).
+            controller, behaviour = self.controller, self.behaviour
+            if self.hands.targets:
+                self.hands.write(controller.references, self.time)
+            stale = plan.twin is not None and behaviour.native_stale
+            code = self._plain_crossing(plan, stale)
+            if code == BEHAVIOUR_RAN or code == TickStatus.STEPPED:
+                if stale:  # its twin ran: the twin holds the behaviour's state now
+                    behaviour.native_ran()
+                controller.robot.filled_elsewhere()
+                self.plant.stepped_elsewhere(self.native_tick.valid_time, True)
+                controller.ticked_elsewhere(plan.outcome)
+                self.qp_ok, self._pending = True, plan
+                ran = plan.ran
+                if ran is self._ran_run:
+                    self._ran_run_ticks += 1
+                else:
+                    self._count_ran(ran)
+                self._true_state = plan.truth
+                if plan.estimated:  # what the controller read: its model's
+                    self.estimator.read_elsewhere(plan.truth, (self.model.q, self.model.v))
+                self.ticks += 1
+                if self.ticks % FALL_CHECK_PERIOD == 0:
+                    self._check_fall(True)
                 return
         elif self._pending is not None:  # the last plain tick's results, before this tick's
             self._settle()
@@ -98,61 +122,44 @@ class SessionTick(PlainTickResults, SessionBase):
             return
         self._ticked(native)
 
-    def _plain_native_tick(self, plan: "TickPlan") -> bool:
-        """The native tick's crossing and, when it ended plainly (stepped, the controller's
-        status ok), the tick's bookkeeping: True. Otherwise False, the crossing's code or error
-        kept in `_crossing` for `_control` to handle as every native tick's (events, fallback,
-        divergence)."""
+    def _plain_crossing(self, plan: TickPlan, stale: bool) -> int | None:
+        """A plain plan's crossing: its code, or None when it raised a control failure (kept in
+        `_crossing` with any code other than a plain one, for `_control` to handle as every
+        native tick's: events, fallback, divergence)."""
         controller, behaviour = self.controller, self.behaviour
-        if self.hands.targets:
-            self.hands.write(controller.references, self.time)
-        stale = plan.twin is not None and behaviour.native_stale
+        controller.ran = plan.ran
         try:
-            controller.prepare_native_tick()
+            controller.sync_native_tick()
         except CONTROL_FAILURES as error:
             self._crossing = error
-            return False
+            return None
         # The last plain tick's results, unread, are this tick's to replace: the crossing
         # overwrites the buffers they are in, and every path below sets τ, F and the output.
         self._pending = None
         try:
-            code = plan.step(self.velocity, stale, None)
+            code: int = plan.step(self.velocity, stale, None)
         except BaseException as error:
             if plan.twin is not None and self.native_tick.behaviour_ran:
                 behaviour.native_ran()
             if not isinstance(error, CONTROL_FAILURES):
                 raise
             self._crossing = error
-            return False
+            return None
         if code != BEHAVIOUR_RAN and code != TickStatus.STEPPED:
             self._crossing = code
-            return False
-        if stale:  # its twin ran: the twin holds the behaviour's state now
-            behaviour.native_ran()
-        controller.robot.filled_elsewhere()
-        self.plant.stepped_elsewhere(self.native_tick.valid_time, True)
-        controller.ticked_elsewhere(plan.outcome)
-        self.qp_ok, self._pending = True, plan
-        ran = controller.ran
-        if ran is self._ran_run:
-            self._ran_run_ticks += 1
-        else:
-            self._count_ran(ran)
-        self._true_state = plan.truth
-        if plan.estimated:  # what the controller read: its model's
-            self.estimator.read_elsewhere(plan.truth, (self.model.q, self.model.v))
-        self._ticked(True)
-        return True
+        return code
 
     def _ticked(self, native: bool) -> None:
         """A tick done: counted, and every FALL_CHECK_PERIOD ticks the fall check (`native`:
         the native tick stepped and made its contact test)."""
         self.ticks += 1
-        if (
-            self.ticks % FALL_CHECK_PERIOD == 0
-            and not self.fell
-            and self._fallen(self.native_tick.non_foot_contact if native else None)
-        ):
+        if self.ticks % FALL_CHECK_PERIOD == 0:
+            self._check_fall(native)
+
+    def _check_fall(self, native: bool) -> None:
+        """The fall check (`native`: the native tick stepped and made its contact test): a
+        fallen robot's torques off, its joints damped, pushes ended, velocity zeroed."""
+        if not self.fell and self._fallen(self.native_tick.non_foot_contact if native else None):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
             self.applied_tau = self.tau

@@ -303,7 +303,7 @@ def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeyp
         session.tick()
     monkeypatch.setattr(
         session.controller,
-        "prepare_native_tick",
+        "sync_native_tick",
         lambda: (_ for _ in ()).throw(RuntimeError("injected")),
     )
     for _ in range(50):
