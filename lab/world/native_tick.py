@@ -17,6 +17,7 @@ them out when they are read (session_tick.py). The Python tick stays the referen
 (tests/kernel/test_native_tick.py holds the two equal tick by tick).
 """
 
+from collections.abc import Callable
 from enum import IntEnum
 
 import numpy as np
@@ -73,9 +74,21 @@ class NativeTick:
         # One tick on the parts set (`set_parts`): ServerTick.tick(command, reload,
         # applied_torques), its int a TickStatus or-ed with UNSOLVED and BEHAVIOUR_RAN; the
         # caller then makes the Python side current (`finish`, or a plain tick's bookkeeping).
-        self.step = None if self._tick is None else self._tick.tick
+        self.step: Callable[[np.ndarray, bool, np.ndarray | None], int] = (
+            self._not_built if self._tick is None else self._tick.tick
+        )
         self.twin: NativeTwinTick | None = None  # the behaviour's twin set (None: idle)
         self.sensing = False  # whether a task reads the feet's forces (set_parts)
+
+    def _not_built(self, command: np.ndarray, reload: bool, applied: np.ndarray | None) -> int:
+        """`step` where there is no ServerTick: `note` says why, and no tick runs here."""
+        raise RuntimeError(f"no native tick: {NOT_BUILT or 'the plant or the controller'}")
+
+    @property
+    def _server(self) -> "_kernel.ServerTick":
+        """The ServerTick, where it is known to exist (`note` said the tick can run here)."""
+        assert self._tick is not None
+        return self._tick
 
     def note(
         self,
@@ -116,7 +129,7 @@ class NativeTick:
         harder than `touch_force` (N), the state measured and the torques applied through
         `realism` unless it is ideal, the base estimated by `estimator`'s C++ twin when it has
         one, the feet's forces sensed when a task reads them."""
-        controller, tick = self.controller, self._tick
+        controller, tick = self.controller, self._server
         self.twin = (
             None if idle or not isinstance(behaviour, NativeTwin) else behaviour.native_twin()
         )
@@ -138,13 +151,14 @@ class NativeTick:
         then raises, as the Python tick's step does, after the tick's bookkeeping) and the
         controller's output; `command`: [vx, vy, yaw_rate]; `applied`: last tick's torques
         (N m), for a task that senses. Raises as `finish` does."""
-        stale = self.twin is not None and behaviour.native_stale
+        owner = behaviour if self.twin is not None and isinstance(behaviour, NativeTwin) else None
+        stale = owner is not None and owner.native_stale
         self.controller.prepare_native_tick()
         try:
             code = self.step(command, stale, applied if self.sensing else None)
         except BaseException:
-            if self.twin is not None and self._tick.behaviour_ran:
-                behaviour.native_ran()
+            if owner is not None and self.behaviour_ran:
+                owner.native_ran()
             raise
         return self.finish(code, behaviour, applied)
 
@@ -156,7 +170,7 @@ class NativeTick:
         TickStatus and the controller's output. Raises `SimulationDiverged` when the state was not
         valid before control (the plant's check names why) and the controller's QPFailure when
         it failed: nothing was applied then, the caller falls back."""
-        if code & BEHAVIOUR_RAN:
+        if code & BEHAVIOUR_RAN and isinstance(behaviour, NativeTwin):
             behaviour.native_ran()
         status = code & STATUS_BITS
         if status == TickStatus.DIVERGED_BEFORE:
@@ -166,18 +180,23 @@ class NativeTick:
         if self.sensing:  # the Python task keeps what was sensed, as set_sensing
             controller.internal_force.measured_forces = self.buffers["foot_forces"].copy()
             controller.internal_force.applied_torques = np.array(applied, dtype=float)
-        self.plant.stepped_elsewhere(self._tick.valid_time, status != TickStatus.CONTROL_FAILED)
-        outcome, buffers = self._tick.outcome(), self.buffers
+        self.plant.stepped_elsewhere(self.valid_time, status != TickStatus.CONTROL_FAILED)
+        outcome, buffers = self._server.outcome(), self.buffers
         return status, controller.finish_native_tick(outcome, buffers["tau"], buffers["x"])
 
     def outcome(self) -> "_kernel.TickOutcome":
         """The controller's report of the last tick (a copy: it stays that tick's)."""
-        return self._tick.outcome()
+        return self._server.outcome()
 
     @property
     def valid_time(self) -> float:
         """The sim time (s) of the last state the tick found valid."""
-        return self._tick.valid_time
+        return self._server.valid_time
+
+    @property
+    def behaviour_ran(self) -> bool:
+        """Whether the last tick ran the behaviour's native twin."""
+        return self._server.behaviour_ran
 
     def applied_torques(self) -> np.ndarray:
         """The joint torques (N m) the plant applied in the last tick that stepped: the

@@ -14,7 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from lab.controller.behaviours.native import NativeTick as NativeTwinTick
+from lab.controller.behaviours.native import NativeTwin
 from lab.controller.controller import ControlOutput
+from lab.controller.native import NativeController
+from lab.world.native_tick import NativeTick
 
 if TYPE_CHECKING:
     from lab.world.session_tick import SessionTick
@@ -53,8 +57,10 @@ class TickPlan:
         native = self.native_tick
         self.ideal = realism.ideal
         self.estimated = session.estimator.native is not None
-        self.truth = native.true_state
-        self.twin = None
+        truth = native.true_state  # None where there is no native tick (then unused)
+        self.truth = session._true_state if truth is None else truth
+        self.twin: NativeTwinTick | None = None
+        self.owner: NativeTwin | None = None  # the behaviour whose twin ticks
         # A plain tick: its crossing alone, then a few assignments (`_plain_native_tick`); a
         # task that senses or takes values back from the kernel runs the whole native path.
         self.plain = False
@@ -63,6 +69,8 @@ class TickPlan:
             self.ran = controller.native_settings()
             native.set_parts(behaviour, self.idle, TOUCH_FORCE, realism, session.estimator)
             self.twin = native.twin
+            if self.twin is not None and isinstance(behaviour, NativeTwin):
+                self.owner = behaviour
             self.plain = not native.sensing and not controller.reports_to_tasks
         self.step = native.step
         self.outcome = native.outcome
@@ -94,6 +102,8 @@ class PlainTickResults:
     attributes on the Python path, copied out of the kernel's buffers when first read after a
     plain native tick (`_pending`: its plan)."""
 
+    controller: NativeController
+    native_tick: NativeTick
     _pending: TickPlan | None
     _tau: np.ndarray
     _forces: np.ndarray
@@ -172,6 +182,7 @@ class PlainTickResults:
         """Copy the last plain native tick's results out of the kernel's buffers (its plan says
         whether the realism layer was ideal)."""
         plan, self._pending = self._pending, None
+        assert plan is not None  # called only with a plain tick's results pending
         native_tick = self.native_tick
         buffers = native_tick.buffers
         out = self.controller.native_output(buffers["tau"], buffers["x"])

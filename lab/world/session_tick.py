@@ -65,14 +65,14 @@ class SessionTick(PlainTickResults, SessionBase):
         if plan.plain:
             # A plain native tick: its crossing (`_plain_crossing`), then its bookkeeping inline
             # (a call costs as much as several of these lines).
-            controller, behaviour = self.controller, self.behaviour
+            controller, owner = self.controller, plan.owner
             if self.hands.targets:
                 self.hands.write(controller.references, self.time)
-            stale = plan.twin is not None and behaviour.native_stale
+            stale = owner is not None and owner.native_stale
             code = self._plain_crossing(plan, stale)
             if code == BEHAVIOUR_RAN or code == TickStatus.STEPPED:
-                if stale:  # its twin ran: the twin holds the behaviour's state now
-                    behaviour.native_ran()
+                if stale and owner is not None:  # its twin ran: it holds the state now
+                    owner.native_ran()
                 controller.robot.filled_elsewhere()
                 self.plant.stepped_elsewhere(self.native_tick.valid_time, True)
                 controller.ticked_elsewhere(plan.outcome)
@@ -126,7 +126,7 @@ class SessionTick(PlainTickResults, SessionBase):
         """A plain plan's crossing: its code, or None when it raised a control failure (kept in
         `_crossing` with any code other than a plain one, for `_control` to handle as every
         native tick's: events, fallback, divergence)."""
-        controller, behaviour = self.controller, self.behaviour
+        controller = self.controller
         controller.ran = plan.ran
         try:
             controller.sync_native_tick()
@@ -139,8 +139,8 @@ class SessionTick(PlainTickResults, SessionBase):
         try:
             code: int = plan.step(self.velocity, stale, None)
         except BaseException as error:
-            if plan.twin is not None and self.native_tick.behaviour_ran:
-                behaviour.native_ran()
+            if plan.owner is not None and self.native_tick.behaviour_ran:
+                plan.owner.native_ran()
             if not isinstance(error, CONTROL_FAILURES):
                 raise
             self._crossing = error
