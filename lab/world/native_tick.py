@@ -85,7 +85,7 @@ class NativeTick:
         raise RuntimeError(f"no native tick: {NOT_BUILT or 'the plant or the controller'}")
 
     @property
-    def _server(self) -> "_kernel.ServerTick":
+    def server(self) -> "_kernel.ServerTick":
         """The ServerTick, where it is known to exist (`note` said the tick can run here)."""
         assert self._tick is not None
         return self._tick
@@ -129,7 +129,7 @@ class NativeTick:
         harder than `touch_force` (N), the state measured and the torques applied through
         `realism` unless it is ideal, the base estimated by `estimator`'s C++ twin when it has
         one, the feet's forces sensed when a task reads them."""
-        controller, tick = self.controller, self._server
+        controller, tick = self.controller, self.server
         self.twin = (
             None if idle or not isinstance(behaviour, NativeTwin) else behaviour.native_twin()
         )
@@ -181,22 +181,22 @@ class NativeTick:
             controller.internal_force.measured_forces = self.buffers["foot_forces"].copy()
             controller.internal_force.applied_torques = np.array(applied, dtype=float)
         self.plant.stepped_elsewhere(self.valid_time, status != TickStatus.CONTROL_FAILED)
-        outcome, buffers = self._server.outcome(), self.buffers
+        outcome, buffers = self.server.outcome(), self.buffers
         return status, controller.finish_native_tick(outcome, buffers["tau"], buffers["x"])
 
     def outcome(self) -> "_kernel.TickOutcome":
         """The controller's report of the last tick (a copy: it stays that tick's)."""
-        return self._server.outcome()
+        return self.server.outcome()
 
     @property
     def valid_time(self) -> float:
         """The sim time (s) of the last state the tick found valid."""
-        return self._server.valid_time
+        return self.server.valid_time
 
     @property
     def behaviour_ran(self) -> bool:
         """Whether the last tick ran the behaviour's native twin."""
-        return self._server.behaviour_ran
+        return self.server.behaviour_ran
 
     def applied_torques(self) -> np.ndarray:
         """The joint torques (N m) the plant applied in the last tick that stepped: the

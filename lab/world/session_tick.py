@@ -74,7 +74,7 @@ class SessionTick(PlainTickResults, SessionBase):
                 if stale and owner is not None:  # its twin ran: it holds the state now
                     owner.native_ran()
                 controller.robot.filled_elsewhere()
-                self.plant.stepped_elsewhere(self.native_tick.valid_time, True)
+                self.plant.stepped_elsewhere(plan.server.valid_time, True)
                 controller.ticked_elsewhere(plan.outcome)
                 self.qp_ok, self._pending = True, plan
                 ran = plan.ran
