@@ -12,7 +12,8 @@ the kernel's (it fills the Python model's arrays for the behaviour) and `control
 
 `--whole` times the whole `Session.tick()` instead, on two sessions of the native kernel in the
 same run, ticking in turns: one on the server's native tick (one crossing, native_tick.py), one
-on the Python tick (`Session.native_ticks = False`); median and p99 of each, and their ratio.
+on the Python tick (`Session.native_ticks = False`); median and p99 of each, and their ratio;
+and of the native tick's, the part inside C++ and the rest (`Python`, tick by tick).
 """
 
 import argparse
@@ -90,7 +91,8 @@ def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, 
     """Thread-CPU µs (median, p99) of `Session.tick()` on the native tick and on the Python tick,
     the two sessions ticking in turns (the same load on both); and of the native tick, the
     part inside its one call (`in C++`) and of that the check-to-solve part (`control`),
-    both on the steady clock inside C++."""
+    both on the steady clock inside C++, and the rest of each native tick (`Python`: the
+    session's Python around the crossing and the crossing's own cost, tick by tick)."""
     sessions = {
         "native": Session(SessionConfig(robot=robot)),
         "python": Session(SessionConfig(robot=robot)),
@@ -102,7 +104,7 @@ def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, 
             session.handle("velocity", {"vx": 0.5})
         for _ in range(WARM_UP_TICKS):
             session.tick()
-    spent = {path: np.zeros(ticks) for path in (*sessions, "in C++", "control")}
+    spent = {path: np.zeros(ticks) for path in (*sessions, "in C++", "control", "Python")}
     clock, native = time.thread_time, sessions["native"].native_tick
     for i in range(ticks):
         for path, session in sessions.items():
@@ -111,6 +113,7 @@ def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, 
             spent[path][i] = clock() - start
         spent["in C++"][i] = native.call_us * 1e-6  # steady clock, inside the one call
         spent["control"][i] = native.control_us * 1e-6
+        spent["Python"][i] = spent["native"][i] - spent["in C++"][i]
     for path, session in sessions.items():
         if session.tick_report()["tick"] != path or session.fell:
             raise SystemExit(f"the {path} tick did not run to the end: {session.tick_report()}")

@@ -6,8 +6,11 @@
 // when a task reads them: the truth, as the Python tick's), the model update at the measured
 // state, the behaviour, the references, the solve, the torques through the layer's delay and
 // actuator (Session._actuated) into ctrl, mj_step, the check after it and the fall check's
-// contact test. What telemetry and the drawing state read goes into
-// preallocated arrays (`buffers`); what went wrong comes back as a status code, which
+// contact test. The parts that change at human rates (the references object, the behaviour and
+// its twin, the realism layer, the estimator, the sensing) are set once through setters, so a tick
+// takes only what changes every tick (the command). What telemetry and the drawing state read goes
+// into preallocated arrays (`buffers`), the controller's report stays here until asked for
+// (`outcome`); how the tick went comes back as one int (a status and flags), which
 // lab/world/native_tick.py turns into the Python path's exceptions (the same events). Compiled
 // into lab._kernel when MuJoCo's headers and libmujoco are found (CMakeLists.txt): one module
 // holds the kernel, the behaviours and this, so no object crosses between extension modules.
@@ -48,6 +51,11 @@ enum TickStatus : int {
   kControlFailed = 2,   // the controller failed (the outcome says why): nothing applied, no step
   kDivergedAfter = 3,   // stepped, and the new state is not valid
 };
+/// Flags or-ed into the status a tick returns (native_tick.py's UNSOLVED and BEHAVIOUR_RAN).
+enum TickFlags : int {
+  kUnsolved = 4,      // the controller ran and its status is not ok: capped, fallback, violated
+  kBehaviourRan = 8,  // the behaviour's native twin ran this tick
+};
 
 template <typename T>
 T* address_of(const nb::handle& object) {
@@ -83,75 +91,114 @@ class ServerTick {
     touching_.assign(static_cast<std::size_t>(n_feet), false);
   }
 
-  /// One server tick (module comment); `behaviour` is null for an idle behaviour (its update
-  /// changes nothing: no touch sensing either), `layer` null for an ideal realism layer (the
-  /// controller reads the truth, the plant applies its torques), `estimator` null unless the
-  /// `estimator` knob is ekf (then the base the controller reads is its estimate from the feet
-  /// in `contacts`, the controller's). Returns (status, the controller's TickOutcome or None
-  /// when it did not run).
-  nb::tuple tick(nb::handle refs, nb::handle robot, nb::handle owner, TickedBehaviour* behaviour,
-                 bool reload, const InVector& command, const InVector& applied_torques,
-                 double touch_force, bool sensing, realism::Layer* layer,
-                 estimation::BaseEstimator* estimator, std::optional<InFlags> contacts) {
-    if (command.shape(0) != 3 || applied_torques.shape(0) != static_cast<std::size_t>(tau_.size()))
-      throw std::invalid_argument("ServerTick.tick: command needs 3 entries, applied_torques na");
+  /// The Python References object the controller reads each tick (read after the behaviour).
+  void set_references(nb::object refs) { refs_ = std::move(refs); }
+
+  /// The behaviour `owner` whose twin ticks on the Python RobotModel `robot`; `twin` null for an
+  /// idle behaviour (its update changes nothing: no touch sensing either).
+  void set_behaviour(nb::object owner, nb::object robot, nb::object twin, double touch_force) {
+    twin_ = twin.is_none() ? nullptr : nb::cast<TickedBehaviour*>(twin);
+    owner_ = std::move(owner);
+    robot_ = std::move(robot);
+    twin_object_ = std::move(twin);
+    touch_force_ = touch_force;
+  }
+
+  /// The realism layer between plant and controller, null when ideal (the controller reads the
+  /// truth, the plant applies its torques); `estimator` null unless the `estimator` knob is ekf
+  /// (then the base the controller reads is its estimate from the feet in the references'
+  /// contact_active, read before the behaviour's tick); `sensing`: a task reads the feet's forces
+  /// and the applied torques (Kim eq. 12).
+  void set_measurement(nb::object layer, nb::object estimator, bool sensing) {
+    layer_ = layer.is_none() ? nullptr : nb::cast<realism::Layer*>(layer);
+    estimator_ = estimator.is_none() ? nullptr : nb::cast<estimation::BaseEstimator*>(estimator);
+    layer_object_ = std::move(layer);
+    estimator_object_ = std::move(estimator);
+    sensing_ = sensing;
+  }
+
+  /// One server tick (module comment) on the parts set: `command` [vx, vy, yaw_rate], `reload`
+  /// (the behaviour's state changed in Python since its twin's last tick), `applied_torques`
+  /// (the torques applied last tick, N m: needed when sensing). Returns a TickStatus or-ed with
+  /// TickFlags; the controller's report is `outcome()` until the next tick.
+  int tick(const InVector& command, bool reload, std::optional<InVector> applied_torques) {
+    if (!refs_.is_valid() || !owner_.is_valid())
+      throw std::invalid_argument("ServerTick.tick: set_references and set_behaviour first");
+    if (command.shape(0) != 3)
+      throw std::invalid_argument("ServerTick.tick: command needs 3 entries");
+    if (sensing_ &&
+        (!applied_torques || applied_torques->shape(0) != static_cast<std::size_t>(tau_.size())))
+      throw std::invalid_argument("ServerTick.tick: sensing needs applied_torques, na of them");
     const auto start = Clock::now();
     behaviour_ran_ = false;
     non_foot_contact_ = false;
+    outcome_.reset();
     call_seconds_ = control_seconds_ = 0.0;
     valid_time_ = plant_.check();  // a state set from outside (fault injection) before control
-    if (valid_time_ < 0.0) return nb::make_tuple(static_cast<int>(kDivergedBefore), nb::none());
+    if (valid_time_ < 0.0) return kDivergedBefore;
     tick_time_ = valid_time_;
     plant_.state(q_.data(), v_.data());  // the truth: touch, fall check and actuators read it
-    if (layer != nullptr || estimator != nullptr) {  // the controller reads the measured state
-      if (layer != nullptr)
-        std::tie(qm_, vm_) = layer->measure(q_, v_);
+    if (layer_ != nullptr || estimator_ != nullptr) {  // the controller reads the measured state
+      if (layer_ != nullptr)
+        std::tie(qm_, vm_) = layer_->measure(q_, v_);
       else
         qm_ = q_, vm_ = v_;
-      if (estimator != nullptr) {  // its base estimated (lab/world/estimator.py)
-        if (!contacts || contacts->shape(0) != touching_.size())
+      if (estimator_ != nullptr) {  // its base estimated (lab/world/estimator.py)
+        InFlags contacts;           // the controller's (last tick's), as Session._measure
+        if (!nb::try_cast(refs_.attr("contact_active"), contacts) ||
+            contacts.shape(0) != touching_.size())
           throw std::invalid_argument("ServerTick.tick: the estimator needs one contact per foot");
-        contacts_ = Eigen::Map<const estimation::Flags>(contacts->data(), contacts->shape(0));
-        estimator->read(q_, v_, qm_, vm_, contacts_);
+        contacts_ = Eigen::Map<const estimation::Flags>(contacts.data(), contacts.shape(0));
+        estimator_->read(q_, v_, qm_, vm_, contacts_);
       }
       kernel_.update(qm_, vm_);  // fills the Python model's arrays too (Kernel::on_update)
     } else {
       kernel_.update(q_, v_);
     }
-    if (sensing) {  // measured only for a task that reads it (Kim eq. 12)
+    if (sensing_) {  // measured only for a task that reads it (Kim eq. 12)
       plant_.foot_forces(foot_forces_.data());
       kernel_.set_sensing(foot_forces_,
-                          Eigen::Map<const Eigen::VectorXd>(applied_torques.data(), tau_.size()));
+                          Eigen::Map<const Eigen::VectorXd>(applied_torques->data(), tau_.size()));
     }
-    if (behaviour != nullptr) {
+    if (twin_ != nullptr) {
       plant_.foot_normal_forces(normal_forces_.data());  // touch: sensing, not control
       for (Eigen::Index i = 0; i < normal_forces_.size(); ++i)
-        touching_[static_cast<std::size_t>(i)] = normal_forces_(i) > touch_force;
-      behaviour->tick(owner, robot, plant_.time(), command.data(),
-                      reinterpret_cast<const bool*>(touching_.data()), touching_.size(), reload);
+        touching_[static_cast<std::size_t>(i)] = normal_forces_(i) > touch_force_;
+      twin_->tick(owner_, robot_, plant_.time(), command.data(),
+                  reinterpret_cast<const bool*>(touching_.data()), touching_.size(), reload);
       behaviour_ran_ = true;
     }
-    read_references(kernel_, refs);
+    const int ran = behaviour_ran_ ? kBehaviourRan : 0;
+    read_references(kernel_, refs_);
     const TickResult& result = kernel_.solve();
-    TickOutcome outcome(kernel_, result);
+    const TickOutcome& outcome = outcome_.emplace(kernel_, result);
     control_seconds_ = std::chrono::duration<double>(Clock::now() - start).count();
-    if (!outcome.ok) return nb::make_tuple(static_cast<int>(kControlFailed), std::move(outcome));
+    if (!outcome.ok) return kControlFailed | ran;
+    // as NativeOutput.solve_status: not ok when capped, a level fell back or a row is violated
+    bool solved = !outcome.capped && outcome.violations.empty();
+    for (const LevelStatus level : outcome.levels)
+      solved = solved && level != LevelStatus::kept_above;
+    const int flags = ran | (solved ? 0 : kUnsolved);
     tau_ = result.tau;
     x_ = result.solution.x;
-    if (layer != nullptr) {  // the command delay and the actuator; copied, not moved: the
-      const Eigen::VectorXd applied = layer->actuate(tau_, q_, v_);  // buffers view applied_
+    if (layer_ != nullptr) {  // the command delay and the actuator; copied, not moved: the
+      const Eigen::VectorXd applied = layer_->actuate(tau_, q_, v_);  // buffers view applied_
       applied_ = applied;
     } else {
       applied_ = tau_;
     }
     plant_.set_torques(applied_.data());
     const double after = plant_.step();
-    if (after < 0.0) return nb::make_tuple(static_cast<int>(kDivergedAfter), std::move(outcome));
+    if (after < 0.0) return kDivergedAfter | flags;
     valid_time_ = after;
     non_foot_contact_ = plant_.non_foot_ground_contact();
     call_seconds_ = std::chrono::duration<double>(Clock::now() - start).count();
-    return nb::make_tuple(static_cast<int>(kStepped), std::move(outcome));
+    return kStepped | flags;
   }
+
+  /// The controller's report of the last tick (a copy: it stays that tick's), None when the
+  /// controller did not run (the state was not valid before control).
+  std::optional<TickOutcome> outcome() const { return outcome_; }
 
   /// Views of the arrays the tick writes: q and v (the plant's true state before the step), tau
   /// and x (the controller's torques and [q̈, F] when it succeeded), applied (the torques the
@@ -187,6 +234,14 @@ class ServerTick {
 
   nb::object kernel_object_, model_object_, data_object_;  // keep them alive
   Kernel& kernel_;
+  // the parts set by the setters; the objects keep the raw pointers' owners alive
+  nb::object refs_, owner_, robot_, twin_object_, layer_object_, estimator_object_;
+  TickedBehaviour* twin_ = nullptr;
+  realism::Layer* layer_ = nullptr;
+  estimation::BaseEstimator* estimator_ = nullptr;
+  bool sensing_ = false;
+  double touch_force_ = 0.0;
+  std::optional<TickOutcome> outcome_;  // the last tick's report (none when nothing ran)
   MujocoStep plant_;
   Eigen::VectorXd q_, v_, qm_, vm_, tau_, applied_, x_, foot_forces_, normal_forces_;
   estimation::Flags contacts_;
@@ -205,14 +260,25 @@ void bind_server_tick(nb::module_& m) {
            "kernel"_a, "mj_model"_a, "mj_data"_a, "q_order"_a, "v_order"_a, "terrain"_a,
            "foot_of_geom"_a, "n_feet"_a,
            "On a Kernel and the plant's MjModel and MjData, with PlantStep's indices.")
-      .def("tick", &ServerTick::tick, "refs"_a, "robot"_a, "owner"_a, "behaviour"_a.none(),
-           "reload"_a, "command"_a, "applied_torques"_a, "touch_force"_a, "sensing"_a,
-           "realism"_a.none(), "estimator"_a.none() = nb::none(), "contacts"_a.none() = nb::none(),
-           "One server tick: (status, TickOutcome or None); status 0 stepped, 1 diverged "
-           "before control, 2 the controller failed (nothing applied), 3 diverged after the step. "
+      .def("set_references", &ServerTick::set_references, "refs"_a,
+           "The References object (lab/controller/references.py) the controller reads each tick.")
+      .def("set_behaviour", &ServerTick::set_behaviour, "owner"_a, "robot"_a, "twin"_a.none(),
+           "touch_force"_a,
+           "The behaviour `owner` and its native twin (None: idle, no touch sensing), ticking on "
+           "the Python RobotModel `robot`; a foot touches when pressing harder than "
+           "`touch_force` (N).")
+      .def("set_measurement", &ServerTick::set_measurement, "realism"_a.none(),
+           "estimator"_a.none(), "sensing"_a,
            "`realism`: a RealismLayer between plant and controller, None when ideal; "
-           "`estimator`: an EkfEstimator for the base the controller reads, from the feet in "
-           "`contacts`.")
+           "`estimator`: an EkfEstimator for the base the controller reads, from the feet in the "
+           "references' contact_active; `sensing`: a task reads the feet's forces.")
+      .def("tick", &ServerTick::tick, "command"_a, "reload"_a,
+           "applied_torques"_a.none() = nb::none(),
+           "One server tick on the parts set: a status (0 stepped, 1 diverged before control, 2 "
+           "the controller failed (nothing applied), 3 diverged after the step) or-ed with 4 when "
+           "the controller's status is not ok and 8 when the behaviour's twin ran.")
+      .def("outcome", &ServerTick::outcome,
+           "The controller's TickOutcome of the last tick (a copy), None when it did not run.")
       .def("buffers", &ServerTick::buffers,
            "Views of the arrays each tick writes (q, v, tau, applied, x, foot_forces, "
            "normal_forces).")

@@ -15,12 +15,14 @@ no task is asked for by name here.
 
 import contextlib
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 
 from lab.controller.controller import (
     ControllerConfig,
     ControlOutput,
+    Ran,
     WholeBodyController,
     hierarchy_note,
 )
@@ -155,6 +157,9 @@ class NativeController(WholeBodyController):
         super().__init__(robot, references, config, torque_limits)
         self.kernel_ran = "python"
         self._outcome: _kernel.TickOutcome | None = None  # the last native tick's report
+        # where the last native tick's report is fetched from when first read (a server tick
+        # that ended plainly: `ticked_elsewhere`), None when `_outcome` is it
+        self._fetch_outcome: Callable[[], _kernel.TickOutcome] | None = None
         if _kernel is not None:
             self._native = kernel_for(self, serialized_model)
             self._native.mirror_model(robot.arrays())
@@ -302,23 +307,40 @@ class NativeController(WholeBodyController):
         return ""
 
     @property
+    def reports_to_tasks(self) -> bool:
+        """Whether a task of the stack takes values back from each native tick (`from_kernel`:
+        a KERNEL_INPUTS task, Kim eq. 12's feedback)."""
+        return bool(self._kernel_inputs)
+
+    @property
     def native_kernel(self) -> "_kernel.Kernel | None":
         """The native kernel this controller mirrors into (None when it is not built)."""
         return self._native
 
     def prepare_native_tick(self) -> None:
-        """Before a native tick's crossing: mirror what changed since the last (limits, method,
-        what the stack's tasks hold in Python: `to_kernel`) and mark the tick native."""
-        native = self._built  # a native tick runs only where the kernel is built
-        self._sync_limits()
+        """Before a native tick's crossing: mirror what changed since the last (the method:
+        `native_settings`; the limits and the tasks' inputs: `sync_native_tick`) and mark the
+        tick native."""
+        self.ran = self.native_settings()
+        self.sync_native_tick()
+
+    def native_settings(self) -> Ran:
+        """Mirror the method and formulation into the kernel when they changed; what a native
+        tick computes under the config (a session's tick plan asks once per config)."""
         method = (self.config.method, self.config.formulation)
         if self._native_method != method:  # Python strs: no crossing to compare
-            native.set_method(method[0])
-            native.set_formulation(method[1])
+            self._built.set_method(method[0])  # a native tick runs only where it is built
+            self._built.set_formulation(method[1])
             self._native_method = method
+        return self.ran_on("native")
+
+    def sync_native_tick(self) -> None:
+        """What every native tick mirrors first: the limits given since the last tick (a
+        scenario's overrides replace the arrays or change the numbers in place) and what the
+        stack's tasks hold in Python (`to_kernel`)."""
+        self._sync_limits()
         for task in self._kernel_inputs:
-            task.to_kernel(native, self.robot, self.references)
-        self.ran = self.ran_on("native")
+            task.to_kernel(self._built, self.robot, self.references)
 
     def finish_native_tick(
         self, outcome: "_kernel.TickOutcome", tau: np.ndarray, x: np.ndarray
@@ -327,13 +349,34 @@ class NativeController(WholeBodyController):
         which the kernel wrote); raises QPFailure when it failed, warns when nullspace's search
         stopped at its cap."""
         self.kernel_ran = "native"
-        self._outcome = outcome
+        self._outcome, self._fetch_outcome = outcome, None
         for task in self._kernel_inputs:  # what telemetry reads of them (Kim eq. 12's feedback)
             task.from_kernel(outcome)
         if not outcome.ok:
             raise QPFailure(f"native {self.config.method}: {outcome.message}")
         if outcome.capped:  # as nullspace.py's search warns, for the session to show
             warnings.warn(outcome.message, ActiveSetCapWarning, stacklevel=3)
+        return NativeOutput(tau.copy(), x.copy(), self.robot.nv, outcome)
+
+    def ticked_elsewhere(self, fetch: "Callable[[], _kernel.TickOutcome]") -> None:
+        """A server tick's crossing (lab/world/native_tick.py) ran this controller on the kernel
+        and its status was ok (no report to raise or warn about, no KERNEL_INPUTS task to take
+        values back): its report is fetched with `fetch` when first read (`native_output`,
+        `task_errors`), before the next tick."""
+        self.kernel_ran = "native"
+        self._outcome, self._fetch_outcome = None, fetch
+
+    def _last_outcome(self) -> "_kernel.TickOutcome | None":
+        """The last native tick's report (fetched now if a server tick left it in the kernel)."""
+        if self._fetch_outcome is not None:
+            self._outcome, self._fetch_outcome = self._fetch_outcome(), None
+        return self._outcome
+
+    def native_output(self, tau: np.ndarray, x: np.ndarray) -> "NativeOutput":
+        """The output of the last native tick that `ticked_elsewhere` reported, from the `tau`
+        and `x` it wrote (copied)."""
+        outcome = self._last_outcome()
+        assert outcome is not None  # a native tick ran
         return NativeOutput(tau.copy(), x.copy(), self.robot.nv, outcome)
 
     def set_sensing(self, foot_forces: np.ndarray, applied_torques: np.ndarray) -> None:
@@ -378,8 +421,8 @@ class NativeController(WholeBodyController):
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each stack task's tracking error at the last tick, from the kernel that ran."""
-        outcome = self._outcome
-        if self.kernel_ran == "native" and outcome is not None:
+        outcome = self._last_outcome() if self.kernel_ran == "native" else None
+        if outcome is not None:
             errors: dict[str, float] = outcome.task_errors
             return errors
         return super().task_errors()

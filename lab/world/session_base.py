@@ -6,6 +6,7 @@ events. The tick (session_tick.py), the commands (session_commands.py) and the r
 
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from lab.stack_presets import load_stack_preset
 from lab.world.session_parts import SessionConfig, SessionParts, build_parts
 from lab.world.telemetry import hierarchy_report
 from lab.world.warning_capture import WarningCapture
+
+if TYPE_CHECKING:
+    from lab.world.session_tick import TickPlan
 
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
@@ -172,6 +176,13 @@ class SessionBase(SessionParts):
         self.ticks = 0
         self.qp_ok = True
         self._failure = ""  # why the last failed tick failed
+        # The tick's path, decided when what it depends on changes (session_tick.py's TickPlan:
+        # None until the next tick decides it), the plan of a plain native tick whose results
+        # are still in the kernel's buffers (None when copied out), and a native crossing made
+        # already whose code or error the rest of the tick handles.
+        self._plan: TickPlan | None = None
+        self._pending: TickPlan | None = None
+        self._crossing: int | BaseException | None = None
         self._output: ControlOutput | None = None  # the last tick's, None after a fallback
         self._unreported = dict.fromkeys(STATUS_EVENTS.values(), 0)
         self._last_report = dict.fromkeys(self._unreported, -FAILURE_EVENT_PERIOD)

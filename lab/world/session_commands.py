@@ -56,6 +56,7 @@ class SessionCommands(SessionTick):
         """Apply one command already validated by `parse_command` (the sim process validates
         off the loop: lab/runtime/intake.py); never raises. What the session refuses (an
         unknown name, a stack it cannot run) changes nothing."""
+        self._plan = None  # the next tick decides its path again (session_tick.py's TickPlan)
         try:
             reply = self._apply(command)
         except (cmd.CommandError, StackError, KeyError, ValueError) as error:

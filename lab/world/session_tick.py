@@ -11,11 +11,13 @@ import time
 
 import numpy as np
 
+from lab.controller.controller import ControlOutput
 from lab.controller.hierarchy import HierarchySolution
 from lab.controller.hierarchy.solution import SOLVED, SolveStatus
 from lab.controller.model import BASE_DOF
 from lab.realism.contact_estimate import ContactEstimator, TouchThresholds
-from lab.world.native_tick import TickStatus
+from lab.world.native_tick import BEHAVIOUR_RAN, TickStatus
+from lab.world.plain_tick import TOUCH_FORCE, PlainTickResults, TickPlan
 from lab.world.plant import SimulationDiverged
 from lab.world.session_base import (
     DIVERGENCE_REPEAT_S,
@@ -31,15 +33,16 @@ FALL_CHECK_PERIOD = 10  # ticks between fall checks
 # s: a body other than a foot touching the terrain this long is a fall. Shorter is a stumble: a
 # blind trot over tiles grazes a shin on a tile edge for a stance phase (≤ 0.35 s) and walks on.
 FALL_CONTACT_S = 0.5
-TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 # A fallen robot's joints are damped, as drives in a fall protection's damping mode: b = τ_max /
 # this speed, so the drive's full torque brakes a joint turning at it. Undamped, Solo12's 38 g
 # shanks spun at up to 900 rad/s (1 ms steps) and MuJoCo's integration diverged
 # (docs/architecture.md, "Faults").
 LIMP_DAMPING_SPEED = 10.0  # rad/s
+# What a failed control raises: the tick falls back to the joint PD (`_fallback_torques`)
+CONTROL_FAILURES = (ArithmeticError, np.linalg.LinAlgError, RuntimeError)
 
 
-class SessionTick(SessionBase):
+class SessionTick(PlainTickResults, SessionBase):
     """A session that ticks (module docstring)."""
 
     # ----------------------------------------------------------------------------- the tick
@@ -48,38 +51,64 @@ class SessionTick(SessionBase):
         A state that is not valid before or after the step is a divergence (`_recover`). The
         whole tick is one crossing into C++ (native_tick.py) when the plant, the controller and
         the behaviour allow; else, and when `native_ticks` is False, the Python path below runs
-        and `tick_note` says why."""
+        and `tick_note` says why. Which path runs is decided when what it depends on changes
+        (`TickPlan`); a native tick that ends plainly (stepped, status ok) leaves its results in
+        the kernel's buffers until they are read (`_settle`)."""
         if self.paused:
             return
         if self.pushes:
             self._expire_pushes()
-        controller, behaviour, native_tick = self.controller, self.behaviour, self.native_tick
-        # An idle behaviour's update changes nothing (Balance off a foot line): the model update
-        # and the solve are then one call (one crossing on the native kernel), no touch sensing.
-        idle = behaviour.idle and not controller.reads_sensing
-        if not self.native_ticks:
-            self.tick_note = "native ticks are off (Session.native_ticks)"
-        elif not self.fell and self.estimator.filter is not None:  # the Python filter's
-            self.tick_note = (
-                f"the state estimator ({self.estimator.name}) runs in Python (realism.md)"
-            )
-        else:
-            self.tick_note = native_tick.note(behaviour, idle, self.fell, self.realism)
+        plan = self._plan
+        if plan is None or not plan.holds(self):
+            plan = self._plan = TickPlan(self)
+        self.tick_note = plan.note
+        if plan.plain:
+            # A plain native tick: its crossing (`_plain_crossing`), then its bookkeeping inline
+            # (a call costs as much as several of these lines).
+            controller, owner = self.controller, plan.owner
+            if self.hands.targets:
+                self.hands.write(controller.references, self.time)
+            stale = owner is not None and owner.native_stale
+            code = self._plain_crossing(plan, stale)
+            if code == BEHAVIOUR_RAN or code == TickStatus.STEPPED:
+                if stale and owner is not None:  # its twin ran: it holds the state now
+                    owner.native_ran()
+                controller.robot.filled_elsewhere()
+                self.plant.stepped_elsewhere(plan.server.valid_time, True)
+                controller.ticked_elsewhere(plan.outcome)
+                self.qp_ok, self._pending = True, plan
+                ran = plan.ran
+                if ran is self._ran_run:
+                    self._ran_run_ticks += 1
+                else:
+                    self._count_ran(ran)
+                self._true_state = plan.truth
+                if plan.estimated:  # what the controller read: its model's
+                    self.estimator.read_elsewhere(plan.truth, (self.model.q, self.model.v))
+                self.ticks += 1
+                if self.ticks % FALL_CHECK_PERIOD == 0:
+                    self._check_fall(True)
+                return
+        elif self._pending is not None:  # the last plain tick's results, before this tick's
+            self._settle()
+        idle = plan.idle
         native = False  # whether the native tick stepped (it made the fall check's contact test)
         try:
-            if not self.tick_note and (stepped := self._control(idle, native=True)) is not None:
+            if not plan.note and (stepped := self._control(idle, native=True)) is not None:
                 if stepped == TickStatus.DIVERGED_AFTER:
                     self.plant.check()  # raises, naming the cause, as the Python step does
                 native = True
                 # what the native tick read and applied, through the realism layer if on
-                truth = native_tick.true_state
+                truth = self.native_tick.true_state
                 assert truth is not None  # a native tick ran: its buffers exist
                 self._true_state = truth
                 if self.estimator.native is not None:  # what the controller read: its model's
                     self.estimator.read_elsewhere(truth, (self.model.q, self.model.v))
-                self.applied_tau = self.tau if self.realism.ideal else native_tick.applied_torques()
+                self.applied_tau = (
+                    self.tau if self.realism.ideal else self.native_tick.applied_torques()
+                )
             else:  # the Python tick, or the fallback torques of a failed native control
-                if self.tick_note:
+                if plan.note:
                     self.plant.check()  # a state set from outside (fault injection) first
                     if self.fell:  # torques off until a reset, as a fall protection does; the
                         self.model.update(*self.plant.state())  # model follows (telemetry)
@@ -91,12 +120,46 @@ class SessionTick(SessionBase):
         except SimulationDiverged as divergence:
             self._recover(divergence)
             return
+        self._ticked(native)
+
+    def _plain_crossing(self, plan: TickPlan, stale: bool) -> int | None:
+        """A plain plan's crossing: its code, or None when it raised a control failure (kept in
+        `_crossing` with any code other than a plain one, for `_control` to handle as every
+        native tick's: events, fallback, divergence)."""
+        controller = self.controller
+        controller.ran = plan.ran
+        try:
+            controller.sync_native_tick()
+        except CONTROL_FAILURES as error:
+            self._crossing = error
+            return None
+        # The last plain tick's results, unread, are this tick's to replace: the crossing
+        # overwrites the buffers they are in, and every path below sets τ, F and the output.
+        self._pending = None
+        try:
+            code: int = plan.step(self.velocity, stale, None)
+        except BaseException as error:
+            if plan.owner is not None and self.native_tick.behaviour_ran:
+                plan.owner.native_ran()
+            if not isinstance(error, CONTROL_FAILURES):
+                raise
+            self._crossing = error
+            return None
+        if code != BEHAVIOUR_RAN and code != TickStatus.STEPPED:
+            self._crossing = code
+        return code
+
+    def _ticked(self, native: bool) -> None:
+        """A tick done: counted, and every FALL_CHECK_PERIOD ticks the fall check (`native`:
+        the native tick stepped and made its contact test)."""
         self.ticks += 1
-        if (
-            self.ticks % FALL_CHECK_PERIOD == 0
-            and not self.fell
-            and self._fallen(native_tick.non_foot_contact if native else None)
-        ):
+        if self.ticks % FALL_CHECK_PERIOD == 0:
+            self._check_fall(native)
+
+    def _check_fall(self, native: bool) -> None:
+        """The fall check (`native`: the native tick stepped and made its contact test): a
+        fallen robot's torques off, its joints damped, pushes ended, velocity zeroed."""
+        if not self.fell and self._fallen(self.native_tick.non_foot_contact if native else None):
             self.fell = True
             self.tau, self.forces = np.zeros_like(self.tau), np.zeros_like(self.forces)
             self.applied_tau = self.tau
@@ -145,21 +208,13 @@ class SessionTick(SessionBase):
         the controller failed: the caller applies the fallback torques, or when not
         `native`). Raises SimulationDiverged when the state was not valid before control."""
         controller, behaviour = self.controller, self.behaviour
-        if self.hands.targets:
+        if self.hands.targets and not (native and self._crossing is not None):  # written for it
             self.hands.write(controller.references, self.time)
         stepped = None
         with self._capture as caught:
             try:
                 if native:
-                    stepped, out = self.native_tick.run(
-                        behaviour,
-                        idle,
-                        self.velocity,
-                        self.tau,
-                        TOUCH_FORCE,
-                        self.realism,
-                        self.estimator,
-                    )
+                    stepped, out = self._native_control()
                 else:
                     q, v = self._measure()
                     # sensing, not control (an idle behaviour reads none)
@@ -192,7 +247,7 @@ class SessionTick(SessionBase):
                     )
             except SimulationDiverged:
                 raise
-            except (ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
+            except CONTROL_FAILURES as error:
                 if native:  # the native tick did not step: the plant is at this tick's state
                     q, v = self._true_state = self.plant.state()  # _actuated reads it too
                 self.tau, self.forces = self._fallback_torques(q, v), 0 * self.forces
@@ -217,6 +272,16 @@ class SessionTick(SessionBase):
             self._warnings[kind] = ControllerWarning(message, t, count)
         return stepped
 
+    def _native_control(self) -> tuple[int, ControlOutput]:
+        """The native tick's crossing, or the one `_plain_native_tick` made (`_crossing`: its
+        code or error), with the Python side made current (NativeTick.finish)."""
+        crossing, self._crossing = self._crossing, None
+        if crossing is None:
+            return self.native_tick.run(self.behaviour, self.velocity, self.tau)
+        if isinstance(crossing, BaseException):
+            raise crossing
+        return self.native_tick.finish(crossing, self.behaviour, self.tau)
+
     def _control_time(self, native: bool) -> float:
         """The sim time this tick controlled at: the native tick has stepped already."""
         return self.native_tick.tick_time if native else self.time
@@ -231,6 +296,8 @@ class SessionTick(SessionBase):
         hierarchy found x (ok before the first tick)."""
         if not self.qp_ok:
             return SolveStatus("failed", None, self._failure)
+        if self._pending is not None:  # a plain native tick's status is ok
+            return SOLVED
         return SOLVED if self._output is None else self._output.solve_status()
 
     @property
@@ -308,6 +375,7 @@ class SessionTick(SessionBase):
             return
         for name in expired:
             del self.pushes[name]
+        self._plan = None  # a push at a point ran the Python tick
         self.plant.clear_push()
         for p in self.pushes.values():
             self.plant.push(p.body, p.force, p.point)

@@ -303,7 +303,7 @@ def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeyp
         session.tick()
     monkeypatch.setattr(
         session.controller,
-        "prepare_native_tick",
+        "sync_native_tick",
         lambda: (_ for _ in ()).throw(RuntimeError("injected")),
     )
     for _ in range(50):
@@ -338,3 +338,40 @@ def test_a_realism_layer_in_python_runs_the_python_tick_and_says_why() -> None:
     session.tick()
     ran = session.telemetry()["ran"]
     assert ran["tick"] == "python" and "Python one" in ran["tick_note"]
+
+
+def test_plain_native_ticks_decide_their_path_once_and_keep_results_until_read(
+    monkeypatch,
+) -> None:
+    """The tick's path is decided when what it depends on changes, not every tick: the native
+    tick's `note` runs once over 50 standing ticks, again after a command; τ and F read after
+    a plain tick are that tick's (the kernel's buffers then), and stay so after the next tick
+    (copies); the torques hold the robot up (the joints' τ within their limits, the planned
+    normal forces summing to its weight within 5 %)."""
+    session = Session(SessionConfig(robot="anymal"))
+    native_tick, notes = session.native_tick, []
+    note = native_tick.note
+
+    def counted(*args: object) -> str:
+        notes.append(args)
+        return note(*args)
+
+    monkeypatch.setattr(native_tick, "note", counted)
+    for _ in range(50):
+        session.tick()
+    assert len(notes) == 1 and session.tick_report()["tick"] == "native"
+    tau, forces = session.tau, session.forces
+    assert np.array_equal(tau, native_tick.buffers["tau"])
+    kept = tau.copy()
+    session.tick()
+    assert np.array_equal(tau, kept)  # that tick's copy, untouched by the next tick
+    assert np.array_equal(session.tau, native_tick.buffers["tau"])
+    assert np.all(np.abs(tau) <= session.robot.torque_limits)
+    weight = session.model.mass * 9.81
+    assert abs(forces[2::3].sum() - weight) < 0.05 * weight, forces
+    assert session.handle("velocity", {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0})["ok"]
+    session.tick()
+    assert len(notes) == 2
+    session.native_ticks = False  # a direct change: the next tick decides again
+    session.tick()
+    assert session.tick_report()["tick"] == "python"

@@ -103,10 +103,10 @@ def test_a_solver_exception_falls_back_counts_and_carries_on() -> None:
 
         def inject(session: object) -> None:
             # A standing tick calls compute (update and solve in one), others solve; the native
-            # server tick (native_tick.py) prepares its one crossing instead.
+            # server tick (native_tick.py) mirrors the limits before its one crossing instead.
             controller.solve = raising(controller.solve)
             controller.compute = raising(controller.compute)
-            controller.prepare_native_tick = raising(controller.prepare_native_tick)
+            controller.sync_native_tick = raising(controller.sync_native_tick)
 
         server.session.inject(inject)
         failure = server.event("solver_failure")
