@@ -50,7 +50,7 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
     last: list = []
 
     def each_tick() -> None:
-        behaviour, estimator = session.behaviour, session._contact_estimator
+        behaviour, estimator = session.behaviour, session.touch_estimate
         assert isinstance(behaviour, Walking) and behaviour.scheduler is not None
         assert estimator is not None  # the knob is on: the tick made it
         stance = [leg.state is LegState.STANCE for leg in behaviour.scheduler.legs]
@@ -76,6 +76,7 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
     return {
         "robot": robot,
         "preset": base,
+        "tick": session.tick_report()["tick"],  # the path that ran (python: its note says why)
         "fell_at_s": None if survived else session.time,
         "walked_m": float(session.plant.state()[0][0]) - x0,
         "touchdowns": len(delays),
