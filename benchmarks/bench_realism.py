@@ -5,8 +5,11 @@ session tick (ANYmal standing, native controller and plant) with realism ideal a
 and against every knob on (the SEA, friction, saturation, model error and a 5 kg payload too;
 with the EKF: `estimator = "ekf"`, and without), the layer and the EKF in C++ inside the native
 tick (the session's default when lab._kernel is built), then typical on the Python tick with
-the C++ and the Python layer. Each row says which tick path ran (telemetry's `ran.tick`); the
-ratios are to the ideal tick.
+the C++ and the Python layer; and ANYmal trotting at 0.5 m/s, where the touch sensing runs
+(`contact_estimate`: the touch detector on the estimated contact forces, in C++ inside the
+native tick), ideal, typical, typical with the contact estimate, and with the EKF as well.
+Each row says which tick path ran (telemetry's `ran.tick`); the ratios are to the ideal tick
+of the same motion (standing or trotting).
 
     .venv/bin/python benchmarks/bench_realism.py [--ticks N]
 
@@ -76,25 +79,41 @@ def main() -> None:
         _row(f"{kind} layer, every knob on (measure + actuate)", _times(step, ticks))
     _ekf_alone(every, ticks)
     sessions = {}
-    cases = (  # (name, knobs, the C++ layer, native ticks)
-        ("ideal", preset("ideal", "anymal"), True, True),
-        ("typical", preset("typical", "anymal"), True, True),
-        ("every knob, EKF", knobs_from(every, {"estimator": "ekf"}), True, True),
-        ("every knob, true estimator", every, True, True),
-        ("typical", preset("typical", "anymal"), True, False),
-        ("typical", preset("typical", "anymal"), False, False),
+    typical = preset("typical", "anymal")
+    touch = knobs_from(typical, {"contact_estimate": 1})
+    cases = (  # (motion, name, knobs, the C++ layer, native ticks)
+        ("standing", "ideal", preset("ideal", "anymal"), True, True),
+        ("standing", "typical", typical, True, True),
+        ("standing", "every knob, EKF", knobs_from(every, {"estimator": "ekf"}), True, True),
+        ("standing", "every knob, true estimator", every, True, True),
+        ("standing", "typical", typical, True, False),
+        ("standing", "typical", typical, False, False),
+        ("trotting", "ideal", preset("ideal", "anymal"), True, True),
+        ("trotting", "typical", typical, True, True),
+        ("trotting", "typical, contact estimate", touch, True, True),
+        (
+            "trotting",
+            "typical, contact estimate, EKF",
+            knobs_from(touch, {"estimator": "ekf"}),
+            True,
+            True,
+        ),
     )
-    for name, knobs, native_layer, native_ticks in cases:
+    for motion, name, knobs, native_layer, native_ticks in cases:
         session = Session(SessionConfig(robot="anymal", realism=knobs))
         session.native_ticks = native_ticks
         session.realism = realism_layer(knobs, NA, DT, native=native_layer)
         session.realism.reset(session.robot.q_standing)
         if name.startswith("every knob"):
             assert session.handle("payload", {"body": "base", "mass": 5.0})["ok"]
+        if motion == "trotting":
+            assert session.handle("gait", {"name": "trot"})["ok"]
+            assert session.handle("velocity", {"vx": 0.5})["ok"]
         for _ in range(200):
             session.tick()
         path = session.tick_report()["tick"]
-        sessions[f"ANYmal standing, {name} ({session.realism.kernel} layer, {path} tick)"] = session
+        label = f"ANYmal {motion}, {name} ({session.realism.kernel} layer, {path} tick)"
+        sessions[label] = session
     # in chunks of CHUNK ticks, the sessions in turn: a change of the host's load meets them all
     times = {label: [] for label in sessions}
     for _ in range(max(1, ticks // CHUNK)):
@@ -104,9 +123,13 @@ def main() -> None:
     for label, session in sessions.items():
         assert not session.fell, label
         medians[label] = _row(label, np.concatenate(times[label]))
-    ideal = medians[next(iter(medians))]
-    for label, median in list(medians.items())[1:]:
-        print(f"{label} / ideal: {median / ideal:.3f}")
+    ideal = {}  # per motion, the first row's (its ideal tick)
+    for label, median in medians.items():
+        motion = label.split(",")[0]
+        if motion not in ideal:
+            ideal[motion] = median
+            continue
+        print(f"{label} / ideal: {median / ideal[motion]:.3f}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 // lab::ServerTick: the session's tick (lab/world/session.py Session.tick and _control, in their
 // order) in one call on the plant's MjModel / MjData (plant/mujoco_step.hpp), the native kernel
 // (controller.hpp), the behaviour's native tick (behaviours/native_behaviour.hpp) and the realism
-// layer (realism/layer.hpp) when it is not ideal: the state check, the true state, its
+// layer (realism/layer.hpp) when it is not ideal, the touch detector on the estimated contact
+// forces (realism/contact_estimate.hpp) when one is set: the state check, the true state, its
 // measurement through the layer (Session._measure), the sensing (touch, and the feet's forces
 // when a task reads them: the truth, as the Python tick's), the model update at the measured
 // state, the behaviour, the references, the solve, the torques through the layer's delay and
@@ -30,6 +31,7 @@
 #include "behaviours/native_behaviour.hpp"
 #include "estimation/estimator.hpp"
 #include "plant/mujoco_step.hpp"
+#include "realism/contact_estimate.hpp"
 #include "realism/layer.hpp"
 #include "tick_outcome.hpp"
 
@@ -164,6 +166,10 @@ class ServerTick {
       plant_.foot_normal_forces(normal_forces_.data());  // touch: sensing, not control
       for (Eigen::Index i = 0; i < normal_forces_.size(); ++i)
         touching_[static_cast<std::size_t>(i)] = normal_forces_(i) > touch_force_;
+      if (touch_ != nullptr) {  // realism's contact_estimate: from last tick's applied torques
+        const RobotModel& model = kernel_.robot();  // at the measured state
+        touching_ = touch_->update(model, applied_, model.v.tail(model.na), touching_.data());
+      }
       twin_->tick(owner_, robot_, plant_.time(), command.data(),
                   reinterpret_cast<const bool*>(touching_.data()), touching_.size(), reload);
       behaviour_ran_ = true;
@@ -200,6 +206,24 @@ class ServerTick {
   /// controller did not run (the state was not valid before control).
   std::optional<TickOutcome> outcome() const { return outcome_; }
 
+  /// The touch detector whose flags the behaviour reads instead of MuJoCo's (realism's
+  /// `contact_estimate`; None: MuJoCo's): it reads last tick's torques from the `applied`
+  /// buffer, which the caller writes when a tick ran elsewhere.
+  void set_touch_estimator(nb::object estimator) {
+    realism::ContactEstimator* touch = nullptr;
+    if (!estimator.is_none()) {
+      touch = nb::cast<realism::ContactEstimator*>(estimator);
+      const RobotModel& robot = kernel_.robot();
+      if (touch->n_joints() != robot.na ||
+          touch->n_feet() != static_cast<int>(robot.contacts.size()))
+        throw std::invalid_argument(
+            "ServerTick.set_touch_estimator: the estimator's joints and feet differ from the "
+            "kernel's model");
+    }
+    touch_object_ = std::move(estimator);
+    touch_ = touch;
+  }
+
   /// Views of the arrays the tick writes: q and v (the plant's true state before the step), tau
   /// and x (the controller's torques and [q̈, F] when it succeeded), applied (the torques the
   /// plant applied: tau through the realism layer), foot_forces (n x 3, when sensed),
@@ -232,7 +256,7 @@ class ServerTick {
                     nb::rv_policy::reference);
   }
 
-  nb::object kernel_object_, model_object_, data_object_;  // keep them alive
+  nb::object kernel_object_, model_object_, data_object_, touch_object_;  // keep them alive
   Kernel& kernel_;
   // the parts set by the setters; the objects keep the raw pointers' owners alive
   nb::object refs_, owner_, robot_, twin_object_, layer_object_, estimator_object_;
@@ -243,6 +267,7 @@ class ServerTick {
   double touch_force_ = 0.0;
   std::optional<TickOutcome> outcome_;  // the last tick's report (none when nothing ran)
   MujocoStep plant_;
+  realism::ContactEstimator* touch_ = nullptr;  // touch_object_'s
   Eigen::VectorXd q_, v_, qm_, vm_, tau_, applied_, x_, foot_forces_, normal_forces_;
   estimation::Flags contacts_;
   std::vector<char> touching_;  // bools: std::vector<bool> has no data()
@@ -279,6 +304,9 @@ void bind_server_tick(nb::module_& m) {
            "the controller's status is not ok and 8 when the behaviour's twin ran.")
       .def("outcome", &ServerTick::outcome,
            "The controller's TickOutcome of the last tick (a copy), None when it did not run.")
+      .def("set_touch_estimator", &ServerTick::set_touch_estimator, "estimator"_a.none(),
+           "The ContactEstimator whose touch flags the behaviour reads from now on instead of "
+           "MuJoCo's (None: MuJoCo's); it reads last tick's torques from the `applied` buffer.")
       .def("buffers", &ServerTick::buffers,
            "Views of the arrays each tick writes (q, v, tau, applied, x, foot_forces, "
            "normal_forces).")

@@ -1,17 +1,36 @@
 // Python bindings of the realism layer: the agreement test and the micro benchmark drive it
-// with the knobs lab/realism/knobs.py checked (RealismKnobs.values()).
+// with the knobs lab/realism/knobs.py checked (RealismKnobs.values()); and of the touch
+// detector on the estimated contact forces (contact_estimate.hpp), which the session hands to
+// the native tick.
 #include "realism/python.hpp"
 
 #include <nanobind/eigen/dense.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/pair.h>
 #include <nanobind/stl/string.h>
 
+#include <algorithm>
+#include <vector>
+
+#include "controller.hpp"
+#include "realism/contact_estimate.hpp"
 #include "realism/layer.hpp"
 
 namespace nb = nanobind;
 
 namespace lab {
 namespace {
+
+using InFlags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+/// A copy of `touch` as a numpy bool array.
+nb::object touch_array(const std::vector<char>& touch) {
+  auto* data = new bool[touch.size()];
+  std::copy(touch.begin(), touch.end(), data);
+  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<bool*>(p); });
+  return nb::cast(nb::ndarray<nb::numpy, bool, nb::ndim<1>>(data, {touch.size()}, owner));
+}
 
 template <typename T>
 T knob(const nb::dict& values, const char* name) {
@@ -59,6 +78,55 @@ void bind_realism(nb::module_& m) {
       .def("actuate", &realism::Layer::actuate, nb::arg("command"), nb::arg("q"), nb::arg("v"))
       .def_prop_ro("ideal", &realism::Layer::ideal)
       .def_prop_ro("tick", &realism::Layer::tick);
+  nb::class_<realism::ContactEstimator>(
+      m, "ContactEstimator",
+      "lab/realism/contact_estimate.py's ContactEstimator in C++ (the same arithmetic); the "
+      "native tick runs it once given (ServerTick.set_touch_estimator)")
+      .def(
+          "__init__",
+          [](realism::ContactEstimator* self, double on, double off, double min_force,
+             double accel_filter_hz, double dt, int n_joints, int n_feet) {
+            new (self) realism::ContactEstimator({on, off, min_force, accel_filter_hz}, dt,
+                                                 n_joints, n_feet);
+          },
+          nb::arg("on"), nb::arg("off"), nb::arg("min_force"), nb::arg("accel_filter_hz"),
+          nb::arg("dt"), nb::arg("n_joints"), nb::arg("n_feet"))
+      .def(
+          "update",
+          [](realism::ContactEstimator& self, const Kernel& kernel, const Eigen::VectorXd& applied,
+             const Eigen::VectorXd& vj, const InFlags& flags) {
+            const RobotModel& robot = kernel.robot();
+            if (applied.size() != robot.na || vj.size() != robot.na ||
+                flags.shape(0) != robot.contacts.size() || self.n_joints() != robot.na ||
+                self.n_feet() != static_cast<int>(robot.contacts.size()))
+              throw std::invalid_argument(
+                  "ContactEstimator.update: na torques and velocities, one flag per foot, of "
+                  "the estimator's robot");
+            std::vector<char> raw(flags.data(), flags.data() + flags.shape(0));
+            return touch_array(self.update(robot, applied, vj, raw.data()));
+          },
+          nb::arg("kernel"), nb::arg("applied"), nb::arg("joint_velocities"), nb::arg("flags"),
+          "This tick's touch flags (a bool array) at the kernel's model (its last update), from "
+          "last tick's applied torques (N m) and the measured joint velocities (rad/s); a foot "
+          "it cannot estimate keeps its `flags`.")
+      .def(
+          "take_state",
+          [](realism::ContactEstimator& self, std::optional<Eigen::VectorXd> velocity,
+             const Eigen::VectorXd& accelerations, const InFlags& touch) {
+            self.take_state(velocity ? &*velocity : nullptr, accelerations,
+                            std::vector<char>(touch.data(), touch.data() + touch.shape(0)));
+          },
+          nb::arg("velocity").none(), nb::arg("accelerations"), nb::arg("touch"),
+          "Continue from another estimator's state (velocity None: not started).")
+      .def_prop_ro("velocity",
+                   [](const realism::ContactEstimator& self) -> std::optional<Eigen::VectorXd> {
+                     if (!self.started()) return std::nullopt;
+                     return self.velocity();
+                   })
+      .def_prop_ro("touch",
+                   [](const realism::ContactEstimator& self) { return touch_array(self.touch()); })
+      .def_prop_ro("normal", &realism::ContactEstimator::normal)
+      .def_prop_ro("accelerations", &realism::ContactEstimator::accelerations);
 }
 
 }  // namespace lab

@@ -1,8 +1,9 @@
 """Haptic touchdown on the contact force estimated from torques, measured (docs/realism.md, the
 `contact_estimate` knob): the standard push campaign standing (0.3 m g for 0.2 s from the left,
 right, front and back, 1.5 s apart), then a trot at 0.5 m/s, with `contact_estimate = 1` over a
-preset; per touchdown the gait made, whether MuJoCo's foot touched then, whether the detector
-fired (else the leg gave up reaching, gait.py) and its delay after MuJoCo's contact onset.
+preset; per touchdown the gait made, whether MuJoCo's foot touched then (or at all since its
+lift-off: a foot that bounced touched before), whether the detector fired (else the leg gave up
+reaching, gait.py) and its delay after MuJoCo's contact onset.
 
     .venv/bin/python -m lab.experiments.touchdown_check ROBOT PRESET [TROT_SECONDS]
 """
@@ -46,11 +47,11 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
     session.handle("velocity", {"vx": 0.5})
     onset: dict[int, float] = {}
     delays: list[float] = []
-    false = gave_up = 0
+    false = in_air = gave_up = 0
     last: list = []
 
     def each_tick() -> None:
-        behaviour, estimator = session.behaviour, session._contact_estimator
+        behaviour, estimator = session.behaviour, session.touch_estimate
         assert isinstance(behaviour, Walking) and behaviour.scheduler is not None
         assert estimator is not None  # the knob is on: the tick made it
         stance = [leg.state is LegState.STANCE for leg in behaviour.scheduler.legs]
@@ -63,9 +64,10 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
                 if before and not now:
                     onset.pop(i, None)
                 if not before and now:
-                    nonlocal false, gave_up
+                    nonlocal false, in_air, gave_up
                     detected = bool(estimator.touch[i])
                     false += int(detected and not touch[i])
+                    in_air += int(detected and i not in onset)  # no contact since lift-off
                     gave_up += int(not detected)
                     delays.append(session.time - onset.get(i, -math.inf))
         last[:] = [stance, touch]
@@ -76,10 +78,12 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
     return {
         "robot": robot,
         "preset": base,
+        "tick": session.tick_report()["tick"],  # the path that ran (python: its note says why)
         "fell_at_s": None if survived else session.time,
         "walked_m": float(session.plant.state()[0][0]) - x0,
         "touchdowns": len(delays),
-        "false_touchdowns": false,
+        "false_touchdowns": false,  # detected while MuJoCo's foot was off the ground
+        "in_air": in_air,  # of them, with no MuJoCo contact since lift-off (not a bounce)
         "gave_up": gave_up,
         "delay_ms_median": float(np.median(delays_ms)) if delays else math.nan,
         "within_10_ms": float(np.mean(delays_ms <= 10.0)) if delays else math.nan,

@@ -88,6 +88,14 @@ class ContactEstimator:
         self.touch = np.ones(n_feet, dtype=bool)  # a robot starts standing
         self.normal = np.zeros(n_feet)  # N, the last estimate's normal forces
 
+    def take_state(
+        self, velocity: np.ndarray | None, accelerations: np.ndarray, touch: np.ndarray
+    ) -> None:
+        """Continue from another estimator's state (the C++ twin's, on a switch of tick path)."""
+        self.velocity = None if velocity is None else np.array(velocity, dtype=float)
+        self.accelerations[:] = accelerations
+        self.touch[:] = touch
+
     def update(
         self,
         model: RobotModel,

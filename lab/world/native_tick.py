@@ -5,7 +5,8 @@ plant's check, state, the realism layer's measurement, touch sensing, the kernel
 behaviour's native tick, the solve, the layer's actuators, the torques and the step.
 `ServerTick.tick` (cpp/plant/server_tick.cpp) does them all in that order in one call, on the
 plant's MjModel and MjData, the controller's native kernel, the behaviour's native twin
-(`NativeTwin`) and the session's C++ realism layer (`NativeRealismLayer`, when not ideal), and
+(`NativeTwin`), the session's C++ realism layer (`NativeRealismLayer`, when not ideal) and its
+touch detector (touch_estimate.py, when `contact_estimate` is on), and
 reports a status code; this module decides when it
 can run (`note`), sets the parts it runs on when they change (`set_parts`: a tick's crossing then
 takes only the command), and turns its outcome into what the Python tick leaves behind: the
@@ -104,8 +105,6 @@ class NativeTick:
             return NOT_BUILT or "the plant or the controller has no native part"
         if fell:
             return "the robot fell: torques off until reset"
-        if realism.knobs.contact_estimate:
-            return "the touch estimate from torques (contact_estimate) runs in Python (realism.md)"
         if not realism.ideal and not isinstance(realism, NativeRealismLayer):
             return "the realism layer is the Python one (realism.md)"
         if note := self.plant.native_step_note or self.controller.server_tick_note:
@@ -197,6 +196,18 @@ class NativeTick:
     def behaviour_ran(self) -> bool:
         """Whether the last tick ran the behaviour's native twin."""
         return self.server.behaviour_ran
+
+    def set_touch_estimator(self, estimator: object | None) -> None:
+        """The C++ touch detector (`lab._kernel.ContactEstimator`) whose flags the behaviour
+        reads from now on instead of MuJoCo's (realism's `contact_estimate`; None: MuJoCo's)."""
+        if self._tick is not None:
+            self._tick.set_touch_estimator(estimator)
+
+    def applied_elsewhere(self, applied: np.ndarray) -> None:
+        """A tick that ran in Python (or reset) applied `applied` (N m): the touch detector
+        reads it as last tick's torques."""
+        if self._tick is not None:
+            self.buffers["applied"][:] = applied
 
     def applied_torques(self) -> np.ndarray:
         """The joint torques (N m) the plant applied in the last tick that stepped: the

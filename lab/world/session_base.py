@@ -17,12 +17,13 @@ from lab.controller.controller import ControlOutput, Ran
 from lab.controller.hand_targets import HandTargets
 from lab.controller.momentum import GainFuture, LqrProblem
 from lab.controller.stack import Stack
-from lab.realism.contact_estimate import ContactEstimator
+from lab.realism.contact_estimate import TouchThresholds
 from lab.realism.knobs import PRESET_NAMES as REALISM_PRESETS
 from lab.realism.knobs import preset
 from lab.stack_presets import load_stack_preset
 from lab.world.session_parts import SessionConfig, SessionParts, build_parts
 from lab.world.telemetry import hierarchy_report
+from lab.world.touch_estimate import TouchEstimate
 from lab.world.warning_capture import WarningCapture
 
 if TYPE_CHECKING:
@@ -157,7 +158,6 @@ class SessionBase(SessionParts):
         self.realism.reset(self.robot.q_standing)
         self._true_state = self.plant.state()  # this tick's, read by _measure
         self.estimator.reset(*self._true_state)
-        self._contact_estimator: ContactEstimator | None = None  # realism's, at first use
         self.controller.forget_last_solution()  # the last tick's was of the state left behind
         if standing is None:
             self._set_behaviour(Balance.name)
@@ -189,10 +189,26 @@ class SessionBase(SessionParts):
         self.control_us = 0.0
         self.tau = np.zeros(self.model.na)
         self.applied_tau = np.zeros(self.model.na)  # what the drives applied last tick (N m)
+        self._start_touch_estimate()
         self.forces = np.zeros(self.model.nf)
         self._last_divergence = -DIVERGENCE_REPEAT_S
         self._warnings: dict[str, ControllerWarning] = {}  # by category name
         self._capture = WarningCapture()  # every tick's warnings, for telemetry
+
+    def _start_touch_estimate(self) -> None:
+        """Realism's touch detector anew when `contact_estimate` is on, in both tick paths
+        (touch_estimate.py); None, MuJoCo's contact flags, when it is off."""
+        self.touch_estimate: TouchEstimate | None = None
+        self.native_tick.set_touch_estimator(None)
+        if self.realism.knobs.contact_estimate:
+            self.touch_estimate = TouchEstimate(
+                TouchThresholds(**self.robot.description.touchdown),
+                self.config.timestep,
+                self.model.na,
+                len(self.model.contacts),
+                self.native_tick,
+                self.applied_tau,
+            )
 
     def _set_behaviour(self, name: str, options: dict | None = None) -> dict:
         """Start behaviour `name` from the current state, with walking `options` (step_height,

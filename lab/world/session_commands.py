@@ -164,6 +164,7 @@ class SessionCommands(SessionTick):
             old = self.install(build_parts(replace(self._live_config(), realism=knobs)))
             del old
         else:
+            touch_changed = knobs.contact_estimate != self.realism.knobs.contact_estimate
             self.realism = realism_layer(knobs, self.model.na, self.config.timestep)
             self.plant.set_drive_limits(
                 knobs.torque_saturation, knobs.coulomb_friction, knobs.viscous_friction
@@ -171,6 +172,8 @@ class SessionCommands(SessionTick):
             self.realism.reset(self._true_state[0], self.tau)
             self.estimator = BaseEstimator(knobs, self.robot, self.config.timestep)
             self.estimator.reset(*self.plant.state())  # the filter starts at the truth
+            if touch_changed:
+                self._start_touch_estimate()
         return {"realism": self.realism.knobs.values()}
 
     def _stance(self, side: str | None, swing: float | None = None) -> dict:

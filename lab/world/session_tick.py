@@ -15,7 +15,6 @@ from lab.controller.controller import ControlOutput
 from lab.controller.hierarchy import HierarchySolution
 from lab.controller.hierarchy.solution import SOLVED, SolveStatus
 from lab.controller.model import BASE_DOF
-from lab.realism.contact_estimate import ContactEstimator, TouchThresholds
 from lab.world.native_tick import BEHAVIOUR_RAN, TickStatus
 from lab.world.plain_tick import TOUCH_FORCE, PlainTickResults, TickPlan
 from lab.world.plant import SimulationDiverged
@@ -115,6 +114,8 @@ class SessionTick(PlainTickResults, SessionBase):
                     else:
                         self._control(idle, native=False)
                 self.applied_tau = self.tau if self.fell else self._actuated()
+                if self.touch_estimate is not None:  # last tick's torques for the native one
+                    native_tick.applied_elsewhere(self.applied_tau)
                 self.plant.set_torques(self.applied_tau)
                 self.plant.step()
         except SimulationDiverged as divergence:
@@ -189,18 +190,6 @@ class SessionTick(PlainTickResults, SessionBase):
         delay and actuator model of the realism layer (`tau` itself when it is ideal)."""
         return self.tau if self.realism.ideal else self.realism.actuate(self.tau, *self._true_state)
 
-    def _touch_from_torques(self, flags: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Which feet touch, from the contact forces estimated from last tick's applied torques
-        and the measured joint velocities `v`'s differences at this tick's model (Raiola eq. 18
-        with the leg's acceleration, lab/realism/contact_estimate.py); a foot it cannot
-        estimate keeps its `flags`."""
-        if self._contact_estimator is None:
-            thresholds = TouchThresholds(**self.robot.description.touchdown)
-            self._contact_estimator = ContactEstimator(
-                thresholds, self.config.timestep, self.model.na, len(self.model.contacts)
-            )
-        return self._contact_estimator.update(self.model, self.applied_tau, v[BASE_DOF:], flags)
-
     def _control(self, idle: bool, native: bool) -> int | None:
         """This tick's torques and planned contact forces: the controller's, or fallback ones.
         `native`: the whole tick in one crossing (native_tick.py), which also applies the
@@ -224,8 +213,10 @@ class SessionTick(PlainTickResults, SessionBase):
                         out = controller.compute(q, v)
                     else:
                         controller.update(q, v)
-                        if self.realism.knobs.contact_estimate:
-                            touching = self._touch_from_torques(touching, v)
+                        if self.touch_estimate is not None:  # realism's, from the torques
+                            touching = self.touch_estimate.update(
+                                self.model, self.applied_tau, v[BASE_DOF:], touching
+                            )
                         if controller.reads_sensing:  # measured only for a task that reads it
                             controller.set_sensing(self.plant.foot_forces(), self.tau)  # Kim 12
                         behaviour.update(self.time, self.model, self.velocity, touching)

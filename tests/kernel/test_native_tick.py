@@ -127,7 +127,8 @@ def test_talos_on_one_sole_under_lqr_runs_the_native_tick_and_agrees() -> None:
 
 def every_knob(robot: str) -> RealismKnobs:
     """`harsh` for `robot` with the series elastic actuator: every sensor, delay, actuator,
-    drive-limit and model-error knob on (the contact estimate aside: it runs in Python)."""
+    drive-limit and model-error knob on (the contact estimate aside: standing reads no touch;
+    the trots below have it)."""
     sea = {"actuator": "sea", "sea_stiffness": 200.0, "sea_motor_inertia": 0.05}
     return knobs_from(preset("harsh", robot), {**sea, "sea_kp": 1800.0, "sea_kd": 10.0})
 
@@ -145,8 +146,28 @@ def every_knob(robot: str) -> RealismKnobs:
             "trot",
             {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0},
         ),
+        # touchdown from the estimated contact forces: the C++ detector in the crossing
+        (
+            "anymal",
+            knobs_from(preset("typical", "anymal"), {"contact_estimate": 1}),
+            "trot",
+            {"vx": 0.5, "vy": 0.0, "yaw_rate": 0.0},
+        ),
+        (
+            "hyq",
+            knobs_from(preset("typical", "hyq"), {"contact_estimate": 1}),
+            "trot",
+            {"vx": 0.5, "vy": 0.0, "yaw_rate": 0.0},
+        ),
     ],
-    ids=["anymal-every-knob", "anymal-trot-typical", "bolt-step-typical", "anymal-trot-ekf"],
+    ids=[
+        "anymal-every-knob",
+        "anymal-trot-typical",
+        "bolt-step-typical",
+        "anymal-trot-ekf",
+        "anymal-trot-touch-estimate",
+        "hyq-trot-touch-estimate",
+    ],
 )
 def test_the_native_tick_with_realism_agrees_with_the_python_tick(
     robot, knobs, gait, command
@@ -155,7 +176,8 @@ def test_the_native_tick_with_realism_agrees_with_the_python_tick(
     tick, which calls the C++ layer (and the EKF's twin under `ekf`) inside its one crossing,
     gives the Python tick's τ, applied torques, F and next state, tick by tick, to 1e-12 of their
     scale: the Python tick calls the same C++ layer and EKF from Python, so the two differ only
-    in the path."""
+    in the path (and under `contact_estimate` in the touch detector: the Python one against its
+    C++ twin, the same touchdowns at the same ticks or τ would differ by newton-metres)."""
     base = {"body": "base", "mass": 2.0, "offset": [0.0, 0.0, 0.05]}
     payload = base if robot == "anymal" else None
     native, python = pair(SessionConfig(robot=robot, realism=knobs), gait, command, payload)
@@ -171,6 +193,40 @@ def test_the_native_tick_with_realism_agrees_with_the_python_tick(
     assert np.max(np.abs(native.applied_tau - native.tau)) > 1e-3
     if gait is not None:
         assert worst["lifted"] > 50, worst
+
+
+def test_touchdown_from_the_estimate_continues_across_a_switch_of_tick_path() -> None:
+    """ANYmal trotting at 0.5 m/s under `typical` with `contact_estimate`: a session whose
+    ticks switch between the native and the Python path every 37 ticks (the detector's state
+    handed over each way, the native tick's `applied` buffer written by the Python ticks) gives,
+    tick by tick from the same state, the τ, applied torques and next state of one that stays
+    native, to 1e-12 of their scale, and the same touch flags."""
+    knobs = knobs_from(preset("typical", "anymal"), {"contact_estimate": 1})
+    trot = {"vx": 0.5, "vy": 0.0, "yaw_rate": 0.0}
+    native, switching = pair(SessionConfig(robot="anymal", realism=knobs), "trot", trot)
+    for _ in range(100):  # warm-up, both native (a gait's first tick makes its twin)
+        copy_physics(native, switching)
+        native.tick()
+        switching.tick()
+    worst, paths, lifted = 0.0, set(), 0
+    for tick in range(600):
+        switching.native_ticks = (tick // 37) % 2 == 1
+        copy_physics(native, switching)
+        native.tick()
+        switching.tick()
+        paths.add(switching.tick_report()["tick"])
+        assert native.tick_report()["tick"] == "native"
+        assert native.touch_estimate is not None and switching.touch_estimate is not None
+        assert np.array_equal(native.touch_estimate.touch, switching.touch_estimate.touch)
+        lifted += not all(native.touch_estimate.touch)
+        for a, b in (
+            (native.tau, switching.tau),
+            (native.applied_tau, switching.applied_tau),
+            (native.plant.mj_data.qvel, switching.plant.mj_data.qvel),
+        ):
+            worst = max(worst, float(np.max(np.abs(a - b))) / max(1.0, float(np.max(np.abs(b)))))
+    assert paths == {"native", "python"} and lifted > 100
+    assert worst < 1e-12 and not native.fell
 
 
 def test_the_native_tick_with_realism_agrees_with_the_python_layer() -> None:
@@ -320,16 +376,16 @@ def test_an_exception_before_the_crossing_falls_back_on_this_ticks_state(monkeyp
 
 
 def test_a_realism_layer_in_python_runs_the_python_tick_and_says_why() -> None:
-    """`typical` runs native (its C++ layer inside the crossing); the touch estimate from
-    torques and the Python layer swapped in each run the Python tick, and `ran` names why."""
+    """`typical` runs native (its C++ layer inside the crossing), with the touch estimate from
+    torques too (its C++ twin, set on the crossing when the knob turns on); the Python layer
+    swapped in runs the Python tick, and `ran` names why."""
     knobs = preset("typical", "anymal")
     session = Session(SessionConfig(robot="anymal", realism=knobs))
     session.tick()
     assert session.telemetry()["ran"]["tick"] == "native"
     assert session.handle("realism", {"contact_estimate": 1})["ok"]
     session.tick()
-    ran = session.telemetry()["ran"]
-    assert ran["tick"] == "python" and "contact_estimate" in ran["tick_note"]
+    assert session.telemetry()["ran"]["tick"] == "native"
     assert session.handle("realism", {"contact_estimate": 0})["ok"]
     session.tick()
     assert session.telemetry()["ran"]["tick"] == "native"
