@@ -115,7 +115,7 @@ class SessionTick(PlainTickResults, SessionBase):
                         self._control(idle, native=False)
                 self.applied_tau = self.tau if self.fell else self._actuated()
                 if self.touch_estimate is not None:  # last tick's torques for the native one
-                    native_tick.applied_elsewhere(self.applied_tau)
+                    self.native_tick.applied_elsewhere(self.applied_tau)
                 self.plant.set_torques(self.applied_tau)
                 self.plant.step()
         except SimulationDiverged as divergence:
