@@ -1,7 +1,6 @@
 #include "model.hpp"
 
 #include <pinocchio/algorithm/center-of-mass.hpp>
-#include <pinocchio/algorithm/centroidal.hpp>
 #include <pinocchio/algorithm/compute-all-terms.hpp>
 #include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/joint-configuration.hpp>
@@ -88,23 +87,32 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
                         const Eigen::Ref<const Eigen::VectorXd>& v_) {
   q = q_;
   v = v_;
-  centroidal_drift_current_ = false;
   // M, nle, joint Jacobians, CoM with its Jacobian, the centroidal map, and the drift
   // accelerations (qdd = 0) of every joint, which give J̇v below.
   const pinocchio::Model& model = *this->model;
   pinocchio::Data& data = *this->data;
+  // computeAllTerms sums the root's momentum rate into data.f[0] without resetting it (pinocchio
+  // 4.1: data.dhg grows call by call): zeroed here, so that data.dhg is this state's.
+  data.f[0].setZero();
   pinocchio::computeAllTerms(model, data, q, v);
   // computeAllTerms leaves data.acom at zero: the CoM's drift J̇_com v, from the joints' drift
-  // accelerations it computed.
+  // accelerations it computed (its data.dhg gives the same to rounding, but the CoM it
+  // recomputes is the Python model's to the last bit, which the gain schedule's LQR designs
+  // on both sides read).
   pinocchio::centerOfMass(model, data, pinocchio::ACCELERATION, false);
-  // computeAllTerms fills the upper triangle of M only.
-  data.M.triangularView<Eigen::StrictlyLower>() =
-      data.M.transpose().triangularView<Eigen::StrictlyLower>();
-  M = data.M;
+  // computeAllTerms fills the upper triangle of M only: both triangles from it in one copy.
+  M.triangularView<Eigen::Upper>() = data.M;
+  M.triangularView<Eigen::StrictlyLower>() = data.M.transpose();
   h = data.nle;
   com = data.com[0];
   com_velocity = data.vcom[0];
   com_drift = data.acom[0];
+  // The momentum rate at q̈ = 0 that computeAllTerms leaves in data.dhg (about the CoM, world
+  // axes) includes the weight, −m g in its linear part: without it, it is Ȧ_G v (Herzog eq. 20).
+  // A second pass over the joints (computeCentroidalMomentumTimeVariation) gives the same to
+  // rounding (1e-13 of 50-130 on ANYmal and Talos at random states).
+  centroidal_drift_ = data.dhg.toVector();
+  centroidal_drift_.head<3>() += data.mass[0] * model.gravity.linear();
   Jcom = data.Jcom;
   centroidal_map = data.Ag;
   base_rotation = Eigen::Quaterniond(q.segment<4>(3)).toRotationMatrix();
@@ -131,16 +139,6 @@ void RobotModel::update(const Eigen::Ref<const Eigen::VectorXd>& q_,
           pinocchio::getFrameClassicalAcceleration(model, data, fid, frame).toVector();
     }
   }
-}
-
-const Eigen::Matrix<double, 6, 1>& RobotModel::centroidal_drift() const {
-  if (!centroidal_drift_current_) {
-    // computeAllTerms left each body's drift acceleration (q̈ = 0, no gravity) in data.a: the
-    // momentum rate these give is Ȧ_G v (computeCentroidalMapTimeVariation's dAg v).
-    centroidal_drift_ = pinocchio::computeCentroidalMomentumTimeVariation(*model, *data).toVector();
-    centroidal_drift_current_ = true;
-  }
-  return centroidal_drift_;
 }
 
 void RobotModel::joint_torques(const Eigen::Ref<const Eigen::VectorXd>& x,

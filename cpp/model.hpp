@@ -58,10 +58,8 @@ class RobotModel {
                      Eigen::Array<bool, Eigen::Dynamic, 1>& rows) const;
 
   /// Ȧ_G v, the rate of change of the centroidal momentum at q̈ = 0 (Herzog eq. 20), world axes,
-  /// [linear; angular] about the CoM: pinocchio's, from the drift accelerations of the last
-  /// update, on the first call after it (only the momentum task needs it; it rewrites the
-  /// per-body momenta in `data`, which nothing reads after the update).
-  const Eigen::Matrix<double, 6, 1>& centroidal_drift() const;
+  /// [linear; angular] about the CoM, at the last update.
+  const Eigen::Matrix<double, 6, 1>& centroidal_drift() const { return centroidal_drift_; }
 
   /// Names of the model's frames, in pinocchio order.
   std::vector<std::string> frame_names() const;
@@ -91,8 +89,7 @@ class RobotModel {
 
  private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> frame_jacobian_;  // scratch
-  mutable Eigen::Matrix<double, 6, 1> centroidal_drift_;
-  mutable bool centroidal_drift_current_ = false;
+  Eigen::Matrix<double, 6, 1> centroidal_drift_ = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 }  // namespace lab

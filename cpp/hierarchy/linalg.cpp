@@ -109,12 +109,6 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
   N = Q.rightCols(n - rank);
 }
 
-namespace {
-
-/// The last level's step u where its A Z (rows >= cols) has full column rank by a margin
-/// (full_rank_by_margin): the minimiser is then unique, and an unpivoted QR of A Z finds it for
-/// less than the pivoted QR of the wide (A Z)^T, whose column norms are downdated over every row
-/// of A Z at each step. False otherwise. `r` and `u` may be the same vector.
 bool full_rank_step(LeastSquaresStep& step, const Eigen::VectorXd& r, Eigen::VectorXd& u) {
   const Eigen::Index n = step.AZ.cols();
   if (step.AZ.rows() < n) return false;
@@ -125,8 +119,6 @@ bool full_rank_step(LeastSquaresStep& step, const Eigen::VectorXd& r, Eigen::Vec
   u.noalias() = step.R_inverse * step.y.head(n);
   return true;
 }
-
-}  // namespace
 
 void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::Index& cols,
                         Eigen::VectorXd& x, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,

@@ -109,6 +109,13 @@ struct LeastSquaresStep {
   Eigen::VectorXd r, y;
 };
 
+/// The step u of a last level (no level below needs its null space) where its A Z, in
+/// `step.AZ` (rows >= cols), has full column rank by a margin (full_rank_by_margin): the minimiser
+/// of ||A Z u - r|| is then unique, and an unpivoted QR of A Z finds it for less than the pivoted
+/// QR of the wide (A Z)^T, whose column norms are downdated over every row of A Z at each step.
+/// False otherwise (u then unspecified). `r` and `u` may be the same vector.
+bool full_rank_step(LeastSquaresStep& step, const Eigen::VectorXd& r, Eigen::VectorXd& u);
+
 /// One equality level of the cascade: x <- x + Z u and Z <- Z N with u and N those of
 /// least_squares_and_null_space(A Z, b - A x) (Herzog eq. 8), without forming Q or N. Z is the
 /// `cols` columns of `Z_buffer` from `first` on; the level's step uses the leading columns of

@@ -52,11 +52,12 @@ struct Entry {
   }
 };
 
-/// The storage of one equality step (a level's A, or its active rows of C): sized once.
+/// The storage of one equality step (a level's A, or its active rows of C): sized once. `step`
+/// holds the pivoted QR of (A Z)ᵀ, A Z, the residual r and y; the last level's also the
+/// unpivoted QR of A Z (linalg's full_rank_step).
 struct StepWork {
-  RowSpaceQR qr;
-  Eigen::MatrixXd AZ, Q;
-  Eigen::VectorXd r, y;
+  LeastSquaresStep step;
+  Eigen::MatrixXd Q;
 };
 
 /// One active-set search over z (nullspace.py active_set_least_squares), its buffers kept from
@@ -79,7 +80,7 @@ class ActiveSetSearch {
   void project(Eigen::Index first);
   void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
   void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e,
-                          StepWork& work);
+                          StepWork& work, bool last = false);
   Eigen::Index activate_violated();
   bool release_one();
   void walked();
@@ -302,37 +303,53 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
         }
       least_squares_step(Ca_, da_, next, work_[2 * k]);
     }
-    least_squares_step(level.A, level.b, next, work_[2 * k + 1]);
+    least_squares_step(level.A, level.b, next, work_[2 * k + 1], k + 1 == levels.size());
   }
 }
 
 void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                         Entry& e, StepWork& work) {
+                                         Entry& e, StepWork& work, bool last) {
   // z <- z + Z (A Z)⁺ (b − A z), Z <- Z ∩ null(A Z) (eqs. 8-11), from the pivoted QR of
   // (A Z)ᵀ = Q [R1; 0] Pᵀ with linalg's rank rule: (A Z)⁺ r = Q1 (R1ᵀ)⁺ Pᵀ r, the next Z is Z Q2.
+  // The last level's step (`last`) moves z only: no level below reads its null space (the
+  // search restarts from the entries of the levels above it), so Z stays, and where its A Z has
+  // full column rank by a margin the unpivoted QR of A Z gives the same unique step (the
+  // cascade's last level, linalg's full_rank_step).
   if (b.size() == 0 || e.cols == 0) return;
+  LeastSquaresStep& step = work.step;
   auto Z = e.Z_buffer.middleCols(e.first, e.cols);
+  step.r = b;
+  step.r.noalias() -= A * e.z;
   if (e.identity) {
-    work.qr.compute(A);  // A Z = A
+    step.qr.compute(A);  // A Z = A
   } else {
-    work.AZ.noalias() = A * Z;
-    work.qr.compute(work.AZ);
+    step.AZ.noalias() = A * Z;
+    if (last && full_rank_step(step, step.r, step.r)) {
+      e.z.noalias() += Z * step.r;
+      return;
+    }
+    step.qr.compute(step.AZ);
   }
-  const Eigen::Index rank = work.qr.rank();
+  const Eigen::Index rank = step.qr.rank();
   if (rank == 0) return;
-  work.r = b;
-  work.r.noalias() -= A * e.z;
-  work.qr.solve(work.r, work.y);
+  step.qr.solve(step.r, step.y);
+  if (last) {  // Z Q [y; 0]
+    step.r.setZero(e.cols);
+    step.r.head(rank) = step.y;
+    step.qr.apply_q_on_the_left(step.r);
+    e.z.noalias() += Z * step.r;
+    return;
+  }
   // Z Q: the first `rank` columns step, the rest stay free; where Z is the identity, Q itself
   // (formed from its reflectors, which skips the identity's untouched corner)
   if (e.identity) {
-    work.qr.q(work.Q);
+    step.qr.q(work.Q);
     Z = work.Q;
     e.identity = false;
   } else {
-    work.qr.apply_q_on_the_right(Z);
+    step.qr.apply_q_on_the_right(Z);
   }
-  e.z.noalias() += Z.leftCols(rank) * work.y;
+  e.z.noalias() += Z.leftCols(rank) * step.y;
   e.first += rank;
   e.cols -= rank;
 }
