@@ -10,11 +10,14 @@ import math
 import shutil
 import subprocess
 import sys
+import threading
 import time
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from lab.client import LabClient
 from tests.helpers.ports import free_port
@@ -101,6 +104,40 @@ class LabServe:
 
 
 VIEWPORT = {"width": 1400, "height": 800}  # plots | 3-D view | controls
+# Frames per second a test page may draw. Its 3-D view renders in software (SwiftShader) on the
+# same 2 cores as the lab, the other worker's tests and the sim loop; at the browser's own rate it
+# draws as often as the processor lets it (a watched ANYmal page at load 7-9: 4.5-9 frames a
+# second and 0.70-0.79 processor s/s for Chromium, against 0.43 at 3 frames a second; round 16,
+# docs/reliability.md). No test reads the page's frame rate (the status line's "view NN fps" is
+# the UI process's drawing rate, and the liveness check counts websocket frames, which the UI
+# process sends whatever the page draws: 22-26 a second either way). Viser applies scene
+# messages once per drawn frame, so what a test waits for in the page (text, pixels, a chart's
+# data) shows up to 1/PAGE_FPS s later; every such wait polls for tens of seconds.
+PAGE_FPS = 3
+# An init script (the page's own world: playwright's injected scripts keep the browser's
+# requestAnimationFrame) that runs every animation-frame callback at most PAGE_FPS times a second:
+# the callbacks wait together and run in one real frame.
+CAP_FRAME_RATE = f"""(() => {{
+  const period = 1000 / {PAGE_FPS}, raf = window.requestAnimationFrame.bind(window);
+  let queue = new Map(), nextId = 1, last = -Infinity, scheduled = false;
+  const flush = (t) => {{
+    scheduled = false;
+    last = t;
+    const due = queue;
+    queue = new Map();
+    for (const callback of due.values()) callback(t);
+  }};
+  window.requestAnimationFrame = (callback) => {{
+    const id = nextId++;
+    queue.set(id, callback);
+    if (!scheduled) {{
+      scheduled = true;
+      setTimeout(() => raf(flush), Math.max(0, last + period - performance.now()));
+    }}
+    return id;
+  }};
+  window.cancelAnimationFrame = (id) => {{ queue.delete(id); }};
+}})();"""
 PAGE_TIMEOUT_MS = 60_000
 # s: from a click in the page to its effect in telemetry or `info`. A second or less when idle;
 # generous because on a loaded 2-core machine the browser and the UI process share what is left.
@@ -110,6 +147,26 @@ UI_ACTION_TIMEOUT_S = 30.0
 LOAD_TIMEOUT_MS = 180_000
 OPEN_DROPDOWN_TRIES = 3
 OPEN_DROPDOWN_WAIT_MS = 20_000
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[object]:
+    """Debian's headless Chromium, one per test module (tests/conftest.py imports this)."""
+    if not Path(CHROMIUM).exists():
+        pytest.skip(f"no Chromium at {CHROMIUM} (./dev test installs Debian's chromium)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+def new_context(browser):
+    """A browser context of VIEWPORT size whose pages draw at most PAGE_FPS frames a second."""
+    context = browser.new_context(viewport=VIEWPORT)
+    context.add_init_script(CAP_FRAME_RATE)
+    return context
 
 
 def dark_pixels(pg) -> int:
@@ -196,13 +253,20 @@ def slider_box(pg, label: str):
 
 
 class Pushes:
-    """Every push the server reports in telemetry, as (|force| N, longest remaining s)."""
+    """Every push the server reports in telemetry, as (|force| N, longest remaining s), from
+    the moment the subscription has received its first message: a subscriber just declared
+    receives nothing until the server knows of it, and a push pressed in the page before then
+    (the page's link to the lab is another than this client's) would be missed."""
 
-    def __init__(self, lab: LabClient) -> None:
+    def __init__(self, lab: LabClient, timeout: float = UI_ACTION_TIMEOUT_S) -> None:
         self.seen: dict[float, float] = {}
+        self.listening = threading.Event()
         lab.subscribe_telemetry(self._record)
+        if not self.listening.wait(timeout):
+            raise TimeoutError(f"no telemetry reached a new subscriber within {timeout} s")
 
     def _record(self, tel: dict) -> None:
+        self.listening.set()
         for push in tel["pushes"]:
             norm = round(math.hypot(*push["force"]), 6)
             self.seen[norm] = max(self.seen.get(norm, 0.0), push["remaining"])

@@ -21,11 +21,11 @@ from tests.helpers.browser import (
     LOAD_TIMEOUT_MS,
     PAGE_TIMEOUT_MS,
     UI_ACTION_TIMEOUT_S,
-    VIEWPORT,
     LabServe,
     Pushes,
     choose,
     console_errors,
+    new_context,
     press,
     slider_box,
     ui_alive,
@@ -79,7 +79,7 @@ def page(serve: LabServe, lab: LabClient):
         pytest.skip(f"no Chromium at {CHROMIUM} (./dev test installs Debian's chromium)")
     with playwright_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
-        pg = browser.new_page(viewport=VIEWPORT)
+        pg = new_context(browser).new_page()
         pg.set_default_timeout(PAGE_TIMEOUT_MS)
         pg.console_errors = console_errors(pg)
         frames: list[float] = []
