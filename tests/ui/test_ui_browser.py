@@ -93,12 +93,13 @@ def test_page_loads_and_draws_the_live_robot(page, lab: LabClient) -> None:
     playwright_api.expect(page.get_by_text("Loading")).to_have_count(0, timeout=LOAD_TIMEOUT_MS)
     t0 = time.monotonic()
     n0 = len(page.ws_frames)
-    page.wait_for_timeout(2000)  # lets playwright dispatch the websocket events
+    page.wait_for_timeout(4000)  # lets playwright dispatch the websocket events
     rate = (len(page.ws_frames) - n0) / (time.monotonic() - t0)
     # Liveness, not speed: a stalled UI sends nothing, a live one streams every pose it draws.
     # The rate itself is a benchmark number (docs/performance.md: 23-30 frames/s with software
-    # WebGL on a busy 2-core machine), never a test threshold.
-    assert rate >= 5.0, f"UI updates arrive at {rate:.1f} frames/s: the view is not live"
+    # WebGL on a busy 2-core machine), never a test threshold: 1 a second over 4 s is live (at
+    # load 35 the stream came down to 4.3 a second, round 16).
+    assert rate >= 1.0, f"UI updates arrive at {rate:.1f} frames/s: the view is not live"
     # the robot is drawn in the view (the page's first draw took up to 60 s at load 20)
     assert wait_dark_pixels(page, lambda n: n > 1500, timeout=LOAD_TIMEOUT_MS / 1000) > 1500
     page.get_by_text("RTF").wait_for()  # status line from live telemetry
