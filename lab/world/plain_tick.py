@@ -10,7 +10,7 @@ Python around the crossing (docs/performance.md, "Where the plain tick goes"); t
 them at 100 Hz, the loop ticks at 1 kHz.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 
@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from lab.world.session_tick import SessionTick
 
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
+T = TypeVar("T")
 
 
 class TickPlan:
@@ -100,6 +101,32 @@ class TickPlan:
         )
 
 
+class Settled(Generic[T]):
+    """One of the last tick's results on `PlainTickResults`, kept in the attribute `slot`: read
+    or set, it first copies a pending plain tick's results out of the kernel's buffers
+    (`_settle`)."""
+
+    def __init__(self, slot: str, doc: str) -> None:
+        self.slot = slot
+        self.__doc__ = doc
+
+    @overload
+    def __get__(self, results: None, owner: type) -> "Settled[T]": ...
+    @overload
+    def __get__(self, results: "PlainTickResults", owner: type) -> T: ...
+    def __get__(self, results: "PlainTickResults | None", owner: type) -> "T | Settled[T]":
+        if results is None:
+            return self
+        if results._pending is not None:
+            results._settle()
+        return getattr(results, self.slot)
+
+    def __set__(self, results: "PlainTickResults", value: T) -> None:
+        if results._pending is not None:
+            results._settle()
+        setattr(results, self.slot, value)
+
+
 class PlainTickResults:
     """The session's τ, F, applied torques, control time and controller output: plain
     attributes on the Python path, copied out of the kernel's buffers when first read after a
@@ -114,45 +141,21 @@ class PlainTickResults:
     _control_us: float
     _last_output: ControlOutput | None
 
-    @property
-    def tau(self) -> np.ndarray:
-        """The controller's joint torques of the last tick (N m; fallback ones after a
-        failure, zeros after a fall)."""
-        if self._pending is not None:
-            self._settle()
-        return self._tau
-
-    @tau.setter
-    def tau(self, value: np.ndarray) -> None:
-        if self._pending is not None:
-            self._settle()
-        self._tau = value
-
-    @property
-    def forces(self) -> np.ndarray:
-        """The contact forces the controller planned in the last tick (N, nf of them)."""
-        if self._pending is not None:
-            self._settle()
-        return self._forces
-
-    @forces.setter
-    def forces(self, value: np.ndarray) -> None:
-        if self._pending is not None:
-            self._settle()
-        self._forces = value
-
-    @property
-    def applied_tau(self) -> np.ndarray:
-        """What the drives applied in the last tick (N m): τ through the realism layer."""
-        if self._pending is not None:
-            self._settle()
-        return self._applied_tau
-
-    @applied_tau.setter
-    def applied_tau(self, value: np.ndarray) -> None:
-        if self._pending is not None:
-            self._settle()
-        self._applied_tau = value
+    tau = Settled[np.ndarray](
+        "_tau",
+        "The controller's joint torques of the last tick (N m; fallback ones after a failure, "
+        "zeros after a fall).",
+    )
+    forces = Settled[np.ndarray](
+        "_forces", "The contact forces the controller planned in the last tick (N, nf of them)."
+    )
+    applied_tau = Settled[np.ndarray](
+        "_applied_tau",
+        "What the drives applied in the last tick (N m): τ through the realism layer.",
+    )
+    _output = Settled[ControlOutput | None](
+        "_last_output", "The last tick's controller output, None after a fallback."
+    )
 
     @property
     def control_us(self) -> float:
@@ -167,19 +170,6 @@ class PlainTickResults:
         if self._pending is not None:
             self._settle()
         self._control_us = value
-
-    @property
-    def _output(self) -> ControlOutput | None:
-        """The last tick's controller output, None after a fallback."""
-        if self._pending is not None:
-            self._settle()
-        return self._last_output
-
-    @_output.setter
-    def _output(self, value: ControlOutput | None) -> None:
-        if self._pending is not None:
-            self._settle()
-        self._last_output = value
 
     def _settle(self) -> None:
         """Copy the last plain native tick's results out of the kernel's buffers (its plan says
