@@ -10,21 +10,42 @@ Python around the crossing (docs/performance.md, "Where the plain tick goes"); t
 them at 100 Hz, the loop ticks at 1 kHz.
 """
 
-from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
+from typing import Any, Generic, Protocol, TypeVar, overload
 
 import numpy as np
 
+from lab.controller.behaviours.base import Behaviour
 from lab.controller.behaviours.native import NativeTick as NativeTwinTick
 from lab.controller.behaviours.native import NativeTwin
 from lab.controller.controller import ControlOutput
 from lab.controller.native import NativeController
+from lab.realism.layer import NativeRealismLayer, RealismLayer
+from lab.world.estimator import BaseEstimator
 from lab.world.native_tick import NativeTick
-
-if TYPE_CHECKING:
-    from lab.world.session_tick import SessionTick
 
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 T = TypeVar("T")
+
+
+class PlannedSession(Protocol):
+    """What a tick plan reads of its session (session_tick.py's SessionTick), read-only."""
+
+    @property
+    def controller(self) -> NativeController: ...
+    @property
+    def behaviour(self) -> Behaviour: ...
+    @property
+    def realism(self) -> RealismLayer | NativeRealismLayer: ...
+    @property
+    def estimator(self) -> BaseEstimator: ...
+    @property
+    def native_tick(self) -> NativeTick: ...
+    @property
+    def fell(self) -> bool: ...
+    @property
+    def native_ticks(self) -> bool: ...
+    @property
+    def _true_state(self) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 class TickPlan:
@@ -34,7 +55,7 @@ class TickPlan:
     tick itself; the session drops its plan on every command (a push, a gait, a stack, ...).
     On the native path it sets the native tick's parts once (NativeTick.set_parts)."""
 
-    def __init__(self, session: "SessionTick") -> None:
+    def __init__(self, session: PlannedSession) -> None:
         controller, behaviour = session.controller, session.behaviour
         config, realism = controller.config, session.realism
         self.controller, self.behaviour, self.refs = controller, behaviour, controller.references
@@ -79,7 +100,7 @@ class TickPlan:
         # property around it cost 0.4 µs more a tick); None off the native path.
         self.server: Any = None if self.note else native.server
 
-    def holds(self, session: "SessionTick") -> bool:
+    def holds(self, session: PlannedSession) -> bool:
         """Whether what the plan was made from is what the session runs now. A plan for the
         Python path never holds: a behaviour's twin becomes available after its first Python
         tick (the gait's clock started), and the decision costs little beside a Python tick."""

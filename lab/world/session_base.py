@@ -27,7 +27,7 @@ from lab.world.touch_estimate import TouchEstimate
 from lab.world.warning_capture import WarningCapture
 
 if TYPE_CHECKING:
-    from lab.world.session_tick import TickPlan
+    from lab.world.plain_tick import TickPlan
 
 MAX_EVENTS = 256  # events kept for pop_events; older ones are dropped
 FAILURE_EVENT_PERIOD = 0.5  # s of sim time between two solver_failure events
@@ -176,7 +176,7 @@ class SessionBase(SessionParts):
         self.ticks = 0
         self.qp_ok = True
         self._failure = ""  # why the last failed tick failed
-        # The tick's path, decided when what it depends on changes (session_tick.py's TickPlan:
+        # The tick's path, decided when what it depends on changes (plain_tick.py's TickPlan:
         # None until the next tick decides it), the plan of a plain native tick whose results
         # are still in the kernel's buffers (None when copied out), and a native crossing made
         # already whose code or error the rest of the tick handles.
