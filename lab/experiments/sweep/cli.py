@@ -18,6 +18,13 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0.0 or value == float("inf"):  # NaN fails the first test
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, not {text}")
+    return value
+
+
 def sweep_main(argv: list[str]) -> int:
     """`lab sweep SWEEP.toml [--workers N | --address HOST:PORT] [--output F.csv] [--plot]`."""
     parser = argparse.ArgumentParser(
@@ -31,6 +38,12 @@ def sweep_main(argv: list[str]) -> int:
     )
     parser.add_argument(
         "--address", help="an existing Ray cluster (HOST:PORT of `ray start --head`)"
+    )
+    parser.add_argument(
+        "--connect-timeout",
+        type=_positive_float,
+        help="s to reach the cluster at --address and for its answer (default: runner.py's "
+        "CONNECT_TIMEOUT_S, 5 s)",
     )
     parser.add_argument("--output", help=f"results table (default {OUTPUT_DIR}/<name>.csv)")
     parser.add_argument("--timeout", type=float, help="s a point may take (default: the file's)")
@@ -60,7 +73,8 @@ def sweep_main(argv: list[str]) -> int:
         print(f"lab sweep: {error}: install with pip install -e '.[sweep]'", file=sys.stderr)
         return 2
     try:
-        outcome = run_sweep(sweep, output, args.workers, args.address, args.retry_failed)
+        bound = {} if args.connect_timeout is None else {"connect_timeout": args.connect_timeout}
+        outcome = run_sweep(sweep, output, args.workers, args.address, args.retry_failed, **bound)
     except RayUnavailable as error:
         print(f"lab sweep: {error}", file=sys.stderr)
         return 2

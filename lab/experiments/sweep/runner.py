@@ -65,8 +65,10 @@ def run_sweep(
     address: str | None = None,
     retry_failed: bool = False,
     progress: bool = True,
+    connect_timeout: float = CONNECT_TIMEOUT_S,
 ) -> SweepOutcome:
-    """Run the points of `sweep` not yet in the table `output` and add their rows to it."""
+    """Run the points of `sweep` not yet in the table `output` and add their rows to it;
+    `connect_timeout`: s to reach the cluster at `address` and for its answer."""
     start = time.monotonic()
     rows = read_rows(output)
     if retry_failed:
@@ -81,7 +83,7 @@ def run_sweep(
     if todo:
         ours = not ray.is_initialized()  # a caller's own Ray session is used and left running
         if ours:
-            _start_ray(workers, address)
+            _start_ray(workers, address, connect_timeout)
             outcome.ray_start_s = time.monotonic() - start
         try:
             slots = workers or int(ray.cluster_resources().get("CPU", 1))
@@ -99,16 +101,18 @@ class RayUnavailable(RuntimeError):
     """Ray did not start, or the cluster at `--address` could not be joined."""
 
 
-def _start_ray(workers: int | None, address: str | None) -> None:
+def _start_ray(
+    workers: int | None, address: str | None, connect_timeout: float = CONNECT_TIMEOUT_S
+) -> None:
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no usage report leaves the machine
     try:
-        _init_ray(workers, address)
+        _init_ray(workers, address, connect_timeout)
     except (ConnectionError, ValueError, ray.exceptions.RayError) as error:
         where = f"the Ray cluster at {address}" if address else "a local Ray instance"
         raise RayUnavailable(f"{where}: {str(error).splitlines()[0]}") from error
 
 
-def _check_ray(address: str) -> None:
+def _check_ray(address: str, timeout: float = CONNECT_TIMEOUT_S) -> None:
     """Fail at once when nothing answers at a HOST:PORT `address`, or something that does not
     answer as Ray's GCS does (`ray.init` would retry for minutes: over 200 s, not stopped by
     Ctrl-C). The GCS is a gRPC server: it answers HTTP/2's connection preface with a SETTINGS
@@ -117,7 +121,7 @@ def _check_ray(address: str) -> None:
     if not sep or not port.isdigit() or "/" in address or os.environ.get("RAY_USE_TLS"):
         return
     try:
-        connection = socket.create_connection((host.strip("[]"), int(port)), CONNECT_TIMEOUT_S)
+        connection = socket.create_connection((host.strip("[]"), int(port)), timeout)
     except OSError as error:
         message = f"nothing answers there ({error}): is `ray start --head` running?"
         raise ConnectionError(message) from error
@@ -130,17 +134,17 @@ def _check_ray(address: str) -> None:
         except OSError:  # a timeout, or the connection closed on us
             pass
     if len(reply) < HTTP2_FRAME_HEADER or reply[3] != HTTP2_SETTINGS:
-        got = f"it sent {reply[:16]!r}" if reply else f"no answer within {CONNECT_TIMEOUT_S:g} s"
+        got = f"it sent {reply[:16]!r}" if reply else f"no answer within {timeout:g} s"
         raise ConnectionError(
             f"something listens there but not as a Ray cluster does ({got} to a gRPC greeting): "
             "give the port of `ray start --head` (6379 by default)"
         )
 
 
-def _init_ray(workers: int | None, address: str | None) -> None:
+def _init_ray(workers: int | None, address: str | None, connect_timeout: float) -> None:
     quiet = {"log_to_driver": False, "logging_level": logging.WARNING}
     if address:
-        _check_ray(address)
+        _check_ray(address, connect_timeout)
         ray.init(address=address, **quiet)
     else:
         ray.init(
