@@ -4,8 +4,7 @@
 // built (their `_address`), through the MuJoCo C API of the same wheel (its headers and
 // libmujoco), and mirrors plant.py's functions of the same names; plant.py keeps its Python
 // path for when this module is not built, and tests/kernel/test_plant_native.py holds the two
-// equal. And a copy of an MjModel made without the GIL (`copy_model`, for a robot switch built
-// beside the loop: lab/world/compiled.py).
+// equal.
 #include <mujoco/mujoco.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -100,37 +99,11 @@ class PlantStep {
   lab::MujocoStep step_;
 };
 
-/// A new mujoco.MjModel, a copy of `mj_model` made by mj_copyModel with the GIL released (the
-/// Python binding's copy keeps it: Solo12's 7.4 MB, 1.3 ms of CPU and its page faults, the
-/// longest GIL hold of a switch back to a kept robot). The source must not change meanwhile (a
-/// kept world's model is never run). The new struct is handed to MuJoCo's binding, which owns
-/// it from then on (`MjModel._from_model_ptr`, the way MuJoCo's own spec module wraps a model
-/// it compiled: a private name, but this module is used only with the MuJoCo it was built
-/// against, plant.py's version check).
-nb::object copy_model(const nb::handle& mj_model) {
-  const mjModel* source = address_of<const mjModel>(mj_model);
-  nb::object wrap = nb::module_::import_("mujoco").attr("MjModel").attr("_from_model_ptr");
-  mjModel* copy;
-  {
-    nb::gil_scoped_release released;
-    copy = mj_copyModel(nullptr, source);
-  }
-  if (copy == nullptr) throw std::runtime_error("mj_copyModel could not copy the model");
-  try {
-    return wrap(reinterpret_cast<std::uintptr_t>(copy));
-  } catch (...) {
-    mj_deleteModel(copy);
-    throw;
-  }
-}
-
 }  // namespace
 
 NB_MODULE(_plant, m) {
   m.doc() = "The plant's per-tick exchange with MuJoCo in C (lab/world/plant.py; cpp/README.md).";
   m.attr("mujoco_version") = mj_versionString();
-  m.def("copy_model", &copy_model, "mj_model"_a,
-        "A copy of the MjModel (a new mujoco.MjModel), made with the GIL released.");
   nb::class_<PlantStep>(m, "PlantStep")
       .def(nb::init<nb::object, nb::object, const Indices&, const Indices&, const Indices&,
                     const Indices&, int>(),
