@@ -156,10 +156,15 @@ class NativeTick:
         try:
             code = self.step(command, stale, applied if self.sensing else None)
         except BaseException:
-            if owner is not None and self.behaviour_ran:
-                owner.native_ran()
+            self.crossing_raised(owner)
             raise
         return self.finish(code, behaviour, applied)
+
+    def crossing_raised(self, owner: NativeTwin | None) -> None:
+        """After a crossing that raised: `owner`, the behaviour whose twin was set, holds the
+        twin's state if the twin ran before the error (its Python state is then stale)."""
+        if owner is not None and self.behaviour_ran:
+            owner.native_ran()
 
     def finish(
         self, code: int, behaviour: Behaviour, applied: np.ndarray

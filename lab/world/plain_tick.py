@@ -83,7 +83,7 @@ class TickPlan:
         self.truth = session._true_state if truth is None else truth
         self.twin: NativeTwinTick | None = None
         self.owner: NativeTwin | None = None  # the behaviour whose twin ticks
-        # A plain tick: its crossing alone, then a few assignments (`_plain_native_tick`); a
+        # A plain tick: its crossing alone, then a few assignments (session_tick.py's `tick`); a
         # task that senses or takes values back from the kernel runs the whole native path.
         self.plain = False
         self.ran = controller.ran  # what a native tick computes: set below when it runs

@@ -140,8 +140,7 @@ class SessionTick(PlainTickResults, SessionBase):
         try:
             code: int = plan.step(self.velocity, stale, None)
         except BaseException as error:
-            if plan.owner is not None and self.native_tick.behaviour_ran:
-                plan.owner.native_ran()
+            self.native_tick.crossing_raised(plan.owner)
             if not isinstance(error, CONTROL_FAILURES):
                 raise
             self._crossing = error
@@ -264,7 +263,7 @@ class SessionTick(PlainTickResults, SessionBase):
         return stepped
 
     def _native_control(self) -> tuple[int, ControlOutput]:
-        """The native tick's crossing, or the one `_plain_native_tick` made (`_crossing`: its
+        """The native tick's crossing, or the one `_plain_crossing` made (`_crossing`: its
         code or error), with the Python side made current (NativeTick.finish)."""
         crossing, self._crossing = self._crossing, None
         if crossing is None:
