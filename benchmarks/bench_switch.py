@@ -24,12 +24,17 @@ the machine held the loop back). Each switcher
 keeps the first robot's world first, as `lab serve` does, so that `compiled` is a robot's
 first build and `cached` a switch back (lab/world/compiled.py, `KeptWorlds`).
 
+A switch back copies the kept MjModel: `--copy native` (as `lab serve`: `lab._plant` without
+the GIL, lab/world/compiled.py), `binding` (MuJoCo's binding's copy, which keeps the GIL), or
+both in turn (`native,binding,native,binding`: one run each, in that order).
+
     .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
         [--modes worker,thread,loop] [--nices=-10,none,10] [--realtime on,off]
-        [--loop-sched other|fifo]
+        [--loop-sched other|fifo] [--copy native,binding]
 """
 
 import argparse
+import copy
 import json
 import os
 import statistics
@@ -42,9 +47,11 @@ from lab.protocol import RobotCommand
 from lab.runtime.intake import Request
 from lab.runtime.loop import LoopConfig, SimLoop
 from lab.runtime.switch import Switcher
+from lab.world.compiled import copied_model
 from lab.world.session import Session, SessionConfig
 
 MODES = ("worker", "thread", "loop")
+COPIES = {"native": copied_model, "binding": copy.copy}  # how a kept MjModel is copied
 HOLDER_GAP_S = 4e-3  # a gap in a switch longer than this records where the switch's thread is
 
 
@@ -201,6 +208,7 @@ def run(
     nice: int | None,
     realtime: bool,
     sched: str = "other",
+    copy_by: str = "native",
 ) -> dict:
     session = Session(SessionConfig(robot=robots[0]))
     stop = threading.Event()
@@ -208,6 +216,7 @@ def run(
     switcher = None
     if mode != "loop":
         switcher = Switcher(worker=mode == "worker", nice=nice, realtime=realtime)
+        switcher.kept.copy = COPIES[copy_by]
     if switcher is not None:
         switcher.keep(session.config)  # as `lab serve` does
         transport.built.add(robots[0])
@@ -224,6 +233,7 @@ def run(
         "built": mode,
         "loop_sched": loop.wanted_sched,
         "switch_thread_nice": nice,
+        "copy": copy_by if mode == "thread" else None,  # the worker's worlds are loaded
         # switches run with the switch's thread and the loop's at SCHED_FIFO (lab/runtime/switch.py)
         "realtime_switches": 0 if switcher is None else switcher.realtime.rises,
         "load_average": [round(x, 1) for x in os.getloadavg()],
@@ -276,21 +286,38 @@ def main() -> int:
         help="the loop's own policy (fifo: the windows outside switches at SCHED_FIFO too, as "
         "the loop is during a switch with --realtime on)",
     )
+    parser.add_argument(
+        "--copy",
+        default="native",
+        help="how a switch back copies the kept MjModel, one thread run per entry in order: "
+        "native (lab._plant, without the GIL) or binding (MuJoCo's, keeping it)",
+    )
     args = parser.parse_args()
     robots = args.robots.split(",")
     nices = [None if n == "none" else int(n) for n in args.nices.split(",")]
     if not set(values := args.realtime.split(",")) <= {"on", "off"}:
         parser.error(f"--realtime takes on, off or on,off, not {args.realtime!r}")
     realtimes = [value == "on" for value in values]
+    copies = args.copy.split(",")
+    if not set(copies) <= set(COPIES):
+        parser.error(f"--copy takes native and binding, not {args.copy!r}")
     for mode in args.modes.split(","):
         if mode not in MODES:
             parser.error(f"unknown mode {mode!r} (modes: {', '.join(MODES)})")
         for nice in nices if mode != "loop" else [None]:
             for realtime in realtimes if mode != "loop" else [False]:
-                result = run(
-                    mode, robots, args.every, args.switches, nice, realtime, args.loop_sched
-                )
-                print(json.dumps(result), flush=True)
+                for copy_by in copies if mode == "thread" else ["native"]:
+                    result = run(
+                        mode,
+                        robots,
+                        args.every,
+                        args.switches,
+                        nice,
+                        realtime,
+                        args.loop_sched,
+                        copy_by,
+                    )
+                    print(json.dumps(result), flush=True)
     return 0
 
 

@@ -4,7 +4,8 @@
 // built (their `_address`), through the MuJoCo C API of the same wheel (its headers and
 // libmujoco), and mirrors plant.py's functions of the same names; plant.py keeps its Python
 // path for when this module is not built, and tests/kernel/test_plant_native.py holds the two
-// equal.
+// equal. And a copy of an MjModel made without the GIL (`copy_model`, for a robot switch built
+// beside the loop: lab/world/compiled.py).
 #include <mujoco/mujoco.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -99,11 +100,42 @@ class PlantStep {
   lab::MujocoStep step_;
 };
 
+/// A new mujoco.MjModel, a copy of `mj_model` made by mj_copyModel with the GIL released (the
+/// Python binding's copy keeps it: Solo12's 7.4 MB, 1.3 ms of CPU and its page faults, the
+/// longest GIL hold of a switch back to a kept robot). The caller's reference keeps the source
+/// alive, and it must not change meanwhile (a kept world's model is never run or handed out).
+/// Who frees the new struct: this function until its address is a Python integer, then MuJoCo's
+/// binding from the call to `MjModel._from_model_ptr` on (the way MuJoCo's own spec module
+/// wraps a model it compiled): it takes the pointer without copying it again, and its wrapper's
+/// capsule frees it with mj_deleteModel, also when the wrapper's construction fails partway,
+/// so it is never freed here after that call (tests/world/test_compiled.py). A private name,
+/// but this module is used only with the MuJoCo it was built against (plant.py's check).
+nb::object copy_model(const nb::handle& mj_model) {
+  const mjModel* source = address_of<const mjModel>(mj_model);
+  nb::object wrap = nb::module_::import_("mujoco").attr("MjModel").attr("_from_model_ptr");
+  mjModel* copy;
+  {
+    nb::gil_scoped_release released;
+    copy = mj_copyModel(nullptr, source);
+  }
+  if (copy == nullptr) throw std::runtime_error("mj_copyModel could not copy the model");
+  nb::object address;
+  try {
+    address = nb::int_(reinterpret_cast<std::uintptr_t>(copy));
+  } catch (...) {
+    mj_deleteModel(copy);
+    throw;
+  }
+  return wrap(address);
+}
+
 }  // namespace
 
 NB_MODULE(_plant, m) {
   m.doc() = "The plant's per-tick exchange with MuJoCo in C (lab/world/plant.py; cpp/README.md).";
   m.attr("mujoco_version") = mj_versionString();
+  m.def("copy_model", &copy_model, "mj_model"_a,
+        "A copy of the MjModel (a new mujoco.MjModel), made with the GIL released.");
   nb::class_<PlantStep>(m, "PlantStep")
       .def(nb::init<nb::object, nb::object, const Indices&, const Indices&, const Indices&,
                     const Indices&, int>(),

@@ -23,6 +23,7 @@ import numpy as np
 from lab.description import ROBOTS_DIR, load_description
 from lab.robot import Robot, build_robot, with_raised_contact
 from lab.scenes import START_RISE
+from lab.world.plant import _plant
 from lab.world.plant_model import build_spec
 
 MJB_NAME = "world.mjb"  # the virtual file a pickled world's MjModel is loaded from
@@ -75,12 +76,11 @@ def _loaded_world(robot: Robot, mjb: bytes) -> CompiledWorld:
 
 
 def copied_model(model: mujoco.MjModel) -> mujoco.MjModel:
-    """A copy of `model` (`mj_copyModel`, by MuJoCo's binding, which keeps the GIL meanwhile:
-    1.3 ms of CPU and the page faults for Solo12's 7.4 MB). A copy made without the GIL in
-    `lab._plant` and handed to the binding (`MjModel._from_model_ptr`) halved that, but raised
-    the sim's resident memory by ~57 KB a switch over 170 switches where this copy's stayed flat
-    (round 16, docs/reliability.md): not kept."""
-    return copy.copy(model)
+    """A copy of `model` (`mj_copyModel`): made without the GIL by `lab._plant` when it is
+    built (cpp/plant/plant.cpp, which says who frees it), else by MuJoCo's binding
+    (`copy.copy`), which keeps the GIL meanwhile (Solo12's 7.4 MB: 1.3 ms of CPU and its page
+    faults, a switch back's longest hold of the loop: docs/reliability.md)."""
+    return copy.copy(model) if _plant is None else _plant.copy_model(model)
 
 
 def compile_world(
@@ -129,10 +129,11 @@ class KeptWorlds(RecentWorlds[CompiledWorld]):
     built on a thread beside the loop (lab/runtime/switch.py): a switch back to a robot and
     scene shares the robot (a `Robot` is never changed: the controller's model is a copy,
     lab/realism/model_error.py) and copies MuJoCo's model as compiled (`copied_model`: Solo12's
-    7.4 MB in 1.3 ms of CPU; loading it from its binary took 14-20 ms) instead
-    of parsing the URDF again (pinocchio's parser keeps the GIL: 2-16 ms of CPU) and compiling.
-    Used by one thread at a time; a world compiled here compiles inside `compiling()`
-    (`compile_world`)."""
+    7.4 MB in 1.3 ms of CPU, without the GIL; loading it from its binary took 14-20 ms)
+    instead of parsing the URDF again (pinocchio's parser keeps the GIL: 2-16 ms of CPU) and
+    compiling. Used by one thread at a time; a world compiled here compiles inside `compiling()`
+    (`compile_world`). `copy` makes each copy (`copied_model`; benchmarks/bench_switch.py
+    `--copy binding` sets MuJoCo's binding's, `copy.copy`, to compare)."""
 
     def __init__(
         self,
@@ -141,9 +142,10 @@ class KeptWorlds(RecentWorlds[CompiledWorld]):
     ) -> None:
         super().__init__(max_worlds)
         self._compile = functools.partial(compile_world, compiling=compiling)
+        self.copy: Callable[[mujoco.MjModel], mujoco.MjModel] = copied_model
 
     def world(self, key: WorldKey) -> CompiledWorld:
         """The world of `key`, its MjModel a new copy each call (a plant changes its own): from
         what is kept, else compiled (and kept); raises as `compile_world` does."""
         kept = self.kept_or_made(key, self._compile)
-        return CompiledWorld(kept.robot, copied_model(kept.mj_model))
+        return CompiledWorld(kept.robot, self.copy(kept.mj_model))

@@ -62,10 +62,10 @@ WINDOW = 20  # switches whose lowest RSS stands for an end of the run
 def _switch_memory() -> tuple[float, float, str, bool]:
     """The lowest RSS over switches 11-30 and over the last 20 of 200 (MB), the robot and
     whether it fell, measured in a fresh process (the suite runs other files in this one: their
-    memory is not a switch's). Lowest, not last: glibc's arenas (the switch thread copies and
-    frees models of several MB while the loop allocates) leave the resident memory one to six
-    Solo12 models (7.4 MB each) above its floor from one switch to the next (278-320 MB over
-    200 switches, round 16); a leak raises the floor itself."""
+    memory is not a switch's). Lowest, not last: from one switch to the next the resident
+    memory moves by one or two Solo12 models (7.2 MB each: free memory the C heap keeps, also
+    once the old parts are freed and the heap trimmed; docs/reliability.md), and the floor by
+    0 or one of them (0-3 %) with either copy of the kept model; a leak raises the floor."""
     session = Session(SessionConfig(robot=ROBOT))
     switcher = Switcher()
     early: list[float] = []
