@@ -40,7 +40,11 @@ def touchdown_check(robot: str, base: str, trot_seconds: float = 30.0) -> dict:
 
     run(1.0)
     for force in ([0, push, 0], [0, -push, 0], [push, 0, 0], [-push, 0, 0]):
-        session.handle("push", {"body": "base", "force": force, "duration": 0.2})
+        reply = session.handle(
+            "push", {"body": session.robot.base_link, "force": force, "duration": 0.2}
+        )
+        if not reply["ok"]:  # never a campaign that silently pushed nothing
+            raise RuntimeError(f"touchdown_check: the push was refused: {reply['error']}")
         if not run(1.5):
             return {"robot": robot, "preset": base, "fell_at_s": session.time}
     session.handle("gait", {"name": "trot"})

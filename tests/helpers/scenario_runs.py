@@ -118,6 +118,7 @@ CPU_S: dict[str, float] = {
     "solo12_stand_weighted": 1.4,
     "solo12_trot_strafe": 2.0,
     "solo12_trot_turn": 2.1,
+    "solo12_trot_typical": 1.3,  # round 17 (2026-12-04): 1.62 s alone at load ~10, × 0.78
     "talos_arms_reach_circle": 13.1,
     "talos_arms_reach_two_hands": 4.7,
     "talos_arms_single_support": 4.1,

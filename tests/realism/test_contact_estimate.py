@@ -69,6 +69,7 @@ def test_the_python_and_cpp_detectors_agree_tick_by_tick_on_a_trot(robot: str) -
     [
         ("anymal", "typical", 0.010, 0.9, 0),
         ("solo12", "ideal", 0.010, 0.9, 1),
+        ("solo12", "typical", 0.020, 0.9, 1),
         ("hyq", "ideal", 0.010, 0.9, 0),
         ("hyq", "typical", 0.010, 0.9, 0),
     ],
@@ -82,7 +83,8 @@ def test_a_trot_on_the_estimate_lands_its_feet_when_mujoco_does(
     the touchdowns come within `within` s of MuJoCo's contact onset (a leg that reaches past
     1.5 swing times without a detection lands anyway, gait.py; docs/realism.md has the 30 s
     numbers: HyQ, exact and `typical`, all within 10 ms, none false, since its thresholds
-    came down to what its landing feet press)."""
+    came down to what its landing feet press; Solo12's did too, and under `typical`, whose
+    joint friction takes part of a landing foot's press, 90 % land within 16 ms, hence 20)."""
     session = _session(robot, base)
     for _ in range(500):
         session.tick()
