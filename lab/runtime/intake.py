@@ -4,7 +4,8 @@ A thread of ours (`CommandIntake`) blocks on the command queryable's channel and
 query everything that does not need the session: it reads the client's id (the query's
 attachment, docs/protocol.md "Clients"), refuses a client over its rate (`RATE_HZ`, `BURST`) or
 with `CLIENT_QUEUE` commands already waiting, refuses a payload over `MAX_PAYLOAD_BYTES` before
-reading it, decodes the JSON and validates it into the verb's typed command (`parse_command`).
+reading it and one nested deeper than `MAX_PAYLOAD_DEPTH` before decoding it, decodes the JSON
+and validates it into the verb's typed command (`parse_command`).
 A refusal is answered from this thread at once and counted (`rejections`); only valid commands
 wait, in one bounded queue per client, for the loop, which takes them round-robin between
 clients (`take`) and does nothing with a command but apply it and reply.
