@@ -149,10 +149,21 @@ def test_deep_payloads_are_refused_before_the_decoder_recurses_to_the_interprete
     recurse into DEEP_TEXT until Python's recursion limit stopped it; a garbage collection that
     fell on the deepest levels ran the live loop's GC callback (`GcPauses`) with no stack left, and
     its RecursionError ("in comparison") was raised where nobody catches it. A collection every
-    other allocation makes every decode meet one; the payloads must be refused before that."""
+    other allocation makes every decode meet one; the payloads must be refused before that. A
+    callback of the test's own, which needs 20 frames of stack, stands for whatever Python a
+    collection runs (GcPauses may change)."""
+    collections: list[int] = []
+
+    def frames(n: int) -> int:
+        return 0 if n == 0 else 1 + frames(n - 1)
+
+    def on_collection(phase: str, info: dict[str, int]) -> None:
+        collections.append(frames(20))
+
     with live_server("solo12") as server:
         threshold = gc.get_threshold()
         gc.set_threshold(1, 10**6, 10**6)  # only the young generation, at once (full: seconds)
+        gc.callbacks.insert(0, on_collection)  # before the loop's own
         try:
             replies = [
                 server.client.request(verb, text, timeout=REPLY_TIMEOUT_S)
@@ -160,6 +171,7 @@ def test_deep_payloads_are_refused_before_the_decoder_recurses_to_the_interprete
                 for verb in ("velocity", "info")
             ]
         finally:
+            gc.callbacks.remove(on_collection)
             gc.set_threshold(*threshold)
         start = server.client.wait_telemetry()["loop"]["ticks"]
         server.client.wait_telemetry(lambda m: m["loop"]["ticks"] > start + 50, timeout=WAIT_S)
@@ -169,6 +181,7 @@ def test_deep_payloads_are_refused_before_the_decoder_recurses_to_the_interprete
         for u in unraisable
     ]
     assert not raised, raised
+    assert collections  # the collections ran
     for reply in replies:
         assert reply["ok"] is False, reply
         assert "nested deeper than" in reply["error"], reply
