@@ -1,4 +1,4 @@
-"""Where a lab is on Zenoh: the default endpoint, the payload cap, client and lab ids, and the
+"""Where a lab is on Zenoh: the default endpoint, the payload caps, client and lab ids, and the
 key expressions of a lab (`LabKeys`, scoped by its lab id). Standard library only."""
 
 import re
@@ -11,6 +11,11 @@ DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 # Of one command's JSON payload. The largest valid command (a stack of 64 task names of 128
 # characters) is under 10 KiB; the cap is checked before a payload is read (issue 25).
 MAX_PAYLOAD_BYTES = 16 * 1024
+# Of its lists and objects, nested: the deepest valid command (a stack: an object of a list of
+# lists) nests 3 deep. Deeper payloads are refused before they are decoded: a decoder stopped only
+# by Python's recursion limit left any garbage collection that fell on its deepest levels, and
+# the callbacks and finalizers it ran, without stack (lab/runtime/intake.py).
+MAX_PAYLOAD_DEPTH = 32
 # A client's id: the attachment of each of its command queries (docs/protocol.md, "Clients").
 CLIENT_ID_PATTERN = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 

@@ -4,7 +4,8 @@ A thread of ours (`CommandIntake`) blocks on the command queryable's channel and
 query everything that does not need the session: it reads the client's id (the query's
 attachment, docs/protocol.md "Clients"), refuses a client over its rate (`RATE_HZ`, `BURST`) or
 with `CLIENT_QUEUE` commands already waiting, refuses a payload over `MAX_PAYLOAD_BYTES` before
-reading it, decodes the JSON and validates it into the verb's typed command (`parse_command`).
+reading it and one nested deeper than `MAX_PAYLOAD_DEPTH` before decoding it, decodes the JSON
+and validates it into the verb's typed command (`parse_command`).
 A refusal is answered from this thread at once and counted (`rejections`); only valid commands
 wait, in one bounded queue per client, for the loop, which takes them round-robin between
 clients (`take`) and does nothing with a command but apply it and reply.
@@ -14,6 +15,7 @@ the loop's on-time fraction from 0.72 to 0.14-0.23. What this thread holds is bo
 `CLIENT_QUEUE` commands for each of at most `MAX_CLIENTS` clients.
 """
 
+import re
 import threading
 import time
 from collections import OrderedDict, deque
@@ -21,11 +23,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import msgspec
+import numpy as np
 import zenoh
 
 from lab.protocol import (
     CLIENT_ID_PATTERN,
     MAX_PAYLOAD_BYTES,
+    MAX_PAYLOAD_DEPTH,
     LabKeys,
     ReleaseCommand,
     TakeCommand,
@@ -45,6 +49,11 @@ INTAKE_BURST = 100
 ANONYMOUS = "anonymous"  # the client id of a query without an attachment
 
 _decode = msgspec.json.Decoder().decode
+# A JSON string, its escapes included (an unterminated one runs to the end): what is inside does
+# not nest. Possessive: no backtracking, one pass over the payload.
+_JSON_STRING = re.compile(rb'"(?:[^"\\]++|\\.)*+"?', re.S)
+# A byte's step in nesting: +1 opens a list or an object, -1 (as int8) closes one, 0 otherwise.
+_NESTING_STEPS = bytes(1 if b in b"[{" else 255 if b in b"]}" else 0 for b in range(256))
 
 
 @dataclass(frozen=True)
@@ -95,9 +104,23 @@ def client_of(query: zenoh.Query) -> tuple[str, str | None]:
     return text, None
 
 
+def nesting_depth(text: bytes) -> int:
+    """How deep the lists and objects of JSON `text` nest (0 for a scalar), brackets inside
+    strings left out; exact up to the first byte that is not JSON."""
+    steps = _JSON_STRING.sub(b"", text).translate(_NESTING_STEPS)
+    return int(np.frombuffer(steps, np.int8).cumsum(dtype=np.int32).max(initial=0))
+
+
 def decode_payload(verb: str, query: zenoh.Query) -> tuple[object, str | None]:
     """The query's payload decoded as JSON (an empty payload is {}), or why it cannot be: over
-    MAX_PAYLOAD_BYTES (checked before the bytes are read), not JSON, nested too deep, null."""
+    MAX_PAYLOAD_BYTES (checked before the bytes are read), nested deeper than MAX_PAYLOAD_DEPTH
+    (checked before they are decoded), not JSON, null.
+
+    The depth is checked first because the decoder recurses into each nested list and object
+    until Python's recursion limit stops it (about 1,000 levels; a 16 KiB payload opens up to
+    16,384): a garbage collection that falls on its deepest levels runs the collector's callbacks
+    (the loop's `GcPauses`) and finalizers with no stack left, and their RecursionError is raised
+    where nothing catches it (the wire fuzz's CI failure, tests/runtime/test_fuzz_wire.py)."""
     payload = query.payload
     if payload is None:
         return {}, None
@@ -107,9 +130,16 @@ def decode_payload(verb: str, query: zenoh.Query) -> tuple[object, str | None]:
     raw = payload.to_bytes()
     if not raw.strip():
         return {}, None
+    # Fewer brackets than the cap cannot nest deeper (every valid command): no scan.
+    brackets = raw.count(b"[") + raw.count(b"{")
+    if brackets > MAX_PAYLOAD_DEPTH and (depth := nesting_depth(raw)) > MAX_PAYLOAD_DEPTH:
+        return None, (
+            f"{verb}: payload is nested deeper than {MAX_PAYLOAD_DEPTH} lists and objects "
+            f"({depth} levels)"
+        )
     try:
         value = _decode(raw)
-    except (msgspec.DecodeError, RecursionError) as exc:  # bad UTF-8 / JSON, nesting too deep
+    except msgspec.DecodeError as exc:  # bad UTF-8 or JSON
         return None, f"{verb}: payload is not valid JSON ({exc})"[:300]
     if value is None:
         return None, f"{verb}: payload must be a JSON object, got null"

@@ -8,8 +8,12 @@ The queries go out under 64 client ids in turn (the query's attachment), so that
 rate limit (100 commands/s) leaves most of them to the parser and the session; the limit and
 the intake's own pace are what a single fast client meets instead (tests/runtime/test_intake.py)."""
 
+import gc
 import json
 import math
+import sys
+import traceback
+from collections.abc import Iterator
 
 import pytest
 import zenoh
@@ -34,8 +38,10 @@ def _encode(payload: object) -> bytes:
 
 
 # Payloads nested deeper than this are sent as text: hypothesis prints a failing example, and
-# a list nested 3,000 deep is beyond its printer (and json.dumps).
-DEEP_TEXT = st.sampled_from([b"[" * 3000 + b"]" * 3000, b"{" + b'"a":{' * 5000 + b"}" * 5001])
+# a list nested 3,000 deep is beyond its printer (and json.dumps). Both are under the 16 KiB cap
+# (objects nested 5,000 deep were over it: refused unread, they never met the decoder).
+DEEP_PAYLOADS = (b"[" * 3000 + b"]" * 3000, b"{" + b'"a":{' * 2500 + b"}" * 2501)
+DEEP_TEXT = st.sampled_from(DEEP_PAYLOADS)
 wire_wild = (
     json_values
     | st.sampled_from([deep(50)])
@@ -121,3 +127,61 @@ def test_ten_thousand_generated_commands_through_zenoh_each_get_an_answer() -> N
     with live_server("solo12") as server:
         counts = _fuzz(server, 10_000)
     assert counts["ok"] + counts["error"] == 10_000
+
+
+@pytest.fixture
+def unraisable() -> Iterator[list["sys.UnraisableHookArgs"]]:
+    """The exceptions raised where nothing catches them (a garbage collector's callback, a
+    finalizer), recorded by `list.append`: a builtin, which runs at any depth of the stack, where
+    pytest's own hook (Python) may fail too ("Failed to process unraisable exception")."""
+    seen: list[sys.UnraisableHookArgs] = []
+    hook, sys.unraisablehook = sys.unraisablehook, seen.append
+    try:
+        yield seen
+    finally:
+        sys.unraisablehook = hook
+
+
+def test_deep_payloads_are_refused_before_the_decoder_recurses_to_the_interpreters_limit(
+    unraisable: list["sys.UnraisableHookArgs"],
+) -> None:
+    """The CI failure of the fuzz above (once in many runs): the intake let the JSON decoder
+    recurse into DEEP_TEXT until Python's recursion limit stopped it; a garbage collection that
+    fell on the deepest levels ran the live loop's GC callback (`GcPauses`) with no stack left, and
+    its RecursionError ("in comparison") was raised where nobody catches it. A collection every
+    other allocation makes every decode meet one; the payloads must be refused before that. A
+    callback of the test's own, which needs 20 frames of stack, stands for whatever Python a
+    collection runs (GcPauses may change)."""
+    collections: list[int] = []
+
+    def frames(n: int) -> int:
+        return 0 if n == 0 else 1 + frames(n - 1)
+
+    def on_collection(phase: str, info: dict[str, int]) -> None:
+        collections.append(frames(20))
+
+    with live_server("solo12") as server:
+        threshold = gc.get_threshold()
+        gc.set_threshold(1, 10**6, 10**6)  # only the young generation, at once (full: seconds)
+        gc.callbacks.insert(0, on_collection)  # before the loop's own
+        try:
+            replies = [
+                server.client.request(verb, text, timeout=REPLY_TIMEOUT_S)
+                for text in DEEP_PAYLOADS
+                for verb in ("velocity", "info")
+            ]
+        finally:
+            gc.callbacks.remove(on_collection)
+            gc.set_threshold(*threshold)
+        start = server.client.wait_telemetry()["loop"]["ticks"]
+        server.client.wait_telemetry(lambda m: m["loop"]["ticks"] > start + 50, timeout=WAIT_S)
+    raised = [
+        f"{u.exc_type.__name__}: {u.exc_value} in {type(u.object).__name__}\n"
+        + "".join(traceback.format_tb(u.exc_traceback))
+        for u in unraisable
+    ]
+    assert not raised, raised
+    assert collections  # the collections ran
+    for reply in replies:
+        assert reply["ok"] is False, reply
+        assert "nested deeper than" in reply["error"], reply

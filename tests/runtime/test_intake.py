@@ -5,8 +5,8 @@ import json
 
 import zenoh
 
-from lab.protocol import MAX_PAYLOAD_BYTES, LabKeys, parse_command
-from lab.runtime.intake import BURST, CLIENT_QUEUE, RATE_HZ, CommandIntake
+from lab.protocol import MAX_PAYLOAD_BYTES, MAX_PAYLOAD_DEPTH, LabKeys, parse_command
+from lab.runtime.intake import BURST, CLIENT_QUEUE, RATE_HZ, CommandIntake, nesting_depth
 
 KEYS = LabKeys("intake")
 
@@ -99,3 +99,41 @@ def test_only_valid_commands_wait_for_the_loop() -> None:
     assert "'vx'" in answers[0][1]["error"] and len(answers) == 1
     request = intake.take()
     assert request.command.vx == 0.5 and intake.take() is None
+
+
+def _nested(depth: int) -> object:
+    value: object = {"levels": [["com"]]}  # 3 deep, the deepest valid command
+    for _ in range(depth - 3):
+        value = [value]
+    return value
+
+
+def test_a_payload_nested_deeper_than_the_cap_is_refused_before_it_is_decoded() -> None:
+    intake, answers = _intake(_Clock())
+    intake.receive(_Query("stack", _nested(MAX_PAYLOAD_DEPTH), "a"))  # decoded: not an object
+    assert "payload must be a JSON object, got list" in answers[-1][1]["error"]
+    for text in (
+        json.dumps(_nested(MAX_PAYLOAD_DEPTH + 1)).encode(),
+        b"[" * 3000 + b"]" * 3000,
+        b"{" + b'"a":{' * 2500 + b"}" * 2501,
+        b"[" * MAX_PAYLOAD_BYTES,  # never closed: the decoder would recurse before it knew
+    ):
+        intake.receive(_Query("stack", text, "a"))
+        depth = text.count(b"[") + text.count(b"{")
+        assert answers[-1][1] == {
+            "ok": False,
+            "error": f"stack: payload is nested deeper than {MAX_PAYLOAD_DEPTH} lists and "
+            f"objects ({depth} levels)",
+        }
+    # Brackets inside strings do not nest: refused for what they are.
+    intake.receive(_Query("robot", {"name": "[{" * 40}, "a"))
+    assert "field 'name'" in answers[-1][1]["error"]
+
+
+def test_nesting_depth_counts_what_the_decoder_would_enter() -> None:
+    assert nesting_depth(b"1") == nesting_depth(b'"[[["') == 0
+    assert nesting_depth(b'{"levels": [["a", "b"], ["c"]]}') == 3
+    assert nesting_depth(b'[{"k[": "}]\\\\"}, [[]]]') == 3  # brackets in keys and strings
+    assert nesting_depth(b'["\\\\\\"[[", [[1]]]') == 3  # an escaped quote ends no string
+    assert nesting_depth(b'"\\\\"[[') == 2  # an escaped backslash does not escape the quote
+    assert nesting_depth(b'["unterminated [[[[') == 1
