@@ -62,6 +62,9 @@ class EmptySession:
     def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]:
         return self.telemetry(), lambda: None
 
+    def warm(self) -> bool:
+        return False
+
     def drawing_state(self) -> dict:
         return {}
 

@@ -14,14 +14,24 @@ the kernel's (it fills the Python model's arrays for the behaviour) and `control
 same run, ticking in turns: one on the server's native tick (one crossing, native_tick.py), one
 on the Python tick (`Session.native_ticks = False`); median and p99 of each, and their ratio;
 and of the native tick's, the part inside C++ and the rest (`Python`, tick by tick).
+
+`--paced` times the native tick's stages three ways in the same run: ticking back to back
+(`tight`, as `--whole`), and once per millisecond as the server's loop does (sleep until 0.05
+ms before each deadline, then spin), where the caches, TLB and branch predictors go cold while
+the thread sleeps and other processes run: every other such tick with the loop's warm-up after
+its sleep (`warmed`: `Session.warm`, woken WARM_LEAD_S earlier for it, as lab/runtime/loop.py
+does), the others without (`paced`). Wall-clock µs (perf_counter, and the steady clock inside
+C++), medians per stage, and the warm-up's own time before the deadline.
 """
 
 import argparse
+import itertools
 import time
 
 import numpy as np
 
 from lab.controller.hierarchy import METHODS
+from lab.runtime.loop import WARM_LEAD_S
 from lab.world.session import Session, SessionConfig
 from lab.world.session_tick import TOUCH_FORCE
 
@@ -58,13 +68,20 @@ def native_controller(
     return controller.solve().tau
 
 
-def measure(robot: str, trot: bool, ticks: int, kernel: str = "python") -> dict[str, float]:
-    session = Session(SessionConfig(robot=robot, kernel=kernel))
+def settled(config: SessionConfig, trot: bool, native_ticks: bool = True) -> Session:
+    """A session of `config` (trotting at 0.5 m/s with `trot`) after WARM_UP_TICKS ticks."""
+    session = Session(config)
+    session.native_ticks = native_ticks
     if trot:
         session.handle("gait", {"name": "trot"})
         session.handle("velocity", {"vx": 0.5})
     for _ in range(WARM_UP_TICKS):
         session.tick()
+    return session
+
+
+def measure(robot: str, trot: bool, ticks: int, kernel: str = "python") -> dict[str, float]:
+    session = settled(SessionConfig(robot=robot, kernel=kernel), trot)
     plant, clock = session.plant, time.thread_time
     stages, control = (
         (NATIVE_STAGES, native_controller) if kernel == "native" else (STAGES, python_controller)
@@ -94,16 +111,9 @@ def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, 
     both on the steady clock inside C++, and the rest of each native tick (`Python`: the
     session's Python around the crossing and the crossing's own cost, tick by tick)."""
     sessions = {
-        "native": Session(SessionConfig(robot=robot)),
-        "python": Session(SessionConfig(robot=robot)),
+        "native": settled(SessionConfig(robot=robot), trot),
+        "python": settled(SessionConfig(robot=robot), trot, native_ticks=False),
     }
-    sessions["python"].native_ticks = False
-    for session in sessions.values():
-        if trot:
-            session.handle("gait", {"name": "trot"})
-            session.handle("velocity", {"vx": 0.5})
-        for _ in range(WARM_UP_TICKS):
-            session.tick()
     spent = {path: np.zeros(ticks) for path in (*sessions, "in C++", "control", "Python")}
     clock, native = time.thread_time, sessions["native"].native_tick
     for i in range(ticks):
@@ -123,6 +133,76 @@ def measure_whole(robot: str, trot: bool, ticks: int) -> dict[str, tuple[float, 
     }
 
 
+PACED_STAGES = (
+    "Session.tick",
+    "in C++",
+    "Python",
+    "model update",
+    "rows",
+    "method, torques",
+    "state, behaviour, references, report",
+    "MuJoCo step, checks",
+    "warm-up, before the deadline",
+)
+PERIOD_S = 1e-3  # the server's loop period
+SPIN_S = 5e-5  # its default spin before each deadline (lab serve --spin-ms)
+BLOCK_TICKS = 250  # ticks of one kind before switching to the other
+
+
+def measure_paced(robot: str, trot: bool, ticks: int) -> dict[str, dict[str, float]]:
+    """Median wall-clock µs of each of PACED_STAGES of the native server tick, ticking back to
+    back (`tight`) and once per PERIOD_S as the loop does, every other such tick with the
+    loop's warm-up after its sleep (`warmed`, the others `paced`): blocks of BLOCK_TICKS tight
+    ticks alternate with blocks of paced and warmed ones (the same load on all)."""
+    session = settled(SessionConfig(robot=robot), trot)
+    native, kernel = session.native_tick, session.controller.native_kernel
+    clock, sleep = time.perf_counter, time.sleep
+    spent = {kind: np.zeros((ticks, len(PACED_STAGES))) for kind in ("tight", "paced", "warmed")}
+    done = dict.fromkeys(spent, 0)
+    for block in itertools.cycle((("tight",), ("paced", "warmed"))):
+        if min(done.values()) >= ticks:
+            break
+        deadline = clock()
+        for i in range(BLOCK_TICKS):
+            kind = block[i % len(block)]
+            if done[kind] >= ticks:
+                break
+            warm = 0.0
+            if kind != "tight":  # woken late, the periods lost are dropped: each tick sleeps
+                deadline = max(deadline + PERIOD_S, clock() + PERIOD_S / 2)
+                lead = SPIN_S + (WARM_LEAD_S if kind == "warmed" else 0.0)
+                sleep(max(0.0, deadline - lead - clock()))
+                if kind == "warmed":
+                    warm = clock()
+                    session.warm()
+                    warm = clock() - warm
+                while clock() < deadline:
+                    pass
+            start = clock()
+            session.tick()
+            whole = clock() - start
+            call, control = native.call_us * 1e-6, native.control_us * 1e-6
+            update, rows, method = kernel.seconds
+            spent[kind][done[kind]] = (
+                whole,
+                call,
+                whole - call,
+                update,
+                rows,
+                method,
+                control - update - rows - method,
+                call - control,
+                warm,
+            )
+            done[kind] += 1
+    if session.tick_report()["tick"] != "native" or session.fell:
+        raise SystemExit(f"the native tick did not run to the end: {session.tick_report()}")
+    return {
+        kind: dict(zip(PACED_STAGES, np.median(us, axis=0) * 1e6, strict=True))
+        for kind, us in spent.items()
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="anymal")
@@ -130,8 +210,22 @@ def main() -> None:
     parser.add_argument("--ticks", type=int, default=3000)
     parser.add_argument("--kernel", choices=("python", "native"), default="python")
     parser.add_argument("--whole", action="store_true", help="time Session.tick(), both paths")
+    parser.add_argument(
+        "--paced", action="store_true", help="the native tick's stages, tight and once per ms"
+    )
     args = parser.parse_args()
     doing = "trotting" if args.trot else "standing"
+    if args.paced:
+        paced = measure_paced(args.robot, args.trot, args.ticks)
+        print(
+            f"{args.robot} {doing}, native server tick, median wall-clock µs over {args.ticks} "
+            f"ticks of each kind:"
+        )
+        print(f"  {'stage':38s} {'tight':>7s} {'paced':>7s} {'warmed':>7s}")
+        for stage in PACED_STAGES:
+            tight, cold, warmed = (paced[kind][stage] for kind in ("tight", "paced", "warmed"))
+            print(f"  {stage:38s} {tight:7.1f} {cold:7.1f} {warmed:7.1f}")
+        return
     if args.whole:
         whole = measure_whole(args.robot, args.trot, args.ticks)
         print(

@@ -7,9 +7,11 @@ where a tick's time goes between the loop waking and the next sleep.
 split, with `time.perf_counter`, into the command intake (`_apply_commands`), the session's tick
 (`Session.tick`; of it the native crossing, `NativeTick.call_us`, measured inside C++), the work
 beside the tick (`_after_tick`: telemetry, drawing state, publishing, statistics) and the rest
-(the switch check, the deadman). At exit OUT.json gets the median µs of each by the tick's kind
-(TICK_KINDS), over the ticks after the first quarter (start-up). The timer's own wrappers add a
-few µs a tick (most of `rest`: 4 µs at load 40); compare runs that both have it.
+(the switch check, the deadman); and apart, before the iteration, the session's warm-up in the
+spin before the deadline (`Session.warm`, 0 when the loop did not warm that tick). At exit
+OUT.json gets the median µs of each by the tick's kind (TICK_KINDS), over the ticks after the
+first quarter (start-up). The timer's own wrappers add a few µs a tick (most of `rest`: 4 µs at
+load 40); compare runs that both have it.
 """
 
 import atexit
@@ -25,7 +27,7 @@ from lab.runtime.deadline_stats import TICK_KINDS
 from lab.runtime.serve import serve_main
 from lab.world.session import Session
 
-SECTIONS = ("commands", "session_tick", "native_crossing", "beside", "rest", "iterate")
+SECTIONS = ("commands", "session_tick", "native_crossing", "beside", "rest", "iterate", "warm")
 MAX_TICKS = 600_000  # 10 min at 1 kHz
 
 
@@ -63,12 +65,14 @@ class SectionTimer:
                 self._current["native_crossing"] += native.call_us * 1e-6
 
         Session.tick = session_tick
+        Session.warm = self.timed("warm", Session.warm)
         iterate = loop.SimLoop._iterate
         clock, current = time.perf_counter, self._current
 
         def timed_iterate(simloop: loop.SimLoop, now: float) -> str:
             for key in current:
-                current[key] = 0.0
+                if key != "warm":  # the warm-up ran before the iteration, in the spin
+                    current[key] = 0.0
             start = clock()
             kind = iterate(simloop, now)
             current["iterate"] = clock() - start
@@ -77,6 +81,7 @@ class SectionTimer:
                 current["rest"] = current["iterate"] - inside
                 self.rows[len(self.kinds)] = [current[s] for s in SECTIONS]
                 self.kinds.append(kind)
+            current["warm"] = 0.0
             return kind
 
         loop.SimLoop._iterate = timed_iterate

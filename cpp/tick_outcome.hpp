@@ -29,21 +29,37 @@ struct TickOutcome {
   int projections = 0;  // nullspace: hierarchy solves
   std::vector<ActiveSet> active_sets;
 
-  TickOutcome(const Kernel& kernel, const TickResult& result)
-      : ok(result.solution.ok),
-        message(result.solution.message),
-        levels(result.solution.levels),
-        residuals(result.solution.residuals),
-        level_seconds(result.solution.level_seconds),
-        qp_solves(result.solution.qp_solves),
-        violations(result.solution.violations),
-        internal_force_sensed(kernel.internal_force_feedback().first),
-        internal_force_command(kernel.internal_force_feedback().second),
-        capped(result.solution.capped),
-        projections(result.solution.projections),
-        active_sets(result.solution.active_sets) {
-    kernel.visit_task_errors(
-        [&](const std::string& name, double error) { task_errors.emplace_back(name, error); });
+  TickOutcome() = default;
+  TickOutcome(const Kernel& kernel, const TickResult& result) { record(kernel, result); }
+
+  /// This report made `kernel`'s last tick's (`result`), in the storage it has: the server tick
+  /// records one every tick, which allocates nothing once the sizes have settled (copy
+  /// assignment keeps a vector's and a string's capacity).
+  void record(const Kernel& kernel, const TickResult& result) {
+    const HierarchySolution& solution = result.solution;
+    ok = solution.ok;
+    message = solution.message;
+    levels = solution.levels;
+    residuals = solution.residuals;
+    level_seconds = solution.level_seconds;
+    qp_solves = solution.qp_solves;
+    violations = solution.violations;
+    internal_force_sensed = kernel.internal_force_feedback().first;
+    internal_force_command = kernel.internal_force_feedback().second;
+    capped = solution.capped;
+    projections = solution.projections;
+    active_sets = solution.active_sets;
+    std::size_t n = 0;
+    kernel.visit_task_errors([&](const std::string& name, double error) {
+      if (n < task_errors.size()) {
+        task_errors[n].first = name;  // in its string's capacity
+        task_errors[n].second = error;
+      } else {
+        task_errors.emplace_back(name, error);
+      }
+      ++n;
+    });
+    task_errors.resize(n);
     if (ok && !result.tau.allFinite()) {
       ok = false;
       message = "non-finite torques";

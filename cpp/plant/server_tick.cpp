@@ -134,7 +134,7 @@ class ServerTick {
     const auto start = Clock::now();
     behaviour_ran_ = false;
     non_foot_contact_ = false;
-    outcome_.reset();
+    has_outcome_ = false;
     call_seconds_ = control_seconds_ = 0.0;
     valid_time_ = plant_.check();  // a state set from outside (fault injection) before control
     if (valid_time_ < 0.0) return kDivergedBefore;
@@ -177,7 +177,9 @@ class ServerTick {
     const int ran = behaviour_ran_ ? kBehaviourRan : 0;
     read_references(kernel_, refs_);
     const TickResult& result = kernel_.solve();
-    const TickOutcome& outcome = outcome_.emplace(kernel_, result);
+    outcome_.record(kernel_, result);  // in the last tick's storage: no allocation
+    has_outcome_ = true;
+    const TickOutcome& outcome = outcome_;
     control_seconds_ = std::chrono::duration<double>(Clock::now() - start).count();
     if (!outcome.ok) return kControlFailed | ran;
     // as NativeOutput.solve_status: not ok when capped, a level fell back or a row is violated
@@ -204,7 +206,9 @@ class ServerTick {
 
   /// The controller's report of the last tick (a copy: it stays that tick's), None when the
   /// controller did not run (the state was not valid before control).
-  std::optional<TickOutcome> outcome() const { return outcome_; }
+  std::optional<TickOutcome> outcome() const {
+    return has_outcome_ ? std::optional<TickOutcome>(outcome_) : std::nullopt;
+  }
 
   /// The touch detector whose flags the behaviour reads instead of MuJoCo's (realism's
   /// `contact_estimate`; None: MuJoCo's): it reads last tick's torques from the `applied`
@@ -265,7 +269,8 @@ class ServerTick {
   estimation::BaseEstimator* estimator_ = nullptr;
   bool sensing_ = false;
   double touch_force_ = 0.0;
-  std::optional<TickOutcome> outcome_;  // the last tick's report (none when nothing ran)
+  TickOutcome outcome_;  // the last tick's report, when has_outcome_ (the controller ran)
+  bool has_outcome_ = false;
   MujocoStep plant_;
   realism::ContactEstimator* touch_ = nullptr;  // touch_object_'s
   Eigen::VectorXd q_, v_, qm_, vm_, tau_, applied_, x_, foot_forces_, normal_forces_;

@@ -2,12 +2,14 @@
 publish telemetry, keep live deadline statistics.
 
 One thread runs `SimLoop.run`. Each iteration: sleep until a margin before the next deadline
-(fixed, or learned: wake_margin.py) and spin to it (`next += period`, never "sleep one period"),
-take waiting commands from the transport (a bounded number per tick, already decoded and
-validated off this thread: lab/runtime/intake.py), apply them through `Session.execute` and
-reply, run the velocity deadman (deadman.py), `Session.tick()`, and at most one job beside it
-where the rates allow: build telemetry (over two ticks) or a drawing state on its schedule,
-publish it (with the events: loop_events.py) on a later tick. While the machine's floor is
+(fixed, or learned: wake_margin.py), let the session warm what its next tick runs
+(`Session.warm`: the caches went cold while the thread slept) and spin to the deadline
+(`next += period`, never "sleep one period"), take waiting commands from the transport (a
+bounded number per tick, already decoded and validated off this thread: lab/runtime/intake.py),
+apply them through `Session.execute` and reply, run the velocity deadman (deadman.py),
+`Session.tick()`, and at most one job beside it where the rates allow: build telemetry (over two
+ticks) or a drawing state on its schedule, publish it (with the events: loop_events.py) on a
+later tick. While the machine's floor is
 measured (floor.py) the iterations are empty instead.
 
 Beside it: the settings (loop_config.py), the deadline statistics (deadline_stats.py), the
@@ -52,6 +54,12 @@ STATS_INTERVAL_TICKS = 50  # recompute the percentiles of one loop statistic thi
 # interval and then held the GIL wherever the loop was. The last stretch holds it: a put
 # takes 30-140 µs.
 GIL_HOLD_S = 3e-4
+# The session's warm-up of its next tick (`Session.warm`): the loop wakes this much earlier
+# while the session has something to warm (a cold ANYmal warm-up takes 10-30 µs here; the sleep
+# alone ends 20-50 µs late, which left no time for it in the spin's 50 µs), and warms only with
+# at least WARM_MIN_S left before the deadline: woken later, it would delay the tick.
+WARM_LEAD_S = 4e-5
+WARM_MIN_S = 2e-5
 MAX_PENDING_JOBS = 2  # more jobs beside the tick waiting than this: run them in the same tick
 # Build a telemetry message over two ticks only with at least this many ticks between messages
 # (three jobs a message, and the drawing state's two): at 250 Hz (every 2nd tick) in one.
@@ -63,6 +71,7 @@ class Session(Protocol):
     """What the loop needs from `lab.world.session.Session`."""
 
     def tick(self) -> None: ...
+    def warm(self) -> bool: ...
     def handle(self, verb: str, payload: object) -> dict: ...
     def execute(self, verb: str, command: object) -> dict: ...
     def refuse(self, verb: str, message: str) -> dict: ...
@@ -145,6 +154,7 @@ class SimLoop:
         self._deadman = Deadman()
         self._events = LoopEvents(self.period)
         self._last_sim_time = 0.0
+        self._warming = True  # the session's last warm-up had something to warm (WARM_LEAD_S)
 
     def run(self, stop: threading.Event) -> None:
         """Run until `stop` is set (or the session raises: kept in `self.error`, then stop)."""
@@ -187,7 +197,7 @@ class SimLoop:
         deadline = clock()
         while not stop.is_set():
             if not fast:
-                self._wait_for(deadline)
+                self._wait_for(deadline, warm=self.config.warm and not self.floor.running)
             start = clock()
             lateness = 0.0 if fast else max(0.0, start - deadline)
             stalled = lateness > MAX_BEHIND_S
@@ -213,11 +223,15 @@ class SimLoop:
                 self.stats.skipped += missed
                 deadline += missed * period
 
-    def _wait_for(self, deadline: float) -> None:
+    def _wait_for(self, deadline: float, warm: bool) -> None:
         """Sleep until the margin before `deadline` (learned, with `adaptive_spin`: each sleep's
-        oversleep is recorded), then spin to it."""
+        oversleep is recorded; WARM_LEAD_S earlier with `warm` while the session warms), then
+        spin to it; before the last stretch, with `warm` and WARM_MIN_S to spare, let the
+        session warm its next tick."""
         clock, margin = self.clock, self.margin
         wake = deadline - (self.config.spin_s if margin is None else margin.seconds)
+        if warm and self._warming:
+            wake -= WARM_LEAD_S
         delay = wake - clock()
         if delay > 0.0:
             self.sleep(delay)
@@ -226,13 +240,22 @@ class SimLoop:
         elif margin is not None:
             margin.no_sleep()
         if self.config.spin == "yield":
+            self._warm(deadline, warm)
             while clock() < deadline:  # the last stretch: yield (and the GIL), don't sleep
                 os.sched_yield()
             return
         while clock() < deadline - GIL_HOLD_S:  # a long spin: the GIL stays free
             self.sleep(0)
+        self._warm(deadline, warm)
         while clock() < deadline:  # the last stretch: only the clock
             pass
+
+    def _warm(self, deadline: float, warm: bool) -> None:
+        """With `warm` and at least WARM_MIN_S before `deadline`: `Session.warm`, which touches
+        what the next tick runs and changes nothing (docs/performance.md, "Where the plain tick
+        goes"); whether it had anything to warm decides whether the next wake-up is early."""
+        if warm and deadline - self.clock() > WARM_MIN_S:
+            self._warming = self.session.warm()
 
     def _floor_tick(self) -> str:
         """An iteration of the floor's empty loop: nothing but the margin's refresh."""

@@ -34,6 +34,10 @@ class LoopConfig:
     # GIL until GIL_HOLD_S before the deadline (Zenoh's own threads run no Python; the main
     # thread waits on an Event).
     spin: str = "busy"
+    # Let the session warm its next tick before each deadline (`Session.warm`, WARM_LEAD_S
+    # earlier: loop.py): the tick starts with MuJoCo's code and model in the caches, for the
+    # warm-up's own CPU time (docs/performance.md, "Where the plain tick goes").
+    warm: bool = True
     # The EEVDF slice (s) to ask for at SCHED_OTHER (Linux >= 6.12, unprivileged; threads the
     # loop starts keep the default): a waking thread with a shorter slice than the running one
     # preempts it (PREEMPT_SHORT) instead of waiting for that slice to end, which this kernel

@@ -110,6 +110,13 @@ def build_parser() -> argparse.ArgumentParser:
         f"(default: {'auto' if LoopConfig.adaptive_spin else f'{LoopConfig.spin_s * 1e3:g}'})",
     )
     p.add_argument(
+        "--no-warm",
+        dest="warm",
+        action="store_false",
+        help="do not let the session warm its next tick in the spin before each deadline "
+        "(MuJoCo's forward dynamics on a scratch copy of the state; default: it does)",
+    )
+    p.add_argument(
         "--spin",
         choices=SPIN_CHOICES,
         default=LoopConfig.spin,
@@ -245,6 +252,7 @@ def serve_main(argv: list[str]) -> int:
             adaptive_spin=args.spin_ms == AUTO_SPIN,
             floor_s=args.floor_s,
             spin=args.spin,
+            warm=args.warm,
             slice_s=args.slice_ms * 1e-3 if args.slice_ms else None,
             nice=args.nice,
             switch_interval_s=args.switch_interval_ms * 1e-3 or None,

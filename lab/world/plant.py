@@ -136,6 +136,7 @@ class MujocoPlant(PlantSensing):
         self._damping = np.zeros(len(joints))  # damping on top of it (a fallen robot's)
         self._bare_inertia: dict[int, pin.Inertia] = {}  # bodies' inertias before a payload
         self.payloads: dict[str, float] = {}  # kg by link, what `set_payload` fixed
+        self._scratch: mujoco.MjData | None = None  # `warm`'s, made at its first call
         self._native = None
         if native and _plant is not None:
             self._native = _plant.PlantStep(*self.native_structs())
@@ -166,6 +167,18 @@ class MujocoPlant(PlantSensing):
         if self._point_pushes:
             return "a push at a point (its lever arm is set in Python each step)"
         return ""
+
+    def warm(self) -> None:
+        """MuJoCo's forward dynamics on a scratch copy of the state: brings the code and the
+        model the next step runs into the caches, and changes nothing of the plant (the
+        server's loop calls it before a deadline, after its sleep: Session.warm)."""
+        if self._scratch is None:
+            self._scratch = mujoco.MjData(self.mj_model)
+        scratch, data = self._scratch, self.mj_data
+        scratch.time = data.time
+        scratch.qpos[:], scratch.qvel[:], scratch.ctrl[:] = data.qpos, data.qvel, data.ctrl
+        scratch.qacc_warmstart[:] = data.qacc_warmstart
+        mujoco.mj_forward(self.mj_model, scratch)
 
     def stepped_elsewhere(self, valid_time: float, stepped: bool) -> None:
         """The server's native tick checked the state at `valid_time` (s) and, if `stepped`,

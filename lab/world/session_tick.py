@@ -123,6 +123,19 @@ class SessionTick(PlainTickResults, SessionBase):
             return
         self._ticked(native)
 
+    def warm(self) -> bool:
+        """Touch what the next tick runs, changing nothing: the server's loop calls it in its
+        spin before a deadline, the caches having gone cold while it slept (docs/performance.md,
+        "Where the plain tick goes"). On a plain native tick's plan: the plan's check
+        (`TickPlan.holds`) and MuJoCo's forward dynamics on a scratch copy of the plant's state
+        (MujocoPlant.warm). Whether there was such a plan to warm."""
+        plan = self._plan
+        if plan is None or not plan.plain or self.paused:
+            return False
+        plan.holds(self)
+        self.plant.warm()
+        return True
+
     def _plain_crossing(self, plan: TickPlan, stale: bool) -> int | None:
         """A plain plan's crossing: its code, or None when it raised a control failure (kept in
         `_crossing` with any code other than a plain one, for `_control` to handle as every

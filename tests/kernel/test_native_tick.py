@@ -431,3 +431,30 @@ def test_plain_native_ticks_decide_their_path_once_and_keep_results_until_read(
     session.native_ticks = False  # a direct change: the next tick decides again
     session.tick()
     assert session.tick_report()["tick"] == "python"
+
+
+def test_the_loops_warm_up_changes_nothing_of_the_session() -> None:
+    """Session.warm (the server's loop calls it in its spin before each deadline) runs MuJoCo's
+    forward dynamics on a scratch copy and changes nothing: an ANYmal trotting with a warm-up
+    before every tick walks exactly as one without, tick by tick (the same MuJoCo state,
+    torques and planned forces: one process, the same operations)."""
+    warmed, cold = Session(SessionConfig(robot="anymal")), Session(SessionConfig(robot="anymal"))
+    for session in (warmed, cold):
+        assert session.handle("gait", {"name": "trot"})["ok"]
+        assert session.handle("velocity", {"vx": 0.4, "vy": 0.0, "yaw_rate": 0.2})["ok"]
+    native = 0  # the gait's first tick runs in Python (its twin starts with the gait's clock)
+    for _ in range(400):
+        warmed.warm()
+        warmed.tick()
+        cold.tick()
+        native += warmed.tick_report()["tick"] == "native"
+        for a, b in (
+            (warmed.plant.mj_data.qpos, cold.plant.mj_data.qpos),
+            (warmed.plant.mj_data.qvel, cold.plant.mj_data.qvel),
+            (warmed.tau, cold.tau),
+            (warmed.forces, cold.forces),
+        ):
+            np.testing.assert_array_equal(a, b)
+    assert native >= 395
+    assert warmed.plant._scratch is not None  # the warm-ups ran MuJoCo's forward dynamics
+    assert not warmed.fell and warmed.time == pytest.approx(0.4)

@@ -470,6 +470,9 @@ class _CountingSession:
         message = self.telemetry()
         return message, lambda: self.jobs[-1].append("telemetry, finished")
 
+    def warm(self) -> bool:
+        return False
+
     def drawing_state(self) -> dict:
         self.jobs[-1].append("state")
         return {}

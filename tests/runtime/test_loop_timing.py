@@ -10,7 +10,7 @@ import pytest
 from lab.protocol import FloorCommand, InfoCommand, parse_command
 from lab.runtime.deadline_stats import ON_TIME_TOLERANCE
 from lab.runtime.intake import Request
-from lab.runtime.loop import LoopConfig, SimLoop
+from lab.runtime.loop import WARM_LEAD_S, WARM_MIN_S, LoopConfig, SimLoop
 from lab.runtime.wake_margin import (
     INITIAL_MARGIN_S,
     MAX_MARGIN_SHARE,
@@ -48,6 +48,7 @@ class Session:
         self.count = 0
         self.work_of: dict[int, float] = {}
         self.published: list[dict] = []
+        self.warmed: list[int] = []  # the count of ticks before each warm-up
 
     def tick(self) -> None:
         self.time.now += self.work_of.get(self.count, WORK)
@@ -57,6 +58,10 @@ class Session:
 
     def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]:
         return {"t": 0.0}, lambda: None
+
+    def warm(self) -> bool:
+        self.warmed.append(self.count)
+        return True
 
     def drawing_state(self) -> dict:
         return {}
@@ -211,6 +216,24 @@ def test_the_floor_is_measured_first_and_reported_in_info_and_telemetry() -> Non
     assert verb == "info" and reply["loop"]["floor"] == floor
     assert transport.telemetry[-1]["loop"]["floor"] == floor
     assert transport.telemetry[0]["loop"]["floor"] == floor  # measured before any telemetry
+
+
+def test_the_loop_warms_each_tick_in_its_spin_unless_woken_too_late() -> None:
+    """Woken on time, the loop lets the session warm its next tick once before each tick but
+    the first (which it does not sleep for); woken within WARM_MIN_S of the deadline, never;
+    while the floor's empty loop runs, never (the first tick after it is warmed); with `warm`
+    off, never."""
+    _, session, _ = run(lambda: 0.0, 300, LoopConfig())
+    assert session.warmed == list(range(1, 300))
+    _, session, _ = run(lambda: 0.0, 300, LoopConfig(warm=False))
+    assert session.warmed == []
+    late = LoopConfig.spin_s + WARM_LEAD_S - WARM_MIN_S / 2  # WARM_MIN_S / 2 before it
+    _, session, _ = run(lambda: late, 300, LoopConfig())
+    assert session.warmed == []
+    loop, session, _ = run(lambda: 0.0, 300, LoopConfig(floor_s=0.5))
+    assert loop.floor.result is not None and loop.floor.result["ticks"] >= 499
+    # the floor's 500 iterations warmed nothing; every session tick after them was warmed
+    assert session.warmed == list(range(300))
 
 
 def test_the_floor_command_pauses_the_session_and_answers_with_the_floor() -> None:
