@@ -36,8 +36,10 @@ class LoopConfig:
     spin: str = "busy"
     # Let the session warm its next tick before each deadline (`Session.warm`, WARM_LEAD_S
     # earlier: loop.py): the tick starts with MuJoCo's code and model in the caches, for the
-    # warm-up's own CPU time (docs/performance.md, "Where the plain tick goes").
-    warm: bool = True
+    # warm-up's own CPU time (docs/performance.md, "Where the plain tick goes"). Off by default:
+    # it saves ~25 µs of the tick for ~50-68 µs of CPU before it, CPU that a local browser on a
+    # 2-core machine needs more (`lab serve --warm` turns it on).
+    warm: bool = False
     # The EEVDF slice (s) to ask for at SCHED_OTHER (Linux >= 6.12, unprivileged; threads the
     # loop starts keep the default): a waking thread with a shorter slice than the running one
     # preempts it (PREEMPT_SHORT) instead of waiting for that slice to end, which this kernel

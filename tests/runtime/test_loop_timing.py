@@ -222,15 +222,15 @@ def test_the_loop_warms_each_tick_in_its_spin_unless_woken_too_late() -> None:
     """Woken on time, the loop lets the session warm its next tick once before each tick but
     the first (which it does not sleep for); woken within WARM_MIN_S of the deadline, never;
     while the floor's empty loop runs, never (the first tick after it is warmed); with `warm`
-    off, never."""
-    _, session, _ = run(lambda: 0.0, 300, LoopConfig())
+    off (the default), never."""
+    _, session, _ = run(lambda: 0.0, 300, LoopConfig(warm=True))
     assert session.warmed == list(range(1, 300))
-    _, session, _ = run(lambda: 0.0, 300, LoopConfig(warm=False))
+    _, session, _ = run(lambda: 0.0, 300, LoopConfig())
     assert session.warmed == []
     late = LoopConfig.spin_s + WARM_LEAD_S - WARM_MIN_S / 2  # WARM_MIN_S / 2 before it
-    _, session, _ = run(lambda: late, 300, LoopConfig())
+    _, session, _ = run(lambda: late, 300, LoopConfig(warm=True))
     assert session.warmed == []
-    loop, session, _ = run(lambda: 0.0, 300, LoopConfig(floor_s=0.5))
+    loop, session, _ = run(lambda: 0.0, 300, LoopConfig(warm=True, floor_s=0.5))
     assert loop.floor.result is not None and loop.floor.result["ticks"] >= 499
     # the floor's 500 iterations warmed nothing; every session tick after them was warmed
     assert session.warmed == list(range(300))
