@@ -2,12 +2,18 @@
 the machine's load, so before/after comparisons of a C++ change hold on a shared machine.
 
     .venv/bin/python benchmarks/kernel_callgrind.py [--robots g1 talos_arms anymal] [--ticks 200]
+    .venv/bin/python benchmarks/kernel_callgrind.py --tsid [--robots anymal talos]
 
 Per robot and method: a headless session standing on the native kernel for `--ticks` ticks, run
 under `valgrind --tool=callgrind` with collection on only inside `Kernel::update` and
 `Kernel::solve` (the model update, then the rows, the hierarchy method and τ); prints the
 instructions per tick and the heaviest functions (inclusive) of that count. The session's first
 WARMUP ticks settle the robot onto its feet, uninstrumented and not counted.
+
+`--tsid`: benchmarks/bench_tsid.py's side of the comparison instead, whole: its `weighted`
+controller's `compute(q, v)` cycling through its recorded states with their references, as its
+timing loop calls it, every instruction counted (Python, the crossing, the references, the
+outcome and the kernel): the part of ours/TSID that the load cannot move.
 """
 
 import argparse
@@ -42,8 +48,36 @@ def stand(robot: str, method: str, ticks: int) -> None:
         raise SystemExit(f"kernel_callgrind: {robot} fell")
 
 
+def compute_path(robot: str, ticks: int) -> None:
+    """The body that runs under valgrind for --tsid: bench_tsid's timing loop of `ticks` calls,
+    every instruction between the two requests counted."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_tsid
+
+    recorded = bench_tsid.record_states(robot, 4, 4)
+    controller = bench_tsid.our_controller(recorded["session"], robot)
+    states = recorded["states"]
+
+    def run(count: int) -> None:  # what bench_tsid's time_ours times, without its clock
+        for i in range(count):
+            q, v, refs = states[i % len(states)]
+            controller.references = refs
+            controller.compute(q, v)
+
+    run(WARMUP)
+    subprocess.run(["callgrind_control", "--instr=on", str(os.getpid())], check=True)
+    time.sleep(1.0)
+    run(ticks)
+    subprocess.run(["callgrind_control", "--instr=off", str(os.getpid())], check=True)
+    time.sleep(1.0)
+    if controller.kernel_ran != "native":
+        raise SystemExit(f"kernel_callgrind: {robot} did not run native")
+
+
 def count(robot: str, method: str, ticks: int, top: int) -> tuple[int, list[str]]:
-    """Instructions per tick inside the kernel, and the `top` heaviest inclusive lines."""
+    """Instructions per tick inside the kernel (method "tsid": bench_tsid's compute path whole),
+    and the `top` heaviest inclusive lines."""
+    collect = () if method == "tsid" else COLLECT
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
         command = [
@@ -51,7 +85,7 @@ def count(robot: str, method: str, ticks: int, top: int) -> tuple[int, list[str]
             "--tool=callgrind",
             "--instr-atstart=no",
             f"--callgrind-out-file={out}",
-            *(f"--toggle-collect={pattern}" for pattern in COLLECT),
+            *(f"--toggle-collect={pattern}" for pattern in collect),
             sys.executable,
             __file__,
             "--body",
@@ -81,15 +115,21 @@ def main() -> None:
     parser.add_argument("--methods", nargs="+", default=["cascade"])
     parser.add_argument("--ticks", type=int, default=200)
     parser.add_argument("--top", type=int, default=25, help="heaviest functions to print")
+    parser.add_argument(
+        "--tsid", action="store_true", help="bench_tsid's compute(q, v) path whole (module doc)"
+    )
     parser.add_argument("--body", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.body:
         robot, method, ticks = args.body
-        stand(robot, method, int(ticks))
+        if method == "tsid":
+            compute_path(robot, int(ticks))
+        else:
+            stand(robot, method, int(ticks))
         return
     print(f"load average {os.getloadavg()[0]:.1f}; {args.ticks} ticks each")
     for robot in args.robots:
-        for method in args.methods:
+        for method in ["tsid"] if args.tsid else args.methods:
             per_tick, lines = count(robot, method, args.ticks, args.top)
             print(f"{robot} {method}: {per_tick:,} instructions per tick")
             print("\n".join(lines))

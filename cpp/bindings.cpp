@@ -12,6 +12,7 @@
 
 #include <array>
 #include <memory>
+#include <type_traits>
 
 #include "behaviours/python.hpp"  // leg_posture_velocity: the walking behaviour's hot part
 #include "controller.hpp"
@@ -33,6 +34,7 @@ namespace {
 
 using Doubles = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
 using Flags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 using ContactTuple = std::tuple<std::string, std::string, std::string, double, double, double>;
 
 std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tuples) {
@@ -47,10 +49,42 @@ std::vector<lab::ContactSpec> contact_specs(const std::vector<ContactTuple>& tup
   return specs;
 }
 
+/// A C-contiguous array of T (float64 or bool) seen through the buffer protocol, without a
+/// copy: data is null when the object exports no such buffer (or no writable one when asked).
+/// nanobind's ndarray caster asks numpy's __dlpack__ instead (a method call, a capsule and two
+/// allocations per import): a tick paid that for τ, x, q and v, and bench_tsid's references, a
+/// new object each tick, for each of their 15 fields. The data stays valid while the caller
+/// holds the object (numpy cannot resize an array another object refers to).
+template <typename T>
+struct BufferData {
+  T* data = nullptr;
+  Eigen::Index size = 0;
+  int ndim = 0;
+
+  BufferData(nb::handle object, bool writable) {
+    Py_buffer view;
+    const int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(object.ptr(), &view, flags) != 0) {
+      PyErr_Clear();
+      return;
+    }
+    const char* format = view.format ? view.format : "B";
+    if (*format == '@' || *format == '=' || *format == '<') ++format;  // native: little-endian
+    if (view.itemsize == static_cast<Py_ssize_t>(sizeof(T)) && format[1] == '\0' &&
+        format[0] == (std::is_same_v<std::remove_const_t<T>, bool> ? '?' : 'd')) {
+      data = static_cast<T*>(view.buf);
+      size = static_cast<Eigen::Index>(view.len / view.itemsize);
+      ndim = view.ndim;
+    }
+    PyBuffer_Release(&view);
+  }
+};
+
 /// Reads a references object's fields straight from Python, as lab::kReferenceFields lists them:
-/// an array seen on the last read is read through the buffer already imported (so a behaviour's
-/// in-place change shows), one the behaviour replaced is imported anew. A field the object's class
-/// does not have (a plain References has no walking or sole fields) reads as empty.
+/// an array seen on the last read is read through the pointer already taken (so a behaviour's
+/// in-place change shows), one the behaviour replaced is taken anew (BufferData; another type
+/// than float64 or bool, or a list, is converted by nanobind, a copy each read). A field the
+/// object's class does not have (a plain References has no walking or sole fields) reads as empty.
 class ReferenceReader {
  public:
   static constexpr std::size_t kFields = lab::kReferenceFields.size();
@@ -82,15 +116,15 @@ class ReferenceReader {
                                                      : field.set_doubles(out, nullptr, 0);
       } else {
         nb::object value = refs.attr(names_[i]);
-        if (field.type == lab::FieldType::flags) {
-          if (!(seen_[i].is_valid() && value.is(seen_[i])))
-            flags_[i] = import<Flags>(value, field.name, seen_[i]);
-          stored = field.set_flags(out, flags_[i].data(), size(flags_[i]));
-        } else {
-          if (!(seen_[i].is_valid() && value.is(seen_[i])))
-            doubles_[i] = import<Doubles>(value, field.name, seen_[i]);
-          stored = field.set_doubles(out, doubles_[i].data(), size(doubles_[i]));
+        const bool flags = field.type == lab::FieldType::flags;
+        if (!(seen_[i].is_valid() && value.is(seen_[i]))) {
+          if (flags)
+            take<Flags>(value, field.name, i, flags_[i]);
+          else
+            take<Doubles>(value, field.name, i, doubles_[i]);
         }
+        stored = flags ? field.set_flags(out, static_cast<const bool*>(data_[i]), sizes_[i])
+                       : field.set_doubles(out, static_cast<const double*>(data_[i]), sizes_[i]);
       }
       if (!stored)
         throw std::invalid_argument(std::string("references: ") + field.name + " needs shape (" +
@@ -100,34 +134,36 @@ class ReferenceReader {
   }
 
  private:
-  template <typename Array>
-  static Eigen::Index size(const Array& a) {
-    return static_cast<Eigen::Index>(a.size());
-  }
-
   [[noreturn]] static void missing(const lab::ReferenceField& field) {
     throw std::invalid_argument(std::string("references: no field ") + field.name);
   }
 
-  /// `value` as an array; `seen` keeps it when it was taken without a copy (later reads then
-  /// see it in place), and is cleared otherwise (a converted copy is made again each read).
+  /// Field i's data from `value`: its own buffer when it is a C-contiguous array of the field's
+  /// type (kept in seen_[i]: later reads see it in place), else nanobind's converted copy in
+  /// `converted` (seen_[i] cleared: converted again each read).
   template <typename Array>
-  static Array import(const nb::object& value, const char* name, nb::object& seen) {
-    Array array;
-    if (nb::try_cast(value, array, false)) {
-      seen = value;
-      return array;
+  void take(const nb::object& value, const char* name, std::size_t i, Array& converted) {
+    const BufferData<const std::remove_const_t<typename Array::Scalar>> buffer(value, false);
+    if (buffer.data && (buffer.ndim == 1 || !std::is_same_v<Array, Flags>)) {
+      seen_[i] = value;
+      data_[i] = buffer.data;
+      sizes_[i] = buffer.size;
+      converted = Array();
+      return;
     }
-    seen = nb::object();
-    if (!nb::try_cast(value, array, true))
+    seen_[i] = nb::object();
+    if (!nb::try_cast(value, converted, true))
       throw std::invalid_argument(std::string("references: ") + name +
                                   " is not an array of the right type");
-    return array;
+    data_[i] = converted.data();
+    sizes_[i] = static_cast<Eigen::Index>(converted.size());
   }
 
   nb::object type_;
   std::array<bool, kFields> present_{};
   std::array<nb::object, kFields> names_, seen_;
+  std::array<const void*, kFields> data_{};
+  std::array<Eigen::Index, kFields> sizes_{};
   std::array<Doubles, kFields> doubles_;
   std::array<Flags, kFields> flags_;
 };
@@ -218,7 +254,14 @@ class ModelMirror {
       base_rotation_, contact_positions_, contact_rotations_;
 };
 
-using OutVector = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+/// A float64 vector argument without a copy when it is one (BufferData), else nanobind's
+/// conversion into `converted` (a list, another dtype), which raises as its caster does.
+Eigen::Map<const Eigen::VectorXd> vector_of(nb::handle object, InVector& converted) {
+  const BufferData<const double> buffer(object, false);
+  if (buffer.data && buffer.ndim == 1) return {buffer.data, buffer.size};
+  converted = nb::cast<InVector>(object);
+  return {converted.data(), static_cast<Eigen::Index>(converted.shape(0))};
+}
 
 /// The kernel's ReferenceReader, made at its first use and freed with the kernel.
 ReferenceReader& reference_reader(lab::Kernel& k) {
@@ -244,8 +287,6 @@ nb::tuple tuple_of(const Values& values, Item&& item) {
     PyTuple_SET_ITEM(out.ptr(), static_cast<Py_ssize_t>(i), item(values[i]));
   return out;
 }
-
-using InVector = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 /// A bool array's entries as Eigen's.
 Eigen::Array<bool, Eigen::Dynamic, 1> flags_of(const Flags& flags) {
@@ -515,26 +556,33 @@ NB_MODULE(_kernel, m) {
           "Rows, method and torques at the state of the last update; the same tuple as tick.")
       .def(
           "tick_into",
-          [](lab::Kernel& k, nb::handle refs, OutVector tau, OutVector x, std::optional<InVector> q,
-             std::optional<InVector> v) {
+          [](lab::Kernel& k, nb::handle refs, nb::handle tau_array, nb::handle x_array,
+             nb::handle q_array, nb::handle v_array) {
             const auto& robot = k.robot();
-            if (tau.size() != static_cast<std::size_t>(robot.na) ||
-                x.size() != static_cast<std::size_t>(robot.nx))
-              throw std::invalid_argument("tick_into: tau needs na entries and x nx");
-            if (q.has_value() != v.has_value())
+            const BufferData<double> tau(tau_array, true), x(x_array, true);
+            if (!tau.data || tau.ndim != 1 || tau.size != robot.na || !x.data || x.ndim != 1 ||
+                x.size != robot.nx)
+              throw std::invalid_argument(
+                  "tick_into: tau and x must be writable C-contiguous float64 vectors of na and "
+                  "nx entries");
+            if (q_array.is_none() != v_array.is_none())
               throw std::invalid_argument("tick_into: give both q and v, or neither");
+            const bool state = !q_array.is_none();
+            InVector q_copy, v_copy;
+            const auto q =
+                state ? vector_of(q_array, q_copy) : Eigen::Map<const Eigen::VectorXd>(nullptr, 0);
+            const auto v =
+                state ? vector_of(v_array, v_copy) : Eigen::Map<const Eigen::VectorXd>(nullptr, 0);
             // References first: bad ones raise before the update changes anything.
             reference_reader(k).read(k, refs);
-            if (q)
-              k.update(Eigen::Map<const Eigen::VectorXd>(q->data(), q->shape(0)),
-                       Eigen::Map<const Eigen::VectorXd>(v->data(), v->shape(0)));
+            if (state) k.update(q, v);
             // The GIL stays held: releasing it for a solve of tens of µs lets another thread
             // take it, and the loop's tick then waits for it to come back.
             const lab::TickResult& result = k.solve();
             TickOutcome outcome(k, result);
             if (outcome.ok) {
-              Eigen::Map<Eigen::VectorXd>(tau.data(), robot.na) = result.tau;
-              Eigen::Map<Eigen::VectorXd>(x.data(), robot.nx) = result.solution.x;
+              Eigen::Map<Eigen::VectorXd>(tau.data, robot.na) = result.tau;
+              Eigen::Map<Eigen::VectorXd>(x.data, robot.nx) = result.solution.x;
             }
             return outcome;
           },

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "hierarchy/linalg.hpp"
 #include "hierarchy/problem.hpp"
@@ -26,8 +28,9 @@ constexpr double kWellConditionedWeight = 1e-9;
 bool solve_reduced(const HierarchyProblem& problem, double regularization, const Eigen::MatrixXd& C,
                    const Eigen::VectorXd& d, Eigen::VectorXd& x, QpReport& report) {
   thread_local Eigen::MatrixXd Z, S, Hz, Cz;
-  thread_local Eigen::VectorXd x0, gz, dz, u, residual;
+  thread_local Eigen::VectorXd x0, gz, dz, u;
   thread_local BaseBlockLU lu;
+  thread_local std::vector<std::pair<std::size_t, Eigen::Index>> dense;  // (level, row) in S
   if (!solution_and_null_space_of_leading_block(problem.dynamics_A, problem.dynamics_b, Z, x0, lu))
     return false;
   // Z's lower block is the identity: products with Z take its upper k rows only.
@@ -35,29 +38,51 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
   const Eigen::Index nu = Z.cols();
   const auto Zt = Z.topRows<k>();
   // S stacks sqrt(eps) Zt and each level's sqrt(w_r) A_r Z: Z^T H Z = S^T S + eps I, one rank
-  // update instead of one per level (each sets up its own blocking: most of its cost here).
-  Eigen::Index rows = k;
-  for (const Level& level : problem.levels)
-    if (level.b.size() && level.weight != 0.0) rows += level.b.size();
-  S.resize(rows, nu);
-  S.topRows<k>() = std::sqrt(regularization) * Zt;
+  // update instead of one per level (each sets up its own blocking: most of its cost here). A row
+  // that selects one entry of x past the base (zero on the base's columns, one entry a in column
+  // j: the posture and force rows) has A Z = a e_j, Z's lower block being the identity: its share
+  // is w a^2 on the diagonal and w a (a x0_j - b) in the gradient, and it stays out of S (half of
+  // ANYmal's rows).
+  Hz.setIdentity(nu, nu);
+  Hz *= regularization;
   gz.noalias() = Zt.transpose() * x0.head<k>();
   gz += x0.tail(nu);
   gz *= regularization;
-  Eigen::Index row = k;
-  for (const Level& level : problem.levels) {
+  dense.clear();
+  for (std::size_t l = 0; l < problem.levels.size(); ++l) {
+    const Level& level = problem.levels[l];
     if (!level.b.size() || level.weight == 0.0) continue;
-    auto AZ = S.middleRows(row, level.b.size());
-    AZ.noalias() = level.A.leftCols<k>().lazyProduct(Zt);  // over k only: unrolled
-    AZ += level.A.rightCols(nu);
-    residual = -level.b;
-    residual.noalias() += level.A * x0;
-    gz.noalias() += level.weight * (AZ.transpose() * residual);
-    AZ *= std::sqrt(level.weight);
-    row += level.b.size();
+    const double w = level.weight;
+    for (Eigen::Index r = 0; r < level.A.rows(); ++r) {
+      const auto entries = level.A.row(r);
+      Eigen::Index column = -1;  // the one nonzero entry's (-1: none yet or on the base, -2: two)
+      if (entries.head<k>().isZero(0.0)) {
+        for (Eigen::Index j = k; j < entries.size(); ++j) {
+          if (entries(j) == 0.0) continue;
+          column = column < 0 ? j : -2;
+          if (column == -2) break;
+        }
+      }
+      if (column < 0) {
+        dense.emplace_back(l, r);
+        continue;
+      }
+      const double a = entries(column);
+      Hz(column - k, column - k) += w * a * a;
+      gz(column - k) += w * a * (a * x0(column) - level.b(r));
+    }
   }
-  Hz.setIdentity(nu, nu);
-  Hz *= regularization;
+  S.resize(k + static_cast<Eigen::Index>(dense.size()), nu);
+  S.topRows<k>() = std::sqrt(regularization) * Zt;
+  Eigen::Index row = k;
+  for (const auto& [l, r] : dense) {
+    const Level& level = problem.levels[l];
+    auto AZ = S.row(row++);
+    AZ.noalias() = level.A.row(r).head<k>().lazyProduct(Zt);
+    AZ += level.A.row(r).tail(nu);
+    gz.noalias() += (level.weight * (level.A.row(r).dot(x0) - level.b(r))) * AZ.transpose();
+    AZ *= std::sqrt(level.weight);
+  }
   Hz.selfadjointView<Eigen::Lower>().rankUpdate(S.transpose());
   Hz.triangularView<Eigen::StrictlyUpper>() = Hz.transpose();
   Cz.noalias() = C.leftCols<k>().lazyProduct(Zt);
