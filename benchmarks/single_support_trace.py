@@ -1,6 +1,7 @@
 """Why the cascade costs what it costs in single support: a per-level trace of its QPs.
 
     .venv/bin/python benchmarks/single_support_trace.py [--robots talos_arms g1] [--ticks 2000]
+    .venv/bin/python benchmarks/single_support_trace.py --scenario scenarios/X.toml [--between 0 12]
 
 Per robot: a Python-kernel session under Herzog's Table 4 stack with the LQR momentum law on the
 left sole (`lab bench --gaits single`'s set-up), whose hierarchy problems of the last `--window`
@@ -9,12 +10,16 @@ re-solved with the native kernel's DAQP for its iteration count, and by the nati
 its level statuses. Prints how the ticks split by level statuses, the size of each QP (variables,
 rows), DAQP's iterations and final active rows, and which inequality rows the cascade's
 equality-only pass violates (the reason the QP path runs), named by constraint and joint.
+`--scenario` traces the same for a shipped scenario's ticks between two sim times instead, its
+events played as `lab run` plays them, on the Python kernel.
 Counts, not times: they hold under any load.
 """
 
 import argparse
 import collections
 import os
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -22,7 +27,10 @@ import lab.controller.hierarchy.cascade as cascade
 from lab import _kernel
 from lab.controller.hierarchy.problem import HierarchyProblem
 from lab.controller.hierarchy.solution import LevelClock
+from lab.controller.tasks.posture import leg_joints
 from lab.experiments.bench import GAITS
+from lab.experiments.limits import apply_limits
+from lab.experiments.scenario import load_scenario
 from lab.world.session import Session, SessionConfig
 
 ACTIVE_TOL = 1e-7  # a row within this of its bound counts as active
@@ -59,7 +67,39 @@ def single_support_problems(robot: str, ticks: int, window: int) -> tuple[list, 
     joints = list(controller.robot.model.names[2:])
     moved = ", ".join(f"{joints[j]} {farthest[j]:.2f}" for j in np.argsort(farthest)[::-1][:3])
     print(f"{robot}: farthest from the start posture over the run (rad): {moved}")
+    upper = np.ones(len(joints), dtype=bool)  # the upper_body task's joints: in no leg
+    for leg in leg_joints(controller.robot):
+        upper[leg] = False
+    if upper.any():
+        j = np.flatnonzero(upper)[np.argmax(farthest[upper])]
+        print(f"  the upper body's farthest (joints in no leg): {joints[j]} {farthest[j]:.4f} rad")
     return kept[-window:], joints
+
+
+def scenario_problems(path: Path, start: float, end: float) -> tuple[list, list[str]]:
+    """The hierarchy problems of scenario `path`'s ticks from `start` to `end` (sim s), on the
+    Python kernel, and the robot's actuated joint names."""
+    scenario = load_scenario(path)
+    session = Session(replace(scenario.config, kernel="python"))
+    apply_limits(session.controller, scenario.limits)
+    controller = session.controller
+    build = controller.build_problem
+    kept: list[HierarchyProblem] = []
+
+    def keep() -> HierarchyProblem:
+        problem = build()
+        if session.time >= start - 1e-9:
+            kept.append(problem)
+        return problem
+
+    controller.build_problem = keep
+    pending = list(scenario.events)
+    while session.time < end - 1e-9 and not session.fell:
+        while pending and pending[0].t <= session.time + 1e-9:
+            event = pending.pop(0)
+            session.handle(event.verb, event.payload)
+        session.tick()
+    return kept, list(controller.robot.model.names[2:])
 
 
 def violated_rows(problem: HierarchyProblem, joints: list[str]) -> list[tuple[int, str]]:
@@ -134,8 +174,18 @@ def main() -> None:
     parser.add_argument("--robots", nargs="+", default=["talos_arms", "g1", "talos"])
     parser.add_argument("--ticks", type=int, default=2000, help="single-support ticks run")
     parser.add_argument("--window", type=int, default=2000, help="last ticks traced")
+    parser.add_argument("--scenario", type=Path, help="trace this scenario's ticks instead")
+    parser.add_argument(
+        "--between", type=float, nargs=2, default=(0.0, 12.0), help="--scenario's window, sim s"
+    )
     args = parser.parse_args()
     print(f"load average {os.getloadavg()[0]:.1f}")
+    if args.scenario is not None:
+        start, end = args.between
+        problems, joints = scenario_problems(args.scenario, start, end)
+        print(f"{args.scenario.stem} (Python kernel; ticks {start:g}-{end:g} s):")
+        trace(problems, joints)
+        return
     for robot in args.robots:
         problems, joints = single_support_problems(robot, args.ticks, args.window)
         first = max(args.ticks - args.window, 0)

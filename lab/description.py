@@ -16,6 +16,7 @@ from pathlib import Path
 from lab.protocol import ContactSpec, TaskGains
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
+STACKS_DIR = ROBOTS_DIR.parent / "stacks"  # the stack presets (lab/stack_presets.py)
 
 
 def robot_names() -> tuple[str, ...]:
@@ -71,6 +72,9 @@ class RobotDescription:
     hands: tuple[tuple[str, str], ...] = ()
     # Each hand's joints option, "all" or "arm" (lab/controller/tasks/hands.py), in that order.
     hand_joints: tuple[str, ...] = ()
+    # The stack preset (stacks/<name>.toml) the `stance` command brings when the stack running
+    # cannot lift a sole: Herzog's Table 4, or its variant for a robot with free arms.
+    stance_stack: str = "herzog_table4"
     # `[touchdown]`: the haptic touch detector's thresholds on the estimated contact force
     # (lab/realism/contact_estimate.py's TouchThresholds fields; absent: its defaults).
     touchdown: dict[str, float] = field(default_factory=dict)
@@ -144,7 +148,16 @@ def read_description(path: Path) -> RobotDescription:
         hands=tuple((hand, frame) for hand, frame, _ in hands),
         hand_joints=tuple(joints for _, _, joints in hands),
         touchdown=_touchdown(name, data.get("touchdown", {})),
+        stance_stack=_stance_stack(name, data.get("stance_stack", "herzog_table4")),
     )
+
+
+def _stance_stack(name: str, preset: object) -> str:
+    """`stance_stack`: the name of a stack preset in stacks/."""
+    if not isinstance(preset, str) or not (STACKS_DIR / f"{preset}.toml").is_file():
+        known = ", ".join(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
+        raise ValueError(f"robot {name!r}: stance_stack {preset!r} is no stack preset ({known})")
+    return preset
 
 
 TOUCHDOWN_KEYS = {"on", "off", "min_force", "accel_filter_hz"}

@@ -8,12 +8,11 @@ ordinary stack afterwards, reorderable with the `stack` command.
 
 import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
 from lab.controller.tasks import TASK_TYPES
+from lab.description import STACKS_DIR
 from lab.protocol import CommandError, parse_command
 
-STACKS_DIR = Path(__file__).resolve().parent.parent / "stacks"
 PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
 PRESET_KEYS = {"description", "method", "levels", "gains"}
 RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now

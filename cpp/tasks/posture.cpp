@@ -1,4 +1,5 @@
-// Posture tasks (lab/controller/tasks/posture.py): posture (Raiola eq. 9) and moving_posture.
+// Posture tasks (lab/controller/tasks/posture.py): posture (Raiola eq. 9), moving_posture and
+// upper_body.
 #include "tasks/posture.hpp"
 
 #include "tasks/feet.hpp"
@@ -70,11 +71,41 @@ class MovingPostureTask : public Task {
   Eigen::VectorXd weight_;  // of each actuated joint this tick
 };
 
+/// Raiola eq. 9 on the joints that move no contact (torso or waist and arms),
+/// q̈_j = kp (q_ref − q_j) − kd q̇_j; the error is q_ref − q_j of those joints (rad).
+class UpperBodyTask : public Task {
+ public:
+  void compute(const RobotModel& robot, const References& refs) override {
+    if (!found_) {  // at the first tick, as the Python task
+      std::vector<bool> in_leg(static_cast<std::size_t>(robot.na), false);
+      for (const auto& leg : leg_joints(robot))
+        for (Eigen::Index j : leg) in_leg[static_cast<std::size_t>(j)] = true;
+      for (Eigen::Index j = 0; j < robot.na; ++j)
+        if (!in_leg[static_cast<std::size_t>(j)]) joints_.push_back(j);
+      found_ = true;
+    }
+    const auto n = static_cast<Eigen::Index>(joints_.size());
+    reset(robot, n);
+    error.resize(n);
+    for (Eigen::Index row = 0; row < n; ++row) {
+      const Eigen::Index j = joints_[static_cast<std::size_t>(row)];
+      A(row, BASE_DOF + j) = 1.0;
+      error[row] = refs.posture[j] - robot.q[7 + j];
+      b[row] = gains.kp * error[row] - gains.kd * robot.v[BASE_DOF + j];
+    }
+  }
+
+ private:
+  bool found_ = false;
+  std::vector<Eigen::Index> joints_;  // the actuated joints in no leg
+};
+
 }  // namespace
 
 void add_posture_tasks(TaskRegistry& tasks) {
   tasks["posture"] = std::make_unique<PostureTask>();
   tasks["moving_posture"] = std::make_unique<MovingPostureTask>();
+  tasks["upper_body"] = std::make_unique<UpperBodyTask>();
 }
 
 }  // namespace lab

@@ -36,10 +36,6 @@ from lab.world.telemetry import (
     task_gains_report,
 )
 
-STANCE_PRESET = (
-    "herzog_table4"  # the `stance` command's stack when the current one cannot lift a sole
-)
-
 
 class SessionCommands(SessionTick):
     """A session that takes commands (module docstring)."""
@@ -179,7 +175,8 @@ class SessionCommands(SessionTick):
     def _stance(self, side: str | None, swing: float | None = None) -> dict:
         """Stand on both soles or on `side` (Herzog §5.4, behaviours/stance.py; None: where it
         stands), swinging the lifted leg at `swing` Hz if given; starts the stance behaviour,
-        with STANCE_PRESET if the stack has no `swing_sole` (or no `swing_leg` for a swing).
+        with the robot's `stance_stack` preset (Herzog's Table 4, or its variant for free arms)
+        if the stack has no `swing_sole` (or no `swing_leg` for a swing).
         Raises ValueError for a robot without two flat soles or an unknown side, changing
         nothing."""
         contacts = self.model.contacts
@@ -201,7 +198,7 @@ class SessionCommands(SessionTick):
             stance.swing(swing)
         names = self.controller.config.stack.names()
         if "swing_sole" not in names or (stance.swing_hz and "swing_leg" not in names):
-            reply = self._use_preset(STANCE_PRESET)
+            reply = self._use_preset(self.robot.description.stance_stack)
         return {"stance": side or stance.stance, "swing": stance.swing_hz, **reply}
 
     def _standing_stack(self) -> str:

@@ -18,7 +18,7 @@ from lab.controller.tasks.objectives import (
     InternalWrenchTask,
     TorqueTask,
 )
-from lab.controller.tasks.posture import MovingPostureTask, PostureTask
+from lab.controller.tasks.posture import MovingPostureTask, PostureTask, UpperBodyTask
 from lab.controller.tasks.sole import SwingLegTask, SwingSoleTask
 from lab.controller.tasks.trunk import (
     BaseHeightTask,
@@ -54,6 +54,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         ComAlongFeetTask,
         ComAcrossFeetTask,
         HandsTask,
+        UpperBodyTask,
     )
 }
 

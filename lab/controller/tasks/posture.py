@@ -5,6 +5,9 @@ from the walking references (eqs. 30–31), zero for references without one. A s
 joints are left to `swing_feet`, which fixes them at a higher priority (posture rows on them only
 steer the base's acceleration: docs/locomotion.md). A leg's rows are scaled by `posture_weight`
 (its load ramp), so they fade in after touchdown and out before lift-off instead of switching.
+
+`upper_body` is eq. 9 on the joints outside the legs alone, for a stack that holds a humanoid's
+torso and arms apart from (above) its balance.
 """
 
 from dataclasses import dataclass, field
@@ -135,3 +138,34 @@ class MovingPostureTask(Task):
         rows.write(w)
         de = reference_velocity[joints] - robot.v[rows.columns]
         return TaskRows(rows.view, w * (self.gains.kp * e + self.gains.kd * de), e)
+
+
+class UpperBodyTask(Task):
+    """Raiola eq. 9 on the joints that move no contact (a humanoid's torso or waist and arms, a
+    quadruped's arm): q̈_j = kp (q_ref − q_j) − kd q̇_j; the error is q_ref − q_j of those
+    joints (rad). No rows on a robot whose every joint is in a leg.
+
+    The posture task of its own for the upper body that single support needs on a robot with
+    free arms: Herzog's Sarcos was the lower body alone, its torso frozen (§4.1), and he expects
+    a full humanoid to "allow for more hierarchy levels" (§6.1); sharing the posture weight
+    of the legs, the arms are where the LQR's angular-momentum correction is cheapest
+    (docs/performance.md, "Single support with free arms").
+    """
+
+    name = "upper_body"
+
+    def __init__(self, gains: TaskGains | None = None) -> None:
+        super().__init__(gains)
+        self._rows: PostureRows | None = None
+
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+        if self._rows is None:  # at the first tick, as the kernel's
+            on = np.ones(robot.na, dtype=bool)
+            for leg in leg_joints(robot):
+                on[leg] = False
+            self._rows = PostureRows.of(robot, on)
+            self._rows.write(np.ones(len(self._rows.joints)))
+        rows = self._rows
+        e = (refs.posture - robot.joint_positions)[rows.joints]
+        b = self.gains.kp * e - self.gains.kd * robot.v[rows.columns]
+        return TaskRows(rows.view, b, e)
