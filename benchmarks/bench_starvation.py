@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LabServe
+from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LabServe, require_chromium
 
 ACTION_TIMEOUT_S = 60.0
 
@@ -54,7 +54,7 @@ def measure(args: argparse.Namespace, log: Path) -> dict[str, object]:
     if args.spin_ms is not None:
         serve_args += ["--spin-ms", str(args.spin_ms)]
     server = LabServe(log, *serve_args)
-    hog = None
+    hog = client = None
     try:
         client = server.client()
         server.wait_ui()
@@ -82,8 +82,9 @@ def measure(args: argparse.Namespace, log: Path) -> dict[str, object]:
                 time.sleep(0.3)
             last = client.command("info", timeout=5.0)["loop"]
             browser.close()
-        client.close()
     finally:
+        if client is not None:  # its Zenoh session's threads would keep the process alive
+            client.close()
         if hog is not None:
             hog.kill()
             hog.wait()
@@ -114,6 +115,7 @@ def main() -> int:
     p.add_argument("--actions", type=int, default=20, help="clicks and commands (default: 20)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
+    require_chromium("bench_starvation.py")
     with tempfile.TemporaryDirectory() as tmp:
         result = measure(args, Path(tmp) / "serve.log")
     if args.json:

@@ -32,6 +32,7 @@ from tests.helpers.browser import (
     VIEWPORT,
     LabServe,
     choose,
+    require_chromium,
     wait_drawn,
 )
 
@@ -111,12 +112,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object at the end")
     args = parser.parse_args(argv)
+    require_chromium("bench_status_line.py")
     situations = [s for s in SITUATIONS if s[0] in args.robots]
     results = {"load_start": load(), "situations": []}
     print(f"load average at start: {results['load_start']}", flush=True)
     log = Path(tempfile.mkdtemp(prefix="lab-status-")) / "serve.log"
     server = LabServe(log, "--robot", situations[0][0])
     figures = ServerFigures()
+    client = None
     try:
         client = server.client()
         client.subscribe_telemetry(figures.add)
@@ -155,8 +158,9 @@ def main(argv: list[str] | None = None) -> int:
                     print(read["status"].replace("\n", "\n   "))
                     print(f"   server, last {WINDOW_S:g} s: {read['server']}; load {read['load']}")
             browser.close()
-        client.close()
     finally:
+        if client is not None:  # its Zenoh session's threads would keep the process alive
+            client.close()
         server.stop()
     results["load_end"] = load()
     print(f"\nload average at end: {results['load_end']} (lab serve's log: {log})")

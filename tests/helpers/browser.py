@@ -149,6 +149,16 @@ OPEN_DROPDOWN_TRIES = 3
 OPEN_DROPDOWN_WAIT_MS = 20_000
 
 
+def require_chromium(program: str) -> None:
+    """Exit with one clear line when Debian's Chromium is missing (a benchmark that drives the
+    page: playwright's own error comes only after the lab has started, and is about a path)."""
+    if not Path(CHROMIUM).exists():
+        raise SystemExit(
+            f"{program}: no Chromium at {CHROMIUM}; ./dev test installs Debian's chromium "
+            "(or: apt-get install chromium)"
+        )
+
+
 @pytest.fixture(scope="module")
 def browser() -> Iterator[object]:
     """Debian's headless Chromium, one per test module (tests/conftest.py imports this)."""
