@@ -1,5 +1,5 @@
 // Load-distribution objectives of Hutter 2014 §4–5.1 (lab/controller/tasks/objectives.py):
-// forces, torques, force_normal, force_interpolation, internal_wrench.
+// forces, sole_forces, torques, force_normal, force_interpolation, internal_wrench.
 #include <cmath>
 
 #include "tasks/base.hpp"
@@ -13,6 +13,24 @@ class ForceTask : public Task {
   void compute(const RobotModel& robot, const References&) override {
     reset(robot, robot.nf);
     A.rightCols(robot.nf).setIdentity();
+  }
+};
+
+/// F → 0 with each flat sole's roll and pitch moments in its half-sizes: τ_x / W, τ_y / L (the
+/// sole's load times its CoP offset in half-sizes), so that a moment goes first to the load
+/// difference between the soles rather than to their ankles (objectives.py SoleForceTask).
+class SoleForceTask : public Task {
+ public:
+  void compute(const RobotModel& robot, const References&) override {
+    reset(robot, robot.nf);
+    A.rightCols(robot.nf).setIdentity();
+    for (std::size_t i = 0; i < robot.contacts.size(); ++i) {
+      const ContactSpec& contact = robot.contacts[i];
+      if (contact.kind != ContactKind::flat) continue;
+      const Eigen::Index at = robot.force_starts[i];
+      A(at + 3, robot.nv + at + 3) = 1.0 / contact.half_width;
+      A(at + 4, robot.nv + at + 4) = 1.0 / contact.half_length;
+    }
   }
 };
 
@@ -129,6 +147,7 @@ class InternalWrenchTask : public Task {
 
 void add_objective_tasks(TaskRegistry& tasks) {
   tasks["forces"] = std::make_unique<ForceTask>();
+  tasks["sole_forces"] = std::make_unique<SoleForceTask>();
   tasks["torques"] = std::make_unique<TorqueTask>();
   tasks["force_normal"] = std::make_unique<ForceNormalTask>();
   tasks["force_interpolation"] = std::make_unique<ForceInterpolationTask>();

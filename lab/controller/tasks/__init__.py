@@ -16,6 +16,7 @@ from lab.controller.tasks.objectives import (
     ForceNormalTask,
     ForceTask,
     InternalWrenchTask,
+    SoleForceTask,
     TorqueTask,
 )
 from lab.controller.tasks.posture import MovingPostureTask, PostureTask, UpperBodyTask
@@ -55,6 +56,7 @@ TASK_TYPES: dict[str, type[Task]] = {
         ComAcrossFeetTask,
         HandsTask,
         UpperBodyTask,
+        SoleForceTask,
     )
 }
 

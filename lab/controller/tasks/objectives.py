@@ -2,6 +2,7 @@
 
 Over x = [q̈, F] (with the dynamics on top, as every hierarchy method keeps them):
 - `forces` (F min, W_F = I): the force regularization, F → 0.
+- `sole_forces`: `forces` with each flat sole's roll and pitch moments in its half-sizes.
 - `torques` (τ min, W_τ = I, b_τ = 0): τ(x) = M_a q̈ + h_a − J_aᵀ F = 0 (Table 3, eqs. 44–45).
 - `force_normal` (§5.1.5): W_F = blockdiag(tᵢᵀ), the tangential components of each support
   force in the local surface tangent plane → 0, so forces align with the surface normals. The
@@ -30,6 +31,29 @@ class ForceTask(Task):
 
     def rows(self, robot: RobotModel, refs: References) -> TaskRows:
         return TaskRows(selection(robot.nx, robot.nv, robot.nx), zeros(robot.nf), zeros(0))
+
+
+class SoleForceTask(Task):
+    """F → 0 with each flat sole's roll and pitch moments priced in the sole's own half-sizes:
+    τ_x / W and τ_y / L (sole frame), the sole's load times its CoP offset in half-sizes.
+
+    Under `forces` (W_F = I) a newton and a newton metre cost alike; with soles a distance 2d
+    apart, the minimum-norm split of a roll moment puts a share 1/(1 + d²) of it in the ankles
+    (99 % for d = 0.1 m) rather than in load moved from one sole to the other. A lateral push then
+    drives both soles' CoPs to their edges, where the CoP rows bind. Priced per sole size, the
+    moment goes first to the load difference, which the soles can give."""
+
+    name = "sole_forces"
+    GAINS = ("weight",)
+
+    def rows(self, robot: RobotModel, refs: References) -> TaskRows:
+        A, view = self._matrix(robot, robot.nf)
+        A[:, robot.nv :] = np.eye(robot.nf)
+        for contact, rows in zip(robot.contacts, robot.force_slices, strict=True):
+            if contact.kind == "flat":
+                A[rows.start + 3, robot.nv + rows.start + 3] = 1.0 / contact.half_width
+                A[rows.start + 4, robot.nv + rows.start + 4] = 1.0 / contact.half_length
+        return TaskRows(view, zeros(robot.nf), zeros(0))
 
 
 class InternalWrenchTask(Task):
