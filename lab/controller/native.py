@@ -14,7 +14,6 @@ no task is asked for by name here.
 """
 
 import contextlib
-import operator
 import warnings
 from collections.abc import Callable
 
@@ -49,17 +48,6 @@ NATIVE_METHODS = ("cascade", "weighted", "nullspace", "wbosc")
 # The kernel compiles DAQP in; Clarabel (a Rust library) is not linked into it: a Clarabel
 # request runs on the Python kernel, with a note (docs/controller.md, "Two kernels").
 NATIVE_SOLVERS = ("daqp",)
-# What `_sync_limits` mirrors, read off the controller in one call: the torque and joint limits'
-# arrays, the contact limits and the level weight ratio
-_SYNCED_LIMITS = operator.attrgetter(
-    "_torque_limits.torque_limits",
-    "_joint_limits.lower",
-    "_joint_limits.upper",
-    "config.limits.friction",
-    "config.limits.normal_min",
-    "config.limits.normal_max",
-    "config.level_weight_ratio",
-)
 
 
 def native_available() -> bool:
@@ -178,7 +166,7 @@ class NativeController(WholeBodyController):
             self._mirror_stack(config.stack)
             for name, task in self.tasks.items():
                 self._mirror_gains(name, task.gains)
-        self._synced: tuple = ()  # what `_sync_limits` last mirrored (_SYNCED_LIMITS)
+        self._synced: tuple = ()
         # the (method, formulation) last set in the kernel (empty before the first solve)
         self._native_method: tuple[str, str] = ("", "")
         self._tau, self._x = np.zeros(robot.na), np.zeros(robot.nx)  # the kernel writes these
@@ -401,18 +389,28 @@ class NativeController(WholeBodyController):
     def _sync_limits(self) -> None:
         """Mirror limits the Python constraints were given since the last tick (scenario
         overrides replace the arrays; friction and the level weight ratio are numbers)."""
-        # every tick: one C call reads them and compares each to the last synced by identity
-        # (a number set again, equal, syncs again: harmless); 83 bytecodes a tick written out
-        limits = _SYNCED_LIMITS(self)
-        if self._synced and all(map(operator.is_, limits, self._synced)):
+        config, limits = self.config, self.config.limits
+        # every tick: identities and numbers compared as they are (a tuple of them cost more)
+        torque, joints, synced = self._torque_limits.torque_limits, self._joint_limits, self._synced
+        if (
+            synced
+            and synced[0][0] is torque
+            and synced[0][1] is joints.lower
+            and synced[0][2] is joints.upper
+            and synced[1][0] == limits.friction
+            and synced[1][1] == limits.normal_min
+            and synced[1][2] == limits.normal_max
+            and synced[1][3] == config.level_weight_ratio
+        ):
             return
-        torque, lower, upper, *numbers = limits
+        arrays = (self.torque_limits(), *self.joint_limits())
+        numbers = (limits.friction, limits.normal_min, limits.normal_max, config.level_weight_ratio)
         native = self._built
-        native.set_torque_limits(torque)
-        native.set_joint_limits(lower, upper)
+        native.set_torque_limits(arrays[0])
+        native.set_joint_limits(arrays[1], arrays[2])
         native.set_contact_limits(*numbers[:3])
         native.set_level_weight_ratio(numbers[3])
-        self._synced = limits
+        self._synced = (arrays, numbers)
 
     @property
     def kernel_seconds(self) -> tuple[float, float, float] | None:

@@ -10,7 +10,6 @@ Python around the crossing (docs/performance.md, "Where the plain tick goes"); t
 them at 100 Hz, the loop ticks at 1 kHz.
 """
 
-import operator
 from typing import Any, Generic, Protocol, TypeVar, overload
 
 import numpy as np
@@ -26,23 +25,6 @@ from lab.world.native_tick import NativeTick
 
 TOUCH_FORCE = 1.0  # N: a foot pressing on the ground harder than this touches it
 T = TypeVar("T")
-# What a tick plan depends on, read off its session in one call (TickPlan.holds)
-_PLANNED_FROM = operator.attrgetter(
-    "controller",
-    "behaviour",
-    "controller.references",
-    "realism",
-    "estimator",
-    "native_tick",
-    "fell",
-    "native_ticks",
-    "controller.config",
-    "controller.config.stack",
-    "controller.config.kernel",
-    "controller.config.method",
-    "controller.config.solver",
-    "controller.config.formulation",
-)
 
 
 class PlannedSession(Protocol):
@@ -74,9 +56,15 @@ class TickPlan:
     On the native path it sets the native tick's parts once (NativeTick.set_parts)."""
 
     def __init__(self, session: PlannedSession) -> None:
-        self.made_from = _PLANNED_FROM(session)  # what `holds` compares
-        controller, behaviour, realism = session.controller, session.behaviour, session.realism
+        controller, behaviour = session.controller, session.behaviour
+        config, realism = controller.config, session.realism
+        self.controller, self.behaviour, self.refs = controller, behaviour, controller.references
+        self.realism, self.estimator = realism, session.estimator
         self.native_tick = session.native_tick
+        self.fell, self.native_ticks = session.fell, session.native_ticks
+        self.config = config
+        self.settings = (config.kernel, config.method, config.solver, config.formulation)
+        self.stack = config.stack
         # An idle behaviour's update changes nothing (Balance off a foot line): the model update
         # and the solve are then one call (one crossing on the native kernel), no touch sensing.
         self.idle = behaviour.idle and not controller.reads_sensing
@@ -116,9 +104,22 @@ class TickPlan:
         """Whether what the plan was made from is what the session runs now. A plan for the
         Python path never holds: a behaviour's twin becomes available after its first Python
         tick (the gait's clock started), and the decision costs little beside a Python tick."""
-        # one C call reads them all, each compared by identity (a setting set again, equal,
-        # makes a new plan: the same one); 81 bytecodes a tick written out
-        return not self.note and all(map(operator.is_, _PLANNED_FROM(session), self.made_from))
+        controller = session.controller
+        config = controller.config
+        return (
+            not self.note
+            and controller is self.controller
+            and session.behaviour is self.behaviour
+            and controller.references is self.refs
+            and session.realism is self.realism
+            and session.estimator is self.estimator
+            and session.native_tick is self.native_tick
+            and session.fell == self.fell
+            and session.native_ticks == self.native_ticks
+            and config is self.config
+            and config.stack is self.stack
+            and (config.kernel, config.method, config.solver, config.formulation) == self.settings
+        )
 
 
 class Settled(Generic[T]):
