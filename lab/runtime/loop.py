@@ -354,10 +354,12 @@ class SimLoop:
     def _apply_commands(self, now: float) -> None:
         """Apply the commands waiting (at most `max_commands_per_tick`, for at most
         COMMAND_BUDGET_S), of the velocity commands only the newest. Most ticks have none:
-        one `receive` then, no clock read."""
-        velocity: list[Request] = []
+        one `receive` then, no clock read and no list made."""
         left = self.config.max_commands_per_tick
         request = self.transport.receive() if left > 0 else None
+        if request is None:
+            return
+        velocity: list[Request] = []
         while request is not None:
             if isinstance(request.command, VelocityCommand):
                 velocity.append(request)

@@ -68,8 +68,7 @@ class SessionTick(PlainTickResults, SessionBase):
             if self.hands.targets:
                 self.hands.write(controller.references, self.time)
             stale = owner is not None and owner.native_stale
-            code = self._plain_crossing(plan, stale)
-            if code == BEHAVIOUR_RAN or code == TickStatus.STEPPED:
+            if self._plain_crossing(plan, stale):
                 if stale and owner is not None:  # its twin ran: it holds the state now
                     owner.native_ran()
                 controller.robot.filled_elsewhere()
@@ -136,17 +135,18 @@ class SessionTick(PlainTickResults, SessionBase):
         self.plant.warm()
         return True
 
-    def _plain_crossing(self, plan: TickPlan, stale: bool) -> int | None:
-        """A plain plan's crossing: its code, or None when it raised a control failure (kept in
-        `_crossing` with any code other than a plain one, for `_control` to handle as every
-        native tick's: events, fallback, divergence)."""
+    def _plain_crossing(self, plan: TickPlan, stale: bool) -> bool:
+        """A plain plan's crossing: whether it stepped with the status ok (its code STEPPED,
+        or with BEHAVIOUR_RAN); a control failure it raised, or any other code, is kept in
+        `_crossing` for `_control` to handle as every native tick's: events, fallback,
+        divergence."""
         controller = self.controller
         controller.ran = plan.ran
         try:
             controller.sync_native_tick()
         except CONTROL_FAILURES as error:
             self._crossing = error
-            return None
+            return False
         # The last plain tick's results, unread, are this tick's to replace: the crossing
         # overwrites the buffers they are in, and every path below sets τ, F and the output.
         self._pending = None
@@ -157,10 +157,11 @@ class SessionTick(PlainTickResults, SessionBase):
             if not isinstance(error, CONTROL_FAILURES):
                 raise
             self._crossing = error
-            return None
-        if code != BEHAVIOUR_RAN and code != TickStatus.STEPPED:
-            self._crossing = code
-        return code
+            return False
+        if code == BEHAVIOUR_RAN or code == TickStatus.STEPPED:
+            return True
+        self._crossing = code
+        return False
 
     def _ticked(self, native: bool) -> None:
         """A tick done: counted, and every FALL_CHECK_PERIOD ticks the fall check (`native`:
