@@ -1,7 +1,6 @@
 // RobotModel: the one place that talks to pinocchio (mirrors lab/controller/model.py).
 //
-// One update(q, v) per tick runs computeAllTerms' pass without the terms no task reads (model.cpp
-// tick_terms: no J̇, Ȧ_G or energies) and exposes what the tasks and constraints need,
+// One update(q, v) per tick runs computeAllTerms and exposes what the tasks and constraints need,
 // in pinocchio's conventions: q = [base position, quaternion (x, y, z, w), joints], v with the
 // base velocity in the base frame, x = [qdd, F] with one force block per contact (a point foot's
 // force in world axes, a flat foot's wrench in its sole frame).
