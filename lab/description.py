@@ -17,6 +17,7 @@ from lab.protocol import ContactSpec, TaskGains
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"
 STACKS_DIR = ROBOTS_DIR.parent / "stacks"  # the stack presets (lab/stack_presets.py)
+STACK_PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
 
 
 def robot_names() -> tuple[str, ...]:
@@ -154,8 +155,8 @@ def read_description(path: Path) -> RobotDescription:
 
 def _stance_stack(name: str, preset: object) -> str:
     """`stance_stack`: the name of a stack preset in stacks/."""
-    if not isinstance(preset, str) or not (STACKS_DIR / f"{preset}.toml").is_file():
-        known = ", ".join(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
+    if preset not in STACK_PRESET_NAMES:
+        known = ", ".join(STACK_PRESET_NAMES)
         raise ValueError(f"robot {name!r}: stance_stack {preset!r} is no stack preset ({known})")
     return preset
 

@@ -10,10 +10,10 @@ import tomllib
 from dataclasses import dataclass
 
 from lab.controller.tasks import TASK_TYPES
+from lab.description import STACK_PRESET_NAMES as PRESET_NAMES
 from lab.description import STACKS_DIR
 from lab.protocol import CommandError, parse_command
 
-PRESET_NAMES: tuple[str, ...] = tuple(sorted(p.stem for p in STACKS_DIR.glob("*.toml")))
 PRESET_KEYS = {"description", "method", "levels", "gains"}
 RENAMED_KEYS = {"hierarchy": "method"}  # old spelling -> the one word for the concept now
 
