@@ -24,8 +24,9 @@ the machine held the loop back). Each switcher
 keeps the first robot's world first, as `lab serve` does, so that `compiled` is a robot's
 first build and `cached` a switch back (lab/world/compiled.py, `KeptWorlds`).
 
-A switch back copies the kept MjModel: `--copy native` (as `lab serve`: `lab._plant` without
-the GIL, lab/world/compiled.py), `binding` (MuJoCo's binding's copy, which keeps the GIL), or
+A switch back copies the kept MjModel: `--copy native` (`lab._plant` without the GIL,
+lab/world/compiled.py's `copied_model`), `binding` (MuJoCo's binding's copy, which keeps the
+GIL: as `lab serve`), or
 both in turn (`native,binding,native,binding`: one run each, in that order).
 
     .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
@@ -288,9 +289,9 @@ def main() -> int:
     )
     parser.add_argument(
         "--copy",
-        default="native",
+        default="binding",
         help="how a switch back copies the kept MjModel, one thread run per entry in order: "
-        "native (lab._plant, without the GIL) or binding (MuJoCo's, keeping it)",
+        "binding (MuJoCo's, keeping the GIL: lab serve's) or native (lab._plant, without it)",
     )
     args = parser.parse_args()
     robots = args.robots.split(",")
