@@ -23,10 +23,6 @@ constexpr double kRetryRegularization = 1e-6;
 constexpr double kFeasibilityTol = 1e-9;  // a step that violates no row by more is taken as is
 constexpr double kZeroRowTol = 1e-10;     // a kept inequality with no freedom left is dropped
 
-bool satisfies(const Eigen::MatrixXd& C, const Eigen::VectorXd& u, const Eigen::VectorXd& d) {
-  return d.size() == 0 || ((C * u - d).array() <= kFeasibilityTol).all();
-}
-
 /// What the cascade keeps from tick to tick: no allocation on the equality path once the
 /// stack's shapes have been seen (one set per thread, as the QP solver's).
 struct Buffers {
@@ -172,20 +168,15 @@ Eigen::VectorXd smallest_in_optimal_set(const Eigen::VectorXd& u, const Eigen::M
   return u + step * (N * w);
 }
 
-/// The step u in the null space for one level (eqs. 9-11), given its least-squares step and
-/// the null space N of its equality rows; the slacks are implicit in the cost. Sets `status`.
+/// The step u in the null space for one level (eqs. 9-11) where its least-squares step violates
+/// an inequality, given that step and the null space N of its equality rows; the slacks are
+/// implicit in the cost. Sets `status`.
 Eigen::VectorXd solve_level(const Eigen::VectorXd& u_ls, const Eigen::MatrixXd& Az,
                             const Eigen::VectorXd& r, const Eigen::MatrixXd& N,
                             const Eigen::MatrixXd& Cz, const Eigen::VectorXd& s,
                             const Eigen::MatrixXd& K, const Eigen::VectorXd& k,
                             const Eigen::MatrixXd& Z, const Eigen::VectorXd& x, LevelStatus& status,
                             int& qp_solves) {
-  // When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
-  // equalities that step is u = 0, which the carried bounds always allow (k >= 0).
-  if (satisfies(Cz, u_ls, s) && satisfies(K, u_ls, k)) {
-    status = LevelStatus::exact;
-    return u_ls;
-  }
   const Eigen::Index nz = Az.cols(), m = s.size();
   // Over (u, v): C u - v <= s (the level's rows with their slacks), K u <= k (carried rows).
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m + K.rows(), nz + m);
@@ -210,10 +201,12 @@ Eigen::VectorXd solve_level(const Eigen::VectorXd& u_ls, const Eigen::MatrixXd& 
 void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen::VectorXd x,
                        HierarchySolution& out, LevelClock& clock) {
   clock.start();
-  // Inequalities of the levels above in null-space coordinates: K u <= k keeps each within
-  // the slack its level reached (eq. 9); k >= 0, so u = 0 is feasible for every level.
-  Eigen::MatrixXd K(0, Z.cols());
-  Eigen::VectorXd k(0);
+  // Inequalities of the levels above, kept as their rows over x (C_above) with the room k each
+  // has left within the slack its level reached (eq. 9): in null-space coordinates they are
+  // C_above Z u <= k, a product formed only for a level that poses a QP (the others need
+  // C_above (Z u) alone). k >= 0, so u = 0 is feasible for every level.
+  Eigen::MatrixXd C_above(0, x.size());
+  Eigen::VectorXd k(0), step, rows;
   const std::size_t last = problem.levels.size() - 1;
   for (std::size_t depth = 0; depth < problem.levels.size(); ++depth) {
     const Level& level = problem.levels[depth];
@@ -222,30 +215,38 @@ void with_inequalities(const HierarchyProblem& problem, Eigen::MatrixXd Z, Eigen
       clock.lap(depth);
       continue;
     }
-    const Eigen::MatrixXd Az = level.A * Z, Cz = level.C * Z;
+    Eigen::MatrixXd Az;
+    sparse_rows_product(level.A, Z, Az);
     const Eigen::VectorXd r = level.b - level.A * x, s = level.d - level.C * x;
-    Eigen::VectorXd u_ls;
+    Eigen::VectorXd u;
     Eigen::MatrixXd N;
-    least_squares_and_null_space(Az, r, u_ls, N);
-    Eigen::MatrixXd K_free;  // carried rows with freedom left in Z
-    Eigen::VectorXd k_free;
-    rows_with_freedom(K, k, K_free, k_free);
-    const Eigen::VectorXd u =
-        solve_level(u_ls, Az, r, N, Cz, s, K_free, k_free, Z, x, out.levels[depth], out.qp_solves);
-    x.noalias() += Z * u;
+    least_squares_and_null_space(Az, r, u, N);
+    // When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
+    // equalities that step is u = 0, which the carried bounds always allow (k >= 0).
+    step.noalias() = Z * u;
+    if (satisfies(level.C, step, s, rows) && satisfies(C_above, step, k, rows)) {
+      out.levels[depth] = LevelStatus::exact;
+    } else {
+      Eigen::MatrixXd Cz, K, K_free;  // K: carried rows with freedom left in Z
+      Eigen::VectorXd k_free;
+      sparse_rows_product(level.C, Z, Cz);
+      sparse_rows_product(C_above, Z, K);
+      rows_with_freedom(K, k, K_free, k_free);
+      u = solve_level(u, Az, r, N, Cz, s, K_free, k_free, Z, x, out.levels[depth], out.qp_solves);
+      step.noalias() = Z * u;
+    }
+    x += step;
     if (depth == last) {
       clock.lap(depth);
       break;
     }
     if (s.size()) {
-      K = stacked(K, Cz);
+      C_above = stacked(C_above, level.C);
       k = stacked(k, s);
     }
-    k = (k - K * u).cwiseMax(0.0);
-    if (r.size()) {  // lock the directions this level's equalities used (eq. 8)
-      Z = (Z * N).eval();
-      K = (K * N).eval();
-    }
+    rows.noalias() = C_above * step;
+    k = (k - rows).cwiseMax(0.0);
+    if (r.size()) Z = (Z * N).eval();  // lock the directions this level's equalities used (eq. 8)
     clock.lap(depth);
   }
   out.x = std::move(x);

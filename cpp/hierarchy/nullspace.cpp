@@ -323,7 +323,7 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   if (e.identity) {
     step.qr.compute(A);  // A Z = A
   } else {
-    step.AZ.noalias() = A * Z;
+    sparse_rows_product(A, Z, step.AZ);  // posture and force rows: one column each
     if (last && full_rank_step(step, step.r, step.r)) {
       e.z.noalias() += Z * step.r;
       return;

@@ -121,10 +121,12 @@ def _with_inequalities(problem: HierarchyProblem, solver: str, record: _Record) 
     """The cascade of eqs. 9–11, one QP per level where an inequality binds."""
     Z, x = _dynamics_solution(problem)
     record.clock.start()
-    # Inequalities of the levels above, in the current null-space coordinates: K u ≤ k keeps
-    # each of them within the slack its level reached (eq. 9). k ≥ 0 always holds, so u = 0 is
-    # feasible for every level whatever the solver tolerance of the levels before.
-    K = np.zeros((0, Z.shape[1]))
+    # Inequalities of the levels above, kept as their rows over x (C_above) with the room k each
+    # has left within the slack its level reached (eq. 9): in null-space coordinates they are
+    # C_above Z u ≤ k, a product formed only for a level that poses a QP (the others need
+    # C_above (Z u) alone). k ≥ 0 always holds, so u = 0 is feasible for every level whatever
+    # the solver tolerance of the levels before.
+    C_above = np.zeros((0, len(x)))
     k = np.zeros(0)
     last = len(problem.levels) - 1
     for depth, level in enumerate(problem.levels):
@@ -132,21 +134,31 @@ def _with_inequalities(problem: HierarchyProblem, solver: str, record: _Record) 
             record.levels[depth:] = [NO_FREEDOM] * (len(problem.levels) - depth)
             break
         Az, r = _projected(level.A, level.b, Z, x)
-        Cz, s = _projected(level.C, level.d, Z, x)
-        u_ls, N = least_squares_and_null_space(Az, r)
-        free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
-        rows = _LevelRows(Az, r, N, Cz, s, K[free], k[free])
-        u = _solve_level(u_ls, rows, Z, x, solver, record, depth)
-        x = x + Z @ u
+        s = level.d - level.C @ x
+        u, N = least_squares_and_null_space(Az, r)
+        # When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
+        # equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
+        step = Z @ u
+        if (level.C @ step <= s + FEASIBILITY_TOL).all() and (
+            C_above @ step <= k + FEASIBILITY_TOL
+        ).all():
+            record.levels[depth] = EXACT
+        else:
+            K = C_above @ Z
+            free = (K * K).sum(axis=1) > ZERO_ROW_TOL**2
+            rows = _LevelRows(Az, r, N, level.C @ Z, s, K[free], k[free])
+            u = _solve_level(u, rows, Z, x, solver, record, depth)
+            step = Z @ u
+        x = x + step
         record.clock.lap(depth)
         if depth == last:
             break
         if len(s):
-            K = np.concatenate((K, Cz))
+            C_above = np.concatenate((C_above, level.C))
             k = np.concatenate([k, s])
-        k = np.maximum(k - K @ u, 0.0)
+        k = np.maximum(k - C_above @ step, 0.0)
         if len(r):  # lock the directions this level's equalities used (eq. 8)
-            Z, K = Z @ N, K @ N
+            Z = Z @ N
     return x
 
 
@@ -183,17 +195,9 @@ def _solve_level(
     record: _Record,
     depth: int,
 ) -> np.ndarray:
-    """The step in the null space for one level, given its least-squares step u (the slacks
-    are implicit in the cost); records the level's status in `record`."""
+    """The step in the null space for one level whose least-squares step u violates an
+    inequality (the slacks are implicit in the cost); records the level's status in `record`."""
     Az, r, Cz, s, Kz, k = rows.Az, rows.r, rows.Cz, rows.s, rows.K, rows.k
-    # When the least-squares step violates no inequality, (u, v = 0) is optimal. Without
-    # equalities that step is u = 0, which the carried bounds always allow (k ≥ 0).
-    fits = (not len(s) or (Cz @ u <= s + FEASIBILITY_TOL).all()) and (
-        not len(k) or (Kz @ u <= k + FEASIBILITY_TOL).all()
-    )
-    if fits:
-        record.levels[depth] = EXACT
-        return u
     nz, m = Az.shape[1], len(s)
     # Over (u, v): C u − v ≤ s (the level's rows with their slacks), K u ≤ k (the carried rows).
     G = np.zeros((m + len(k), nz + m))
