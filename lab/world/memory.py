@@ -6,10 +6,11 @@ mapping of its own, returned to the system when freed, but by default it raises 
 to the size of each such block freed (up to 32 MiB): after the first switch a MuJoCo model's
 buffer (Solo12: 7.4 MB, one block) came from the heap, where free blocks stayed resident
 between the live ones. The resident memory's floor over 200 Solo12 switches then stepped by one
-or two models (+0-6 %, either copy of the model) and the arenas held 150-255 MB free
+or two models (-2 to +6 %, either copy of the model) and the arenas kept 300-700 MB free
 (`heap_usage`). `map_large_blocks`, which the sim process calls as it starts (lab serve), fixes
-the threshold at LARGE_BLOCK_BYTES: the floor moved by -0.6 to +1.3 % (+2 % over 600 switches)
-and the free memory kept was 16 MB (docs/reliability.md). The smaller blocks a switch frees are still kept in the
+the threshold at LARGE_BLOCK_BYTES: the floor moved by +0.7 to +1.2 % (+2.5 % over 600
+switches) and the arenas kept 40-60 MB free (benchmarks/bench_switch_memory.py,
+docs/reliability.md). The smaller blocks a switch frees are still kept in the
 arenas until `release_free_memory` trims them. A flood of commands leaves free memory the same
 way through Zenoh's threads (lab/runtime/heap_trim.py); `heap_usage` tells the two apart (in
 use, or free and kept).
