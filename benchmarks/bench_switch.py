@@ -25,9 +25,9 @@ keeps the first robot's world first, as `lab serve` does, so that `compiled` is 
 first build and `cached` a switch back (lab/world/compiled.py, `KeptWorlds`).
 
 A switch back copies the kept MjModel: `--copy native` (`lab._plant` without the GIL,
-lab/world/compiled.py's `copied_model`), `binding` (MuJoCo's binding's copy, which keeps the
-GIL: as `lab serve`), or
-both in turn (`native,binding,native,binding`: one run each, in that order).
+lab/world/compiled.py's `copied_model`: as `lab serve`), `binding` (MuJoCo's binding's copy,
+which keeps the GIL), or both in turn (`native,binding,native,binding`: one run each, in that
+order). The C heap maps its large blocks as `lab serve`'s does (lab/world/memory.py).
 
     .venv/bin/python benchmarks/bench_switch.py [--switches 8] [--every 1.5] [--robots solo12,bolt]
         [--modes worker,thread,loop] [--nices=-10,none,10] [--realtime on,off]
@@ -49,6 +49,7 @@ from lab.runtime.intake import Request
 from lab.runtime.loop import LoopConfig, SimLoop
 from lab.runtime.switch import Switcher
 from lab.world.compiled import copied_model
+from lab.world.memory import map_large_blocks
 from lab.world.session import Session, SessionConfig
 
 MODES = ("worker", "thread", "loop")
@@ -289,11 +290,12 @@ def main() -> int:
     )
     parser.add_argument(
         "--copy",
-        default="binding",
+        default="native",
         help="how a switch back copies the kept MjModel, one thread run per entry in order: "
-        "binding (MuJoCo's, keeping the GIL: lab serve's) or native (lab._plant, without it)",
+        "native (lab._plant, without the GIL: lab serve's) or binding (MuJoCo's, keeping it)",
     )
     args = parser.parse_args()
+    map_large_blocks()  # as lab serve does
     robots = args.robots.split(",")
     nices = [None if n == "none" else int(n) for n in args.nices.split(",")]
     if not set(values := args.realtime.split(",")) <= {"on", "off"}:

@@ -209,8 +209,10 @@ def serve_main(argv: list[str]) -> int:
         print(error, file=sys.stderr)
         return 2
     from lab.runtime.gain_designer import GainDesigner
+    from lab.world.memory import map_large_blocks
     from lab.world.session import Session, SessionConfig  # heavy: MuJoCo, pinocchio
 
+    map_large_blocks()  # what a robot switch frees is given back to the system (memory.py)
     designer = GainDesigner()  # LQR gains designed off the loop (issue 26 item 2)
     try:
         session = Session(SessionConfig(robot=args.robot, scene=args.scene), designer.submit)

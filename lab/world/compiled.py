@@ -128,13 +128,12 @@ class KeptWorlds(RecentWorlds[CompiledWorld]):
     """Worlds compiled in this process and kept per key, the last `max_worlds`, for switches
     built on a thread beside the loop (lab/runtime/switch.py): a switch back to a robot and
     scene shares the robot (a `Robot` is never changed: the controller's model is a copy,
-    lab/realism/model_error.py) and copies MuJoCo's model as compiled (MuJoCo's binding,
-    `copy.copy`: Solo12's 7.4 MB in 1.3 ms of CPU, with the GIL; loading it from its binary
-    took 14-20 ms) instead of parsing the URDF again (pinocchio's parser keeps the GIL: 2-16 ms
-    of CPU) and compiling. Used by one thread at a time; a world compiled here compiles inside
-    `compiling()` (`compile_world`). `copy` makes each copy: the binding's, since
-    `copied_model` (without the GIL) failed the RSS test over 200 switches in two fresh-clone CI
-    runs of two (docs/reliability.md); benchmarks/bench_switch.py `--copy native` sets it."""
+    lab/realism/model_error.py) and copies MuJoCo's model as compiled (`copied_model`: without
+    the GIL; loading it from its binary took 14-20 ms) instead of parsing the URDF again
+    (pinocchio's parser keeps the GIL: 2-16 ms of CPU) and compiling. Used by one thread at a
+    time; a world compiled here compiles inside `compiling()` (`compile_world`). `copy` makes
+    each copy (benchmarks/bench_switch.py `--copy binding` sets MuJoCo's binding's, `copy.copy`,
+    which keeps the GIL)."""
 
     def __init__(
         self,
@@ -143,7 +142,7 @@ class KeptWorlds(RecentWorlds[CompiledWorld]):
     ) -> None:
         super().__init__(max_worlds)
         self._compile = functools.partial(compile_world, compiling=compiling)
-        self.copy: Callable[[mujoco.MjModel], mujoco.MjModel] = copy.copy
+        self.copy: Callable[[mujoco.MjModel], mujoco.MjModel] = copied_model
 
     def world(self, key: WorldKey) -> CompiledWorld:
         """The world of `key`, its MjModel a new copy each call (a plant changes its own): from

@@ -1,13 +1,19 @@
 """Memory the C heap keeps after it is freed, given back to the system, and what it holds.
 
 A robot switch frees a whole session (MuJoCo model and data, pinocchio models, the native
-kernel) and builds another; glibc's malloc keeps much of what was freed in its arenas (its
-mmap threshold grows with the largest block freed, so later blocks of that size come from the
-heap, where fragmentation holds them). Measured (issue 25, headless, 100 ANYmal/Solo12 switches):
-the resident memory grew 13 MB without trimming; with `malloc_trim` every ten switches it stayed
-at 194.9-195.1 MB for 90 of them (a 7 MB step at the 100th). The memory was free, only not
-returned (docs/reliability.md). A flood of commands does the same through Zenoh's threads
-(lab/runtime/heap_trim.py); `heap_usage` tells the two apart (in use, or free and kept).
+kernel) and builds another. glibc's malloc gives each block of its mmap threshold or more a
+mapping of its own, returned to the system when freed, but by default it raises the threshold
+to the size of each such block freed (up to 32 MiB): after the first switch a MuJoCo model's
+buffer (Solo12: 7.4 MB, one block) came from the heap, where free blocks stayed resident
+between the live ones. The resident memory's floor over 200 Solo12 switches then stepped by one
+or two models (-2 to +6 %, either copy of the model) and the arenas kept 300-700 MB free
+(`heap_usage`). `map_large_blocks`, which the sim process calls as it starts (lab serve), fixes
+the threshold at LARGE_BLOCK_BYTES: the floor moved by +0.7 to +1.2 % (+2.5 % over 600
+switches) and the arenas kept 40-60 MB free (benchmarks/bench_switch_memory.py,
+docs/reliability.md). The smaller blocks a switch frees are still kept in the
+arenas until `release_free_memory` trims them. A flood of commands leaves free memory the same
+way through Zenoh's threads (lab/runtime/heap_trim.py); `heap_usage` tells the two apart (in
+use, or free and kept).
 """
 
 import contextlib
@@ -16,6 +22,14 @@ import ctypes.util
 import functools
 import gc
 from collections.abc import Iterator
+
+# glibc's mmap threshold as the sim process fixes it (`map_large_blocks`): below the MuJoCo
+# models of more than a few kB (Go2's 1.8 MB, Solo12's 7.4), far above what the loop allocates
+# again and again, so that no tick maps and unmaps memory (`lab serve --robot g1` ticking with
+# its UI connected, mmap calls traced for 10-15 s: at a 4 KiB threshold ~120 a second, 8-12 KiB
+# each; at 32 KiB none).
+LARGE_BLOCK_BYTES = 1 << 20
+M_MMAP_THRESHOLD = -3  # mallopt's parameter (malloc.h)
 
 
 class _MallInfo2(ctypes.Structure):
@@ -56,6 +70,16 @@ def release_free_memory() -> bool:
         return False
     trim(0)
     return True
+
+
+def map_large_blocks(threshold: int = LARGE_BLOCK_BYTES) -> bool:
+    """From now on every block of the C heap of `threshold` bytes or more is a mapping of its
+    own, returned to the system when freed (glibc's `mallopt(M_MMAP_THRESHOLD)`, which also
+    stops glibc raising the threshold to the largest block freed: the module). False where
+    there is no such call (another C library) or glibc refuses the value (over 32 MiB)."""
+    libc = _libc()
+    mallopt = getattr(libc, "mallopt", None) if libc is not None else None
+    return mallopt is not None and mallopt(M_MMAP_THRESHOLD, threshold) == 1
 
 
 def heap_usage() -> dict[str, float] | None:

@@ -14,7 +14,6 @@ from lab import protocol as cmd
 from lab.controller.behaviours import BEHAVIOURS, Balance, Behaviour
 from lab.controller.behaviours.walking import WALKING_BEHAVIOURS
 from lab.controller.controller import ControlOutput, Ran
-from lab.controller.hand_targets import HandTargets
 from lab.controller.momentum import GainFuture, LqrProblem
 from lab.controller.stack import Stack
 from lab.realism.contact_estimate import TouchThresholds
@@ -120,7 +119,7 @@ class SessionBase(SessionParts):
             setattr(self, part.name, getattr(parts, part.name))
         self.controller.set_momentum_designer(self._gain_designer)
         self._gait_stack: list[list[str]] | None = None  # the levels a gait brought along
-        self._reset_state(standing=parts.behaviour)
+        self._restart(parts.behaviour)  # the parts stand already (`build_parts`)
 
     def parts(self) -> SessionParts:
         """The parts running now, apart from the session: what `install` hands back."""
@@ -149,25 +148,21 @@ class SessionBase(SessionParts):
         self._event("session_rebuilt", f"robot {self.config.robot} in scene {self.config.scene}")
         return old
 
-    def _reset_state(self, time: float = 0.0, standing: Behaviour | None = None) -> None:
-        """The robot standing under control at sim time `time` (s), nothing commanded.
+    def _reset_state(self, time: float = 0.0) -> None:
+        """The robot standing under control at sim time `time` (s), nothing commanded."""
+        self.stand(time)  # the last tick's solution forgotten: it was of the state left behind
+        self._restart()
+
+    def _restart(self, standing: Behaviour | None = None) -> None:
+        """The run anew, nothing commanded, from the parts standing at rest (`stand`).
         `standing`: the parts' own `Balance`, made by `build_parts` for the robot standing at
         rest, as it is here: a switch's swap then does not make one on the loop (1 ms)."""
-        self.plant.reset(self.robot.q_standing, time=time)
-        self.plant.set_joint_damping(0.0)
-        self.realism.reset(self.robot.q_standing)
         self._true_state = self.plant.state()  # this tick's, read by _measure
-        self.estimator.reset(*self._true_state)
-        self.controller.forget_last_solution()  # the last tick's was of the state left behind
         if standing is None:
             self._set_behaviour(Balance.name)
         else:
             self.behaviour = standing
             self.controller.references = standing.references
-        # the hands task's targets: each hand held where it stands (a `hand` command moves them)
-        self.hands = HandTargets.holding(
-            self.robot.model, self.robot.q_standing, self.robot.description.hands
-        )
         self.pushes: dict[str, Push] = {}
         self.velocity = np.zeros(3)
         self.paused = False

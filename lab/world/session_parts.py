@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 from lab.controller.behaviours import Balance, Behaviour
 from lab.controller.constraints import ContactLimits
 from lab.controller.controller import ControllerConfig
+from lab.controller.hand_targets import HandTargets
 from lab.controller.model import RobotModel
 from lab.controller.native import NativeController
 from lab.controller.stack import Stack
@@ -63,6 +64,21 @@ class SessionParts:
     realism: RealismLayer | NativeRealismLayer
     estimator: BaseEstimator  # the base state the controller reads: truth, or the EKF's
     behaviour: Behaviour  # standing (Balance) until the `gait` command starts another
+    hands: HandTargets  # the hands task's targets (a `hand` command moves them)
+
+    def stand(self, time: float = 0.0) -> None:
+        """The robot standing at rest at sim time `time` (s), as a session starts: the plant
+        reset there without extra damping, the realism layer and the estimator started from it,
+        the controller's last solution forgotten, each hand held where it stands. A session's
+        reset does it on the loop; `build_parts` does it to new parts, on the switch's thread,
+        so that the swap (`Session.install`) need not (0.6 ms of its 0.9, docs/reliability.md)."""
+        q = self.robot.q_standing
+        self.plant.reset(q, time=time)
+        self.plant.set_joint_damping(0.0)
+        self.realism.reset(q)
+        self.estimator.reset(*self.plant.state())
+        self.controller.forget_last_solution()
+        self.hands = HandTargets.holding(self.robot.model, q, self.robot.description.hands)
 
 
 def build_parts(
@@ -117,6 +133,9 @@ def build_parts(
     layer = realism_layer(knobs, model.na, config.timestep)
     placements = FramePlacements(robot)
     estimator = BaseEstimator(knobs, robot, config.timestep)
-    return SessionParts(
-        config, robot, plant, model, controller, placements, native_tick, layer, estimator, standing
-    )
+    parts = SessionParts(
+        config, robot, plant, model, controller, placements, native_tick, layer, estimator,
+        standing, hands=HandTargets((), []),  # `stand` holds each hand where it stands
+    )  # fmt: skip
+    parts.stand()  # as the session's reset does: the swap takes them standing (`install`)
+    return parts

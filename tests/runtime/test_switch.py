@@ -23,6 +23,7 @@ from lab.runtime.scheduling import ThreadPolicy
 from lab.runtime.switch import SWAP_WAIT_S, SWITCH_FIFO_PRIORITY, Realtime, Switcher
 from lab.runtime.world_cache import WorldCache
 from lab.world.compiled import KeptWorlds, world_key
+from lab.world.memory import map_large_blocks
 from lab.world.session import Session, SessionConfig
 from lab.world.session_parts import SessionParts, build_parts
 
@@ -62,10 +63,11 @@ WINDOW = 20  # switches whose lowest RSS stands for an end of the run
 def _switch_memory() -> tuple[float, float, str, bool]:
     """The lowest RSS over switches 11-30 and over the last 20 of 200 (MB), the robot and
     whether it fell, measured in a fresh process (the suite runs other files in this one: their
-    memory is not a switch's). Lowest, not last: from one switch to the next the resident
-    memory moves by one or two Solo12 models (7.2 MB each: free memory the C heap keeps, also
-    once the old parts are freed and the heap trimmed; docs/reliability.md), and the floor by
-    0 or one of them (0-3 %) with either copy of the kept model; a leak raises the floor."""
+    memory is not a switch's) with the C heap as the sim process sets it (`map_large_blocks`).
+    Lowest, not last: a sample may come before the switch's thread frees the old parts (a
+    Solo12 model, 7.4 MB, is one of them). Without `map_large_blocks` the floor itself stepped
+    by one or two models (+0-6 %: docs/reliability.md); a leak raises the floor."""
+    assert map_large_blocks()
     session = Session(SessionConfig(robot=ROBOT))
     switcher = Switcher()
     early: list[float] = []

@@ -14,7 +14,9 @@ import pytest
 from lab.controller import hierarchy
 from lab.controller.hierarchy.nullspace import ActiveSetCapWarning
 from lab.controller.qp import QPFailure
+from lab.protocol import RobotCommand
 from lab.world.session import WARNING_HOLD_S, Session, SessionConfig
+from lab.world.session_parts import build_parts
 from lab.world.session_tick import FALL_CONTACT_S, LIMP_DAMPING_SPEED
 
 
@@ -230,6 +232,34 @@ def test_a_robot_switch_and_a_reset(session: Session) -> None:
     assert session.handle("reset")["ok"]
     assert session.time == 0.0
     assert session.handle("robot", {"name": "anymal"})["ok"]
+
+
+def _ticked(session: Session, ticks: int) -> list[np.ndarray]:
+    """Each tick's q, v and torques over `ticks` ticks."""
+    states = []
+    for _ in range(ticks):
+        session.tick()
+        states.extend((*session.plant.state(), session.tau.copy()))
+    return states
+
+
+def test_a_robot_swapped_in_ticks_as_a_new_session_of_it() -> None:
+    """A switch's parts stand before the swap (`build_parts` resets them on the switch's
+    thread, each hand held where it stands): swapped into a session that ran another robot for
+    0.03 s, B1-Z1 (its arm's hand held) ticks bit for bit as a session started with it, and
+    after a reset again."""
+    session = Session(SessionConfig(robot="solo12"))
+    run(session, 0.03)
+    session.install(build_parts(session.switch_config(RobotCommand("b1_z1"))))
+    fresh = Session(SessionConfig(robot="b1_z1"))
+    assert session.hands.report() == fresh.hands.report() and session.hands.names
+    assert all(
+        np.array_equal(a, b) for a, b in zip(_ticked(session, 20), _ticked(fresh, 20), strict=True)
+    )
+    assert session.handle("reset")["ok"] and fresh.handle("reset")["ok"]
+    assert all(
+        np.array_equal(a, b) for a, b in zip(_ticked(session, 20), _ticked(fresh, 20), strict=True)
+    )
 
 
 def test_a_fall_is_detected_and_turns_the_torques_off_until_reset() -> None:
