@@ -233,19 +233,20 @@ class Binding : public TickedBehaviour {
     }
     if (feet != model_.contacts)
       throw nb::value_error((who_ + ": `touching` needs one flag per contact").c_str());
-    const Core before = core_;
+    before_ = core_;  // assigned, not constructed: its vectors keep their storage, no allocation
     touching_ = Eigen::Map<const Eigen::Array<bool, Eigen::Dynamic, 1>>(
         touching, static_cast<Eigen::Index>(feet));
     NativeBehaviour& native = core_;  // the one interface (behaviour.hpp)
     native.update(t, model_.view(), Eigen::Map<const Eigen::Vector3d>(command), touching_,
                   refs_.values());
     refs_.write_back();
-    write_state(core_, before, behaviour);
+    write_state(core_, before_, behaviour);
   }
 
  private:
   std::string who_;
   Core core_;
+  Core before_;  // core_ as the last tick found it, for write_state
   ModelArrays model_;
   ReferenceArrays refs_;
   Eigen::Array<bool, Eigen::Dynamic, 1> touching_;

@@ -80,12 +80,20 @@ void equalities_only(const HierarchyProblem& problem, Buffers& b, LevelClock& cl
   }
 }
 
+/// The first n entries of `buffer`, which grows to hold them and never shrinks: scratch whose
+/// size changes level by level without a reallocation each time.
+Eigen::VectorXd::SegmentReturnType scratch(Eigen::VectorXd& buffer, Eigen::Index n) {
+  if (buffer.size() < n) buffer.resize(n);
+  return buffer.head(n);
+}
+
 /// Whether C x <= d holds within kFeasibilityTol, with `rows` as scratch.
 bool satisfies(const Eigen::MatrixXd& C, const Eigen::VectorXd& x, const Eigen::VectorXd& d,
                Eigen::VectorXd& rows) {
   if (d.size() == 0) return true;
-  rows.noalias() = C * x;
-  return ((rows - d).array() <= kFeasibilityTol).all();
+  auto Cx = scratch(rows, C.rows());
+  Cx.noalias() = C * x;
+  return ((Cx - d).array() <= kFeasibilityTol).all();
 }
 
 /// Stack rows [top; bottom] (either may be empty).
@@ -284,9 +292,10 @@ void solve_cascade(const HierarchyProblem& problem, HierarchySolution& out) {
       out.residuals.push_back(0.0);
       continue;
     }
-    b.rows = level.b;
-    b.rows.noalias() -= level.A * out.x;
-    out.residuals.push_back(b.rows.norm());
+    auto residual = scratch(b.rows, level.b.size());
+    residual = level.b;
+    residual.noalias() -= level.A * out.x;
+    out.residuals.push_back(residual.norm());
   }
 }
 

@@ -126,7 +126,15 @@ bool full_rank_step(LeastSquaresStep& step, const Eigen::VectorXd& r, Eigen::Vec
   step.full_rank_qr.compute(step.AZ);
   if (!full_rank_by_margin(step.full_rank_qr, step.AZ.norm(), step.R_inverse)) return false;
   step.y = r;
-  step.full_rank_qr.householderQ().transpose().applyThisOnTheLeft(step.y);
+  // Q^T y, reflector by reflector on y's tail: HouseholderSequence::applyThisOnTheLeft takes a
+  // vector as a block of dynamic columns, and each reflector's outer product then evaluates
+  // tau * v into a heap temporary (one allocation per reflector, per tick).
+  const auto& qr = step.full_rank_qr.matrixQR();
+  const auto& tau = step.full_rank_qr.hCoeffs();
+  const Eigen::Index m = qr.rows();
+  double workspace;  // applyHouseholderOnTheLeft's, one entry per column of y
+  for (Eigen::Index k = 0; k < n; ++k)
+    step.y.tail(m - k).applyHouseholderOnTheLeft(qr.col(k).tail(m - k - 1), tau(k), &workspace);
   u.noalias() = step.R_inverse * step.y.head(n);
   return true;
 }
@@ -144,8 +152,8 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
   }
   step.r = b;
   step.r.noalias() -= A * x;
-  if (!update_z && full_rank_step(step, step.r, step.r)) {  // the last level: only the step
-    x.noalias() += Z * step.r;
+  if (!update_z && full_rank_step(step, step.r, step.u)) {  // the last level: only the step
+    x.noalias() += Z * step.u;
     return;
   }
   step.qr.compute(step.AZ);

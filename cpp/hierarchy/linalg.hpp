@@ -106,7 +106,7 @@ struct LeastSquaresStep {
   RowSpaceQR qr;
   Eigen::HouseholderQR<Eigen::MatrixXd> full_rank_qr;  // the last level's, see linalg.cpp
   Eigen::MatrixXd AZ, R_inverse;
-  Eigen::VectorXd r, y;
+  Eigen::VectorXd r, y, u;  // u: a last level's step, apart from r (no resize between them)
 };
 
 /// The step u of a last level (no level below needs its null space) where its A Z, in
