@@ -383,7 +383,10 @@ def test_the_floor_is_measured_at_start_up_and_again_on_command(lab: LabClient, 
     assert after["floor"] == floor
     wall = after["clock_s"] - before["clock_s"]
     served = after["ticks"] + after["skipped"] - before["ticks"] - before["skipped"]
-    slack = RATE_HZ * 2 * (MAX_BEHIND_S + 1.0 / RATE_HZ)
+    # Had the session ticked during the floor, `served` would be a whole second's ticks above
+    # the bound; half of it is slack for the loop's catching up and the replies' timing on a
+    # busy machine (2 * MAX_BEHIND_S alone failed once at load 16).
+    slack = max(RATE_HZ * 2 * (MAX_BEHIND_S + 1.0 / RATE_HZ), 0.5 * RATE_HZ)
     assert served <= RATE_HZ * (wall - 1.0) + slack, (wall, served)  # none during the floor
 
 
