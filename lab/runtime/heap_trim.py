@@ -13,6 +13,7 @@ glibc's `malloc_trim` (lab/world/memory.py, without the GIL). Quiet labs never t
 import threading
 from collections.abc import Callable
 
+from lab.runtime.scheduling import name_os_thread
 from lab.world.memory import release_free_memory
 
 TRIM_INTERVAL_S = 2.0  # how often the traffic is looked at (a trim then costs 0.05-5 ms)
@@ -40,6 +41,7 @@ class HeapTrimmer:
         self._thread.start()
 
     def _run(self) -> None:
+        name_os_thread()
         seen, busy_before = self._traffic(), False
         while not self._stop.wait(self._interval):
             now = self._traffic()

@@ -12,7 +12,8 @@ clients (`take`) and does nothing with a command but apply it and reply.
 
 Measured reason (issue 25): parsing on the loop's side let five clients sending 64 KB arrays cut
 the loop's on-time fraction from 0.72 to 0.14-0.23. What this thread holds is bounded: at most
-`CLIENT_QUEUE` commands for each of at most `MAX_CLIENTS` clients.
+`CLIENT_QUEUE` commands for each of at most `MAX_CLIENTS` clients. With the loop's next
+deadline given (`stand_aside_for`), no query is begun just before it (STAND_ASIDE_S).
 """
 
 import re
@@ -35,6 +36,7 @@ from lab.protocol import (
     TakeCommand,
 )
 from lab.runtime.control_lock import ControlLock
+from lab.runtime.scheduling import name_os_thread
 
 RATE_HZ = 100.0  # commands a client may send per second, on average...
 BURST = 50  # ...and at once (a token bucket of this size, refilled at RATE_HZ)
@@ -47,6 +49,15 @@ MAX_CLIENTS = 64  # clients remembered (their buckets and queues); the idle olde
 INTAKE_RATE_HZ = 1000.0
 INTAKE_BURST = 100
 ANONYMOUS = "anonymous"  # the client id of a query without an attachment
+# The loop's next tick needs the GIL from its wake-up (a spin margin before its deadline) until
+# the tick ends. Under a flood this thread spends ~80 µs of CPU per query, holding the GIL ~8 %
+# of the time, and a loop wake-up inside that waited for it (the flood cost 7.7 points of
+# on-time on a quiet machine while a loop beside it in another process lost none). So a query is
+# not begun within STAND_ASIDE_S before the loop's deadline: this thread sleeps until
+# TICK_ALLOWANCE_S after it (the flooded loop's gap to that loop beside it: 8-13 points without,
+# 2.5-11 with, four A/B pairs; docs/reliability.md, "Where the flood's cost is").
+STAND_ASIDE_S = 3e-4
+TICK_ALLOWANCE_S = 2e-4
 
 _decode = msgspec.json.Decoder().decode
 # A JSON string, its escapes included (an unterminated one runs to the end): what is inside does
@@ -162,6 +173,7 @@ class CommandIntake:
         answer: Callable[[zenoh.Query, dict[str, object]], None],
         clock: Callable[[], float] = time.monotonic,
         presence: zenoh.Subscriber | None = None,
+        sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         self._queryable = queryable
         self._presence = presence
@@ -169,15 +181,21 @@ class CommandIntake:
         self._keys = keys
         self._validate = validate
         self._answer = answer
-        self._clock = clock
+        self._clock, self._sleep = clock, sleep
         self._clients: OrderedDict[str, _Client] = OrderedDict()  # least recently heard first
         self._turn: deque[str] = deque()  # clients with commands waiting, in turn
         self._lock = threading.Lock()
         self._rejected = 0
         self._last_rejection = ("", "")
         self.payload_bytes = 0  # read so far, refused or not (lab/runtime/heap_trim.py)
+        self._next_tick: Callable[[], float] | None = None
         self._thread = threading.Thread(target=self._run, name="command-intake", daemon=True)
         self._thread.start()
+
+    def stand_aside_for(self, next_tick: Callable[[], float]) -> None:
+        """Begin no query within STAND_ASIDE_S before `next_tick()` (the loop's next deadline,
+        on this intake's clock)."""
+        self._next_tick = next_tick
 
     def take(self) -> Request | None:
         """The next valid command, one client after the other; None when none waits (told
@@ -206,15 +224,26 @@ class CommandIntake:
         self._thread.join(timeout)
 
     def _run(self) -> None:
+        name_os_thread()
         budget = TokenBucket(INTAKE_RATE_HZ, INTAKE_BURST, self._clock())
         while True:
             try:
                 query = self._queryable.recv()
             except zenoh.ZError:  # the channel closed with the session
                 return
+            self.stand_aside()
             self.receive(query)
             while not budget.take(self._clock()):
-                time.sleep(1.0 / INTAKE_RATE_HZ)
+                self._sleep(1.0 / INTAKE_RATE_HZ)
+
+    def stand_aside(self) -> None:
+        """Sleep past the loop's next tick if it begins within STAND_ASIDE_S (or began less
+        than TICK_ALLOWANCE_S ago); called before each query."""
+        if self._next_tick is None:
+            return
+        gap = self._next_tick() - self._clock()
+        if -TICK_ALLOWANCE_S < gap < STAND_ASIDE_S:
+            self._sleep(gap + TICK_ALLOWANCE_S)
 
     def receive(self, query: zenoh.Query) -> None:
         """Refuse and answer `query`, or keep it for the loop."""

@@ -36,6 +36,7 @@ from lab.runtime.loop_config import SPIN_CHOICES, LoopConfig
 from lab.runtime.loop_events import LoopEvents
 from lab.runtime.scheduling import (
     lower_timer_slack,
+    name_os_thread,
     request_fifo,
     request_nice,
     request_slice,
@@ -132,6 +133,7 @@ class SimLoop:
         self.transport = transport
         self.config = config
         self.clock = clock
+        self.next_deadline = clock()  # the next tick's deadline (for the command intake)
         self.sleep = time.sleep if sleep is None else sleep
         self.period = 1.0 / config.rate_hz
         self.wanted_sched = "other" if config.fast else resolve_sched(config.sched, usable_cpus())
@@ -174,6 +176,7 @@ class SimLoop:
                     if self.config.switch_interval_s is not None:
                         sys.setswitchinterval(self.config.switch_interval_s)
                     lower_timer_slack()
+                    name_os_thread()
                     if self.wanted_sched == "fifo" and request_fifo():
                         self.stats.sched = "fifo"
                     else:
@@ -196,6 +199,7 @@ class SimLoop:
         period, clock, fast = self.period, self.clock, self.config.fast
         deadline = clock()
         while not stop.is_set():
+            self.next_deadline = deadline
             if not fast:
                 self._wait_for(deadline, warm=self.config.warm and not self.floor.running)
             start = clock()

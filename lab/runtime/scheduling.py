@@ -20,6 +20,7 @@ SCHED_CHOICES = ("auto", "fifo", "other")
 # SCHED_OTHER's 95-97 % at low load; its starvation not measured again: still kept.
 AUTO_FIFO_MIN_CPUS = 4
 _PR_SET_TIMERSLACK = 29
+_PR_SET_NAME = 15
 # sched_setattr(2) / sched_getattr(2): not in Python's os module.
 _SYS_SCHED_SETATTR = {"x86_64": 314, "aarch64": 274}
 _SYS_SCHED_GETATTR = {"x86_64": 315, "aarch64": 275}
@@ -33,6 +34,15 @@ def lower_timer_slack() -> None:
     """Ask for 1 ns timer slack for the calling thread (default 50 µs); ignore refusal."""
     with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_TIMERSLACK, ctypes.c_ulong(1), 0, 0, 0)
+
+
+def name_os_thread() -> None:
+    """Give the calling thread's Python name (its first 15 bytes) to the OS thread, for
+    /proc/<pid>/task/*/comm, top -H and benchmarks/bench_load.py's CPU time by thread (Python
+    3.11 leaves every thread named after the process); ignore refusal."""
+    name = threading.current_thread().name.encode()[:15]
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_NAME, ctypes.c_char_p(name), 0, 0, 0)
 
 
 def usable_cpus() -> int:

@@ -263,6 +263,8 @@ def serve_main(argv: list[str]) -> int:
         ),
         switcher=(switcher := Switcher(worker=args.switch_worker, nice=args.nice)),
     )
+    if not args.fast:  # a fast loop has no deadline to keep
+        transport.stand_aside_for(lambda: loop.next_deadline)
     switcher.keep(session.config)  # a switch back to the first robot loads it (switch.py)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):

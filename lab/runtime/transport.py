@@ -21,6 +21,7 @@ from lab.protocol import DEFAULT_PORT, LabKeys, parse_command
 from lab.runtime.access import ListenAccess, listen_access, read_users, remote_listen_refusal
 from lab.runtime.heap_trim import HeapTrimmer
 from lab.runtime.intake import CommandIntake, Request
+from lab.runtime.scheduling import name_os_thread
 from lab.zenoh_config import Credentials, usrpwd_settings, zenoh_config
 
 # Queries Zenoh keeps for the intake thread; beyond this the oldest get no reply. The intake
@@ -152,6 +153,7 @@ class PutThread:
         self._thread.join()
 
     def _run(self) -> None:
+        name_os_thread()
         while (item := self._queue.get()) is not None:
             publisher, payload = item
             try:
@@ -194,6 +196,11 @@ class ServerTransport:
     def receive(self) -> Request | None:
         """The next valid command (one client after another), without blocking."""
         return self._intake.take()
+
+    def stand_aside_for(self, next_tick: Callable[[], float]) -> None:
+        """Let the command intake begin no query just before the loop's next tick
+        (`next_tick()`: its deadline, time.monotonic; lab/runtime/intake.py)."""
+        self._intake.stand_aside_for(next_tick)
 
     def rejections(self) -> tuple[int, str, str]:
         """Commands the intake refused since the last call; the verb and error of the last."""

@@ -3,10 +3,19 @@ rate limit, the size cap, validation. `tests/client/test_client.py` drives it th
 
 import json
 
+import pytest
 import zenoh
 
 from lab.protocol import MAX_PAYLOAD_BYTES, MAX_PAYLOAD_DEPTH, LabKeys, parse_command
-from lab.runtime.intake import BURST, CLIENT_QUEUE, RATE_HZ, CommandIntake, nesting_depth
+from lab.runtime.intake import (
+    BURST,
+    CLIENT_QUEUE,
+    RATE_HZ,
+    STAND_ASIDE_S,
+    TICK_ALLOWANCE_S,
+    CommandIntake,
+    nesting_depth,
+)
 
 KEYS = LabKeys("intake")
 
@@ -89,6 +98,24 @@ def test_a_full_queue_a_fast_client_and_a_large_payload_are_refused_with_the_rea
     count, verb, error = intake.rejections()
     assert count == len(answers) and verb == "velocity" and "cap" in error
     assert intake.rejections()[0] == 0
+
+
+def test_no_query_is_begun_just_before_the_loops_tick() -> None:
+    clock, slept = _Clock(), []
+    intake = CommandIntake(
+        _ClosedQueryable(), KEYS, parse_command, lambda q, body: None, clock, sleep=slept.append
+    )
+    intake.join(5.0)
+    intake.stand_aside()  # no loop to stand aside for
+    deadline = 1.0
+    intake.stand_aside_for(lambda: deadline)
+    for now in (deadline - 2 * STAND_ASIDE_S, deadline + 2 * TICK_ALLOWANCE_S):
+        clock.now = now
+        intake.stand_aside()  # far from the tick, or well after it began: no sleep
+    assert slept == []
+    clock.now = deadline - STAND_ASIDE_S / 2  # about to begin: sleep until it is under way
+    intake.stand_aside()
+    assert slept == [pytest.approx(STAND_ASIDE_S / 2 + TICK_ALLOWANCE_S)]
 
 
 def test_only_valid_commands_wait_for_the_loop() -> None:

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 import numpy as np
@@ -28,6 +29,7 @@ from lab.runtime.scheduling import (
     AUTO_FIFO_MIN_CPUS,
     SLICE_MAX_S,
     SLICE_MIN_S,
+    name_os_thread,
     request_fifo,
     request_nice,
     request_slice,
@@ -187,6 +189,19 @@ def test_auto_scheduling_takes_fifo_only_with_enough_cpus(
 def test_an_unknown_scheduling_is_rejected_by_name() -> None:
     with pytest.raises(ValueError, match="deadline"):
         resolve_sched("deadline", 8)
+
+
+def test_a_thread_gives_its_python_name_to_the_os_thread() -> None:
+    names: list[str] = []
+
+    def named() -> None:
+        name_os_thread()
+        names.append(Path(f"/proc/self/task/{threading.get_native_id()}/comm").read_text())
+
+    thread = threading.Thread(target=named, name="command-intake-and-more")
+    thread.start()
+    thread.join()
+    assert names == ["command-intake-\n"]  # the OS keeps 15 bytes
 
 
 @pytest.mark.parametrize(("sched", "fast"), [("other", False), ("fifo", True)])
