@@ -12,14 +12,16 @@
 namespace lab {
 namespace {
 
-// eps of the proximal term that keeps a level QP's Hessian positive definite (cascade.py
-// REGULARIZATION); a level that the solver wrongly calls infeasible is tried once more with the
-// larger one. Each proximal solve starts at the last one's optimum, until the level's A Z u
-// settles (cascade.py PROXIMAL_SOLVES, PROXIMAL_TOL): the term then vanishes.
-constexpr double kRegularization = 1e-10;
+// eps of the cascade's proximal term: none (cascade.py REGULARIZATION). The level QP's Hessian is
+// semi-definite and DAQP solves it by its own proximal loop in one call; a level that the solver
+// wrongly calls infeasible is solved again with kRetryRegularization, by proximal solves from
+// each optimum until the level's A Z u settles (cascade.py PROXIMAL_SOLVES, PROXIMAL_TOL).
+constexpr double kRegularization = 0.0;
 constexpr int kProximalSolves = 8;
 constexpr double kProximalTol = 1e-10;
 constexpr double kRetryRegularization = 1e-6;
+// DAQP's stopping tolerance of its own proximal loop on a level QP (cascade.py LEVEL_ETA_PROX).
+constexpr double kLevelEtaProx = 1e-9;
 constexpr double kFeasibilityTol = 1e-9;  // a step that violates no row by more is taken as is
 constexpr double kZeroRowTol = 1e-10;     // a kept inequality with no freedom left is dropped
 
@@ -122,8 +124,9 @@ void rows_with_freedom(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, Eigen
   }
 }
 
-/// A minimiser of ||Az u - r||^2 + ||v||^2 over G [u; v] <= h (eqs. 10-11), by proximal steps
-/// eps ||u - u0||^2 from the least-squares step: exact where a fixed eps ||u||^2 would leak.
+/// A minimiser of ||Az u - r||^2 + ||v||^2 over G [u; v] <= h (eqs. 10-11): one solve at eps = 0,
+/// else proximal steps eps ||u - u0||^2 from the least-squares step u (exact where a fixed
+/// eps ||u||^2 would leak).
 bool level_optimum(Eigen::VectorXd& u, const Eigen::MatrixXd& Az, const Eigen::VectorXd& r,
                    const Eigen::MatrixXd& G, const Eigen::VectorXd& h, double epsilon,
                    int& qp_solves) {
@@ -138,8 +141,9 @@ bool level_optimum(Eigen::VectorXd& u, const Eigen::MatrixXd& Az, const Eigen::V
   for (int i = 0; i < kProximalSolves; ++i) {
     q.head(nz) = -Atr - epsilon * u;
     ++qp_solves;
-    if (!solve_qp(P, q, G, h, solution)) return false;
+    if (!solve_qp(P, q, G, h, solution, nullptr, kLevelEtaProx)) return false;
     u = solution.head(nz);
+    if (epsilon == 0.0) break;  // no term to vanish: DAQP's own proximal loop reached the optimum
     const Eigen::VectorXd previous = std::exchange(w, Az * u);
     if ((w - previous).norm() <= kProximalTol * (1.0 + w.norm())) break;
   }

@@ -107,7 +107,7 @@ int qp_iteration_limit() { return DAQP_DEFAULT_ITER_LIMIT; }
 
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
               const Eigen::VectorXd& h, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-              Eigen::VectorXd& x, QpReport* report) {
+              Eigen::VectorXd& x, QpReport* report, double eta_prox) {
   thread_local DaqpBuffers buffer;
   const Eigen::Index n = q.size(), mi = G.rows(), m = mi + A.rows();
   // DAQP writes into its inputs' copies only; the caller's matrices stay as they are.
@@ -130,6 +130,7 @@ bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::M
   DAQPSettings settings;
   daqp_default_settings(&settings);
   settings.primal_tol = kPrimalTol;
+  if (eta_prox >= 0.0) settings.eta_prox = eta_prox;
   // DAQP's automatic equality elimination stays on, as in the Python kernel: without it ANYmal's
   // weighted QP took 19 us instead of 25, but on hutter_table7 (level weights down to 1e-18)
   // DAQP then stopped 20 % further from the optimum than the Python kernel's solve.
@@ -143,12 +144,12 @@ bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::M
 }
 
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
-              const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report) {
+              const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report, double eta_prox) {
   thread_local Eigen::MatrixXd A;
   thread_local Eigen::VectorXd b;
   A.resize(0, q.size());
   b.resize(0);
-  return solve_qp(P, q, G, h, A, b, x, report);
+  return solve_qp(P, q, G, h, A, b, x, report, eta_prox);
 }
 
 bool solve_qp_kept(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,

@@ -22,14 +22,17 @@ int qp_iteration_limit();
 
 /// min 1/2 x^T P x + q^T x  s.t.  G x <= h, A x = b (P positive definite). Returns false when
 /// the solver finds no solution (infeasible, cycling, iteration limit); x is then unspecified.
-/// `report`, when given, receives the exit flag and the iteration count.
+/// `report`, when given, receives the exit flag and the iteration count. `eta_prox` is DAQP's
+/// stopping tolerance of its own proximal loop on a semi-definite P (qp.py solve_qp's); negative:
+/// DAQP's automatic one.
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
               const Eigen::VectorXd& h, const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-              Eigen::VectorXd& x, QpReport* report = nullptr);
+              Eigen::VectorXd& x, QpReport* report = nullptr, double eta_prox = -1.0);
 
 /// The same without equality rows.
 bool solve_qp(const Eigen::MatrixXd& P, const Eigen::VectorXd& q, const Eigen::MatrixXd& G,
-              const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report = nullptr);
+              const Eigen::VectorXd& h, Eigen::VectorXd& x, QpReport* report = nullptr,
+              double eta_prox = -1.0);
 
 /// The same without equality rows, on a DAQP workspace kept from call to call (one per thread)
 /// while the sizes stay, for a QP posed every tick (the weighted method's): DAQP's setup

@@ -29,15 +29,22 @@ def solve_qp(
     A: np.ndarray | None = None,
     b: np.ndarray | None = None,
     solver: str = "daqp",
+    eta_prox: float | None = None,
 ) -> np.ndarray:
-    """min ½ xᵀPx + qᵀx  s.t.  Gx ≤ h, Ax = b; raise QPFailure when there is no solution."""
+    """min ½ xᵀPx + qᵀx  s.t.  Gx ≤ h, Ax = b; raise QPFailure when there is no solution.
+
+    `eta_prox`: DAQP's stopping tolerance of its own proximal loop on a semi-definite P (None:
+    DAQP's automatic one; other solvers have no such loop and ignore it)."""
     if G is not None and len(G) == 0:
         G = h = None
     if A is not None and len(A) == 0:
         A = b = None
     if solver in SPARSE_SOLVERS:
         P, G, A = (None if M is None else sparse.csc_matrix(M) for M in (P, G, A))
-    x = qpsolvers.solve_qp(P, q, G, h, A, b, solver=solver, **SOLVER_OPTIONS[solver])
+    options = dict(SOLVER_OPTIONS[solver])
+    if solver == "daqp" and eta_prox is not None:
+        options["eta_prox"] = eta_prox
+    x = qpsolvers.solve_qp(P, q, G, h, A, b, solver=solver, **options)
     if x is None or not np.all(np.isfinite(x)):
         raise QPFailure(f"{solver} found no solution")
     return x

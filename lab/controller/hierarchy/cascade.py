@@ -14,8 +14,9 @@ Strict means exactly lexicographic: a lower level never raises a higher level's 
 QP above is only positive semi-definite in u, and a regularization ε‖·‖² added to it would trade
 the level's own residual for a smaller x (with forces of hundreds of newtons the leak reached
 1e-2). So a level where an inequality binds is solved in two stages: its optimum first (the QP
-with a proximal term ε‖u − u₀‖², solved again from each optimum until the level's A_r Z u
-settles, so that the term vanishes), then,
+as it is, semi-definite: DAQP solves it by its own proximal iterations, Clarabel by its interior
+point; only a level the solver wrongly fails is solved again with a proximal term ε‖u − u₀‖²,
+from each optimum until the level's A_r Z u settles, so that the term vanishes), then,
 inside that level's optimal set {A_r Z u = A_r Z u*, C_r(x* + Z u) − d_r ≤ v*}, the point with
 the smallest ‖x* + Z u‖, which leaves the most room to the levels below (Herzog eq. 5).
 
@@ -49,16 +50,21 @@ from lab.controller.hierarchy.solution import (
 )
 from lab.controller.qp import QPFailure, solve_qp
 
-# ε of the proximal term ε‖u − u₀‖² that keeps a level QP's Hessian positive definite. Each
-# proximal solve shrinks the distance to the optimum along a direction of curvature λ by
-# ε/(λ + ε), so ε must sit well below the level's weakest curvature: at 1e-8, a Talos level
-# whose optimum lay 3e4 away along weak directions (σ_min(A_r Z) = 2e-4) ended its 8 solves at
-# cost 0.15 instead of 0 (tests/controller/test_strictness.py); at 1e-10 it reaches 1e-17.
-REGULARIZATION = 1e-10
+# ε of the cascade's proximal term ε‖u − u₀‖²: none. The level QP's Hessian (A_r Z)ᵀ A_r Z
+# (eqs. 10–11) is semi-definite, and DAQP solves such a QP by its own proximal loop (its automatic
+# eps_prox), to the optimum in one call. A cascade-side ε (1e-10 until round 18) sat at the
+# rounding level of the 10⁴-weighted rows' pivots, so DAQP ran its proximal loop inside each of
+# the cascade's 2–8 proximal solves; one loop (with LEVEL_ETA_PROX) takes 16 % fewer
+# instructions on G1's unload ticks, 21 % on Talos with arms' (docs/performance.md, round 18).
+REGULARIZATION = 0.0
 # A level with one or two equality rows in a null space of ten dimensions leaves its Hessian with
-# eigenvalues of ε alone; DAQP then sometimes reports a level infeasible although u = 0 is
-# feasible by construction. Such a level is solved again once with this larger ε.
+# few non-zero eigenvalues; DAQP then sometimes reports a level infeasible although u = 0 is
+# feasible by construction. Such a level is solved again once with this ε, by proximal solves.
 RETRY_REGULARIZATION = 1e-6
+# DAQP's proximal loop stops when no x moves by more than eta_prox / eps in a step: its automatic
+# eta left a level 7e-8 above its optimum (tests/controller/test_controller.py), 1e-8 too; 3e-9
+# and below reach it. Only the level QPs (the weighted method's QP keeps DAQP's own).
+LEVEL_ETA_PROX = 1e-9
 FEASIBILITY_TOL = 1e-9  # an unconstrained step that violates no row by more is taken as is
 ZERO_ROW_TOL = 1e-10  # a kept inequality with no freedom left in Z is dropped from the QP
 
@@ -237,8 +243,9 @@ def _level_optimum(
     solver: str,
     record: _Record,
 ) -> np.ndarray:
-    """A minimiser of ‖Az u − r‖² + ‖v‖² over G [u; v] ≤ h (eqs. 10–11), by proximal steps
-    ε‖u − u₀‖² from the least-squares step u: exact where a fixed ε‖u‖² would leak."""
+    """A minimiser of ‖Az u − r‖² + ‖v‖² over G [u; v] ≤ h (eqs. 10–11): one solve at ε = 0,
+    else proximal steps ε‖u − u₀‖² from the least-squares step u (exact where a fixed ε‖u‖²
+    would leak)."""
     nz, m = Az.shape[1], G.shape[1] - Az.shape[1]
     P = np.zeros((nz + m, nz + m))
     P[:nz, :nz] = Az.T @ Az + epsilon * np.eye(nz)
@@ -248,7 +255,9 @@ def _level_optimum(
     for _ in range(PROXIMAL_SOLVES):
         q[:nz] = -Az.T @ r - epsilon * u
         record.qp_solves += 1
-        u = solve_qp(P, q, G, h, solver=solver)[:nz]
+        u = solve_qp(P, q, G, h, solver=solver, eta_prox=LEVEL_ETA_PROX)[:nz]
+        if epsilon == 0.0:
+            break  # no term to vanish: the solver's own proximal loop reached the optimum
         w, previous = Az @ u, w
         if np.linalg.norm(w - previous) <= PROXIMAL_TOL * (1.0 + np.linalg.norm(w)):
             break
