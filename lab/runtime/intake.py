@@ -48,6 +48,12 @@ MAX_CLIENTS = 64  # clients remembered (their buckets and queues); the idle olde
 # Zenoh's channel (COMMAND_QUEUE, transport.py) drops the oldest queries unanswered.
 INTAKE_RATE_HZ = 1000.0
 INTAKE_BURST = 100
+# A refused query takes this many of those: a flood (clients over their rate or the payload cap)
+# is answered at INTAKE_RATE_HZ / REFUSAL_COST queries/s, Zenoh's channel dropping the rest
+# unanswered as before, while valid commands still pass at INTAKE_RATE_HZ. The loop's cost of a
+# flood is this thread's GIL time, ~80 µs of CPU per refusal answered (docs/reliability.md,
+# "Where the flood's cost is"); an over-eager client still gets replies naming its rate or cap.
+REFUSAL_COST = 4
 ANONYMOUS = "anonymous"  # the client id of a query without an attachment
 # The loop's next tick needs the GIL from its wake-up (a spin margin before its deadline) until
 # the tick ends. Under a flood this thread spends ~80 µs of CPU per query, holding the GIL ~8 %
@@ -87,13 +93,19 @@ class TokenBucket:
         self.rate, self.burst = rate, burst
         self.tokens, self.last = burst, now
 
-    def take(self, now: float) -> bool:
+    def take(self, now: float, cost: float = 1.0) -> bool:
+        """Take `cost` tokens if there are as many (else none; a billionth of one short is
+        rounding: after sleeping `wait_s(cost)` they are there)."""
         self.tokens = min(self.burst, self.tokens + (now - self.last) * self.rate)
         self.last = now
-        if self.tokens < 1.0:
+        if self.tokens < cost - 1e-9:
             return False
-        self.tokens -= 1.0
+        self.tokens -= cost
         return True
+
+    def wait_s(self, cost: float) -> float:
+        """How long until `cost` tokens are there, as of the last `take`."""
+        return max(0.0, (cost - self.tokens) / self.rate)
 
 
 class _Client:
@@ -232,9 +244,10 @@ class CommandIntake:
             except zenoh.ZError:  # the channel closed with the session
                 return
             self.stand_aside()
-            self.receive(query)
-            while not budget.take(self._clock()):
-                self._sleep(1.0 / INTAKE_RATE_HZ)
+            cost = REFUSAL_COST if self.receive(query) else 1.0
+            # One sleep for the tokens missing: each wake-up takes the GIL from the loop.
+            while not budget.take(self._clock(), cost):
+                self._sleep(budget.wait_s(cost))
 
     def stand_aside(self) -> None:
         """Sleep past the loop's next tick if it begins within STAND_ASIDE_S (or began less
@@ -245,8 +258,9 @@ class CommandIntake:
         if -TICK_ALLOWANCE_S < gap < STAND_ASIDE_S:
             self._sleep(gap + TICK_ALLOWANCE_S)
 
-    def receive(self, query: zenoh.Query) -> None:
-        """Refuse and answer `query`, or keep it for the loop."""
+    def receive(self, query: zenoh.Query) -> bool:
+        """Refuse and answer `query` (True), or keep it for the loop or answer it as a valid
+        `take`/`release` (False)."""
         if (sent := query.payload) is not None:
             self.payload_bytes += len(sent)
         verb = str(query.key_expr).removeprefix(self._keys.cmd_prefix)[:64]
@@ -268,7 +282,7 @@ class CommandIntake:
                 error = lock.take(client) if verb == "take" else lock.release(client)
             if error is None:
                 self._answer(query, {"ok": True, "control": {"holder": lock.holder}})
-                return
+                return False
         if error is None:
             with self._lock:
                 entry = self._clients[client]  # `_admit` keeps it: only this thread forgets
@@ -276,12 +290,13 @@ class CommandIntake:
                     if not entry.queue:
                         self._turn.append(client)
                     entry.queue.append(Request(verb, payload, None, query, command, client))
-                    return
+                    return False
             error = f"{verb}: busy: {CLIENT_QUEUE} commands of client {client} wait already"
         with self._lock:
             self._rejected += 1
             self._last_rejection = (verb, error[:300])
         self._answer(query, {"ok": False, "error": error})
+        return True
 
     def holder(self) -> str | None:
         """The control lock's holder now (None: free), after the liveliness changes seen

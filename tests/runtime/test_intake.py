@@ -10,7 +10,10 @@ from lab.protocol import MAX_PAYLOAD_BYTES, MAX_PAYLOAD_DEPTH, LabKeys, parse_co
 from lab.runtime.intake import (
     BURST,
     CLIENT_QUEUE,
+    INTAKE_BURST,
+    INTAKE_RATE_HZ,
     RATE_HZ,
+    REFUSAL_COST,
     STAND_ASIDE_S,
     TICK_ALLOWANCE_S,
     CommandIntake,
@@ -116,6 +119,53 @@ def test_no_query_is_begun_just_before_the_loops_tick() -> None:
     clock.now = deadline - STAND_ASIDE_S / 2  # about to begin: sleep until it is under way
     intake.stand_aside()
     assert slept == [pytest.approx(STAND_ASIDE_S / 2 + TICK_ALLOWANCE_S)]
+
+
+class _Queries:
+    """A queryable's channel holding `queries`, closed after them."""
+
+    def __init__(self, queries: list[_Query]) -> None:
+        self.queries = queries
+
+    def recv(self) -> _Query:
+        if not self.queries:
+            raise zenoh.ZError("closed")
+        return self.queries.pop(0)
+
+
+def _paced(count: int, valid: bool) -> tuple[float, list[dict]]:
+    """How long (on the intake's clock) its thread takes to read `count` queries from 64
+    clients in turn (none over its rate), valid or not, and the answers it gives; the loop
+    (here its `sleep`) takes what waits."""
+    clock, answers, intakes = _Clock(), [], []
+    queries = [_Query("pause", {} if valid else b"[", f"c{i % 64}") for i in range(count)]
+
+    def sleep(seconds: float) -> None:
+        clock.now += seconds
+        while intakes and intakes[0].take():
+            pass
+
+    def answer(query: object, body: dict) -> None:
+        answers.append(body)
+
+    intakes.append(
+        CommandIntake(_Queries(queries), KEYS, parse_command, answer, clock, sleep=sleep)
+    )
+    intakes[0].join(30.0)
+    assert not queries
+    return clock.now, answers
+
+
+def test_refusals_are_answered_at_a_fraction_of_the_pace_of_valid_commands() -> None:
+    """The intake reads valid commands at INTAKE_RATE_HZ and refusals at INTAKE_RATE_HZ /
+    REFUSAL_COST (a flood's queries it does not read are dropped by Zenoh's channel)."""
+    # Its burst and then one second's worth of each.
+    elapsed, answers = _paced(int(INTAKE_BURST + INTAKE_RATE_HZ), valid=True)
+    assert elapsed == pytest.approx(1.0, abs=0.01) and answers == []
+    count = int((INTAKE_BURST + INTAKE_RATE_HZ) / REFUSAL_COST)
+    elapsed, answers = _paced(count, valid=False)
+    assert elapsed == pytest.approx(1.0, abs=0.01) and len(answers) == count
+    assert all("not valid JSON" in answer["error"] for answer in answers)
 
 
 def test_only_valid_commands_wait_for_the_loop() -> None:
