@@ -29,6 +29,32 @@ COLLECT = ("lab::Kernel::update*", "lab::Kernel::solve()*")
 WARMUP = 100  # ticks before the count: the robot settles onto its feet
 
 
+def control(*args: str) -> None:
+    """A callgrind_control request to this process, given time to land (callgrind reads it on
+    its next poll, which this sleep waits for)."""
+    subprocess.run(["callgrind_control", *args, str(os.getpid())], check=True, capture_output=True)
+    time.sleep(1.0)
+
+
+def callgrind(
+    script: str, body: list[str], options: list[str], out: Path
+) -> subprocess.CompletedProcess[str]:
+    """`script --body *body` run under callgrind with instrumentation off until the body's
+    `control("--instr=on")`, its profile written to `out` (and `out`.N for each dump)."""
+    command = [
+        "valgrind",
+        "--tool=callgrind",
+        "--instr-atstart=no",
+        *options,
+        f"--callgrind-out-file={out}",
+        sys.executable,
+        script,
+        "--body",
+        *body,
+    ]
+    return subprocess.run(command, capture_output=True, text=True)
+
+
 def stand(robot: str, method: str, ticks: int) -> None:
     """The body that runs under valgrind: `ticks` standing ticks of a native session."""
     from lab.world.session import Session, SessionConfig
@@ -37,9 +63,8 @@ def stand(robot: str, method: str, ticks: int) -> None:
     for _ in range(WARMUP):
         session.tick()
     # Instrumentation on from here only (valgrind runs the imports and set-up uninstrumented,
-    # several times faster); callgrind reads the request on its next poll.
-    subprocess.run(["callgrind_control", "--instr=on", str(os.getpid())], check=True)
-    time.sleep(1.0)
+    # several times faster).
+    control("--instr=on")
     for _ in range(ticks):
         session.tick()
     if session.controller.kernel_ran != "native":
@@ -65,11 +90,9 @@ def compute_path(robot: str, ticks: int) -> None:
             controller.compute(q, v)
 
     run(WARMUP)
-    subprocess.run(["callgrind_control", "--instr=on", str(os.getpid())], check=True)
-    time.sleep(1.0)
+    control("--instr=on")
     run(ticks)
-    subprocess.run(["callgrind_control", "--instr=off", str(os.getpid())], check=True)
-    time.sleep(1.0)
+    control("--instr=off")
     if controller.kernel_ran != "native":
         raise SystemExit(f"kernel_callgrind: {robot} did not run native")
 
@@ -80,20 +103,8 @@ def count(robot: str, method: str, ticks: int, top: int) -> tuple[int, list[str]
     collect = () if method == "tsid" else COLLECT
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
-        command = [
-            "valgrind",
-            "--tool=callgrind",
-            "--instr-atstart=no",
-            f"--callgrind-out-file={out}",
-            *(f"--toggle-collect={pattern}" for pattern in collect),
-            sys.executable,
-            __file__,
-            "--body",
-            robot,
-            method,
-            str(ticks),
-        ]
-        run = subprocess.run(command, capture_output=True, text=True)
+        toggles = [f"--toggle-collect={pattern}" for pattern in collect]
+        run = callgrind(__file__, [robot, method, str(ticks)], toggles, out)
         if run.returncode:
             raise SystemExit(f"kernel_callgrind: {robot} {method} failed:\n{run.stderr[-2000:]}")
         report = subprocess.run(

@@ -22,26 +22,17 @@ The simulated caches are this machine kind's (lscpu: 48 KB L1d, 64 KB L1i, 2 MB 
 import argparse
 import os
 import re
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+from kernel_callgrind import callgrind, control
 
 EVICT_BYTES = 8 << 20  # 4x the simulated L2: a write over it leaves none of the tick's data
 CACHES = ("--I1=65536,8,64", "--D1=49152,12,64", "--LL=2097152,16,64")
 CROSSING = "*ServerTick::tick*"
 ALLOCATORS = {"malloc", "calloc", "realloc", "posix_memalign", "aligned_alloc"}
 PHASES = ("warm", "cold", "evictions")
-
-
-def control(*args: str) -> None:
-    """A callgrind_control request to this process, given time to land (callgrind reads it on
-    its next poll, which this sleep waits for)."""
-    subprocess.run(["callgrind_control", *args, str(os.getpid())], check=True, capture_output=True)
-    time.sleep(1.0)
 
 
 def body(robot: str, trot: bool, ticks: int) -> None:
@@ -103,22 +94,9 @@ def run(robot: str, trot: bool, ticks: int, collect: str | None) -> dict[str, di
     counts, from one valgrind run."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
-        command = [
-            "valgrind",
-            "--tool=callgrind",
-            "--instr-atstart=no",
-            "--cache-sim=yes",
-            *CACHES,
-            f"--callgrind-out-file={out}",
-            *([f"--toggle-collect={collect}"] if collect else []),
-            sys.executable,
-            __file__,
-            "--body",
-            robot,
-            "trot" if trot else "stand",
-            str(ticks),
-        ]
-        done = subprocess.run(command, capture_output=True, text=True)
+        toggles = [f"--toggle-collect={collect}"] if collect else []
+        options = ["--cache-sim=yes", *CACHES, *toggles]
+        done = callgrind(__file__, [robot, "trot" if trot else "stand", str(ticks)], options, out)
         if done.returncode:
             raise SystemExit(f"tick_cachegrind: {robot} failed:\n{done.stderr[-2000:]}")
         result = {}
