@@ -324,8 +324,9 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
     step.qr.compute(A);  // A Z = A
   } else {
     sparse_rows_product(A, Z, step.AZ);  // posture and force rows: one column each
-    if (last && full_rank_step(step, step.r, step.r)) {
-      e.z.noalias() += Z * step.r;
+    // The step into u, apart from r (as the cascade's): r keeps its size, no reallocation.
+    if (last && full_rank_step(step, step.r, step.u)) {
+      e.z.noalias() += Z * step.u;
       return;
     }
     step.qr.compute(step.AZ);
