@@ -2,6 +2,7 @@
 rate limit, the size cap, validation. `tests/client/test_client.py` drives it through real Zenoh."""
 
 import json
+import threading
 
 import pytest
 import zenoh
@@ -122,12 +123,14 @@ def test_no_query_is_begun_just_before_the_loops_tick() -> None:
 
 
 class _Queries:
-    """A queryable's channel holding `queries`, closed after them."""
+    """A queryable's channel holding `queries`, closed after them; none is given before
+    `opened` is set."""
 
     def __init__(self, queries: list[_Query]) -> None:
-        self.queries = queries
+        self.queries, self.opened = queries, threading.Event()
 
     def recv(self) -> _Query:
+        self.opened.wait()
         if not self.queries:
             raise zenoh.ZError("closed")
         return self.queries.pop(0)
@@ -148,9 +151,11 @@ def _paced(count: int, valid: bool) -> tuple[float, list[dict]]:
     def answer(query: object, body: dict) -> None:
         answers.append(body)
 
-    intakes.append(
-        CommandIntake(_Queries(queries), KEYS, parse_command, answer, clock, sleep=sleep)
-    )
+    channel = _Queries(queries)
+    intakes.append(CommandIntake(channel, KEYS, parse_command, answer, clock, sleep=sleep))
+    # Opened once `sleep` can reach the intake: its thread starts in the constructor, and the
+    # commands it read before then were never taken (their queues filled, "busy" was answered).
+    channel.opened.set()
     intakes[0].join(30.0)
     assert not queries
     return clock.now, answers
