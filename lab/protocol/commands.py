@@ -141,10 +141,12 @@ class RobotCommand(CommandStruct, frozen=True):
 
 
 class SceneCommand(CommandStruct, frozen=True):
-    """Switch scene (one of `info.scenes`): rebuilds the session."""
+    """Switch scene (one of `info.scenes`): rebuilds the session; with `setup`, the controller
+    set-up the scene was made for (lab/scenes/setups.py) is installed before its first tick."""
 
     VERB: ClassVar[str] = "scene"
     name: Name
+    setup: bool = False
 
 
 class HierarchyCommand(CommandStruct, frozen=True):

@@ -28,7 +28,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import Protocol
 
-from lab.protocol import LIMITS, FloorCommand, RobotCommand, SceneCommand, VelocityCommand
+from lab.protocol import LIMITS, Command, FloorCommand, RobotCommand, SceneCommand, VelocityCommand
 from lab.runtime.deadline_stats import DeadlineStats
 from lab.runtime.deadman import Deadman
 from lab.runtime.floor import FloorRun
@@ -78,6 +78,8 @@ class Session(Protocol):
     def execute(self, verb: str, command: object) -> dict: ...
     def refuse(self, verb: str, message: str) -> dict: ...
     def switch_config(self, command: RobotCommand | SceneCommand) -> object: ...
+    def setup_commands(self, command: object) -> list[Command]: ...
+    def use_setup(self, commands: list[Command]) -> dict: ...
     def install(self, parts: object) -> object: ...
     def telemetry_in_two(self) -> tuple[dict, Callable[[], None]]: ...
     def drawing_state(self) -> dict: ...
@@ -391,8 +393,13 @@ class SimLoop:
                     "after its reply"
                 )
                 self._answer(request, self.session.refuse(request.verb, message))
-            else:
-                self.switcher.start(request, self.session.switch_config(request.command))
+                return
+            try:  # a set-up the scene lacks for this robot is refused before the switch
+                self.session.setup_commands(request.command)
+            except KeyError as error:
+                self._answer(request, self.session.refuse(request.verb, error.args[0]))
+                return
+            self.switcher.start(request, self.session.switch_config(request.command))
             return
         reply = self.session.execute(request.verb, request.command)
         if reply.get("ok"):
@@ -421,9 +428,11 @@ class SimLoop:
         if built.error is not None:
             self._answer(built.request, self.session.refuse(built.request.verb, built.error))
             return
+        setup = self.session.setup_commands(built.request.command)  # checked at the start
         switcher.discard(self.session.install(built.parts))
+        reply = self.session.use_setup(setup)  # before the new scene's first tick
         self._deadman.refresh(VelocityCommand(), now)
-        self._answer(built.request, {"ok": True})
+        self._answer(built.request, {"ok": True, **reply})
 
     def _answer(self, request: Request, reply: dict[str, object]) -> None:
         if not reply.get("ok"):

@@ -1,6 +1,7 @@
 """What each scene was made for: the stack, hierarchy method, momentum law and internal force
-that the paper stood its robot with there (plain data: the page offers them when the scene is
-picked, docs/ui.md). On Herzog's block, platform and balance boards Talos fell at 2-3 s under the
+that the paper stood its robot with there (plain data: a `scene` command with `setup` installs
+one before the scene's first tick, and the page asks whether to when the scene is picked,
+docs/ui.md). On Herzog's block, platform and balance boards Talos fell at 2-3 s under the
 Table 4 preset with no push, and stood with Table 2 and LQR; Bolt stands on Kim's split wedges
 under WBOSC with the internal force pushing its feet apart, and falls without it.
 """

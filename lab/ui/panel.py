@@ -23,7 +23,7 @@ from lab.ui.lab_picker import add_lab_picker
 from lab.ui.panel_host import PanelHost
 from lab.ui.push_controls import PushControls
 from lab.ui.realism_controls import RealismControls
-from lab.ui.scene_setup import offer_scene_setup
+from lab.ui.scene_setup import switch_scene
 from lab.ui.stack_editor import StackEditor
 from lab.ui.velocity_controls import VelocityControls
 
@@ -203,14 +203,12 @@ class ControlPanel:
             self.app.send(self.client, verb, payload)
 
     def _switch_scene(self, event: viser.GuiEvent) -> None:
-        """Switch the scene, then offer the set-up it was made for (`scene_setup.py`)."""
+        """Switch the scene, asking first whether with the set-up it was made for
+        (`scene_setup.py`)."""
         if event.client_id is None:
             return
-        scene = self.scene.value
-        reply = self.app.send(self.client, "scene", {"name": scene})
-        info = self.app.info
-        if reply is not None and reply.get("ok") and info is not None:
-            offer_scene_setup(self.app, self.client, scene, info["robot"], info.get("mass", 0.0))
+        info = self.app.info or {"robot": None, "mass": 0.0}  # None: no lab answered yet
+        switch_scene(self.app, self.client, self.scene.value, info["robot"], info["mass"])
 
     def _hierarchy(self, event: viser.GuiEvent) -> None:
         if event.client_id is not None:

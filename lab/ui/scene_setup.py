@@ -1,7 +1,9 @@
-"""Picking a scene offers the set-up it was made for (`lab.scenes.setups`): a dialog lists the
-commands (stack preset, hierarchy method, momentum law, internal force) and sends them on *Use
-it*; *Keep mine* leaves the controller as it is. Nothing is changed unasked: a lab lets the user
-try the scene with any stack, but says what it was made for.
+"""Picking a scene made for a set-up (`lab.scenes.setups`) asks first: a dialog lists the
+commands (stack preset, hierarchy method, momentum law, internal force), and the scene is
+switched on the answer, *Use it* with the set-up (the `scene` command's `setup`: the lab installs
+it before the scene's first tick), *Keep mine* without. Nothing is changed unasked: a lab lets
+the user try the scene with any stack, but says what it was made for. Asking after the switch
+let Bolt fall on the split wedges (at 0.3-0.5 s) before anyone could answer.
 """
 
 from __future__ import annotations
@@ -20,30 +22,27 @@ def setup_lines(commands: list[tuple[str, dict]]) -> list[str]:
     ]
 
 
-def offer_scene_setup(
-    app: CommandHost, client: viser.ClientHandle, scene: str, robot: str, mass_kg: float
-) -> bool:
-    """Open the dialog for `scene` in `client`'s browser if the scene has a set-up for `robot`
-    (of `mass_kg`); whether it did."""
+def switch_scene(
+    app: CommandHost, client: viser.ClientHandle, scene: str, robot: str | None, mass_kg: float
+) -> None:
+    """Switch to `scene`; if it was made for a set-up for `robot` (of `mass_kg`), ask in
+    `client`'s browser first and switch on the answer."""
     setup = SCENE_SETUPS.get(scene)
     if setup is None or robot not in setup.robots:
-        return False
-    commands = setup.commands(mass_kg)
+        app.send(client, "scene", {"name": scene})
+        return
     gui = client.gui
     with gui.add_modal(f"Scene {scene} was made for this set-up") as modal:
         gui.add_markdown(
-            f"{setup.why}:\n\n" + "\n".join(f"- {line}" for line in setup_lines(commands))
+            f"{setup.why}:\n\n"
+            + "\n".join(f"- {line}" for line in setup_lines(setup.commands(mass_kg)))
         )
         use = gui.add_button("Use it")
         keep = gui.add_button("Keep mine")
 
-    def use_it(_: viser.GuiEvent) -> None:
+    def answer(with_setup: bool) -> None:
         modal.close()
-        for verb, payload in commands:
-            reply = app.send(client, verb, payload)
-            if reply is None or not reply.get("ok"):
-                return  # the refusal is shown and logged by `send`
+        app.send(client, "scene", {"name": scene, "setup": with_setup})
 
-    use.on_click(app.guard(use_it))
-    keep.on_click(app.guard(lambda _: modal.close()))
-    return True
+    use.on_click(app.guard(lambda _: answer(True)))
+    keep.on_click(app.guard(lambda _: answer(False)))

@@ -22,6 +22,7 @@ from lab.description import ROBOT_NAMES
 from lab.realism.knobs import knobs_from, preset
 from lab.realism.layer import realism_layer
 from lab.scenes import SCENES
+from lab.scenes.setups import SCENE_SETUPS
 from lab.stack_presets import PRESET_NAMES
 from lab.world.estimator import BaseEstimator
 from lab.world.memory import release_free_memory
@@ -82,10 +83,11 @@ class SessionCommands(SessionTick):
                 )
                 return {}
             case cmd.RobotCommand() | cmd.SceneCommand():
+                setup = self.setup_commands(command)  # refused before anything changes
                 old = self.install(build_parts(self.switch_config(command)))
                 del old  # the old session's parts, freed here...
                 release_free_memory()  # ...and the heap they took given back (memory.py)
-                return {}
+                return self.use_setup(setup)
             case cmd.HierarchyCommand(
                 method=method, solver=solver, formulation=formulation, kernel=kernel
             ):
@@ -222,6 +224,35 @@ class SessionCommands(SessionTick):
     ) -> None:
         self.plant.push(body, force, point)  # raises KeyError naming the known bodies
         self.pushes[body] = Push(body, force, point, self.time + duration)
+
+    def setup_commands(self, command: object) -> list[cmd.Command]:
+        """The commands of the set-up a command asks for (none but a `scene` with `setup`): the
+        one the scene was made for (lab/scenes/setups.py), for the robot running, which a
+        scene switch keeps. KeyError naming what is missing when the scene has none for it."""
+        if not isinstance(command, cmd.SceneCommand) or not command.setup:
+            return []
+        made = SCENE_SETUPS.get(command.name)
+        if made is None or self.config.robot not in made.robots:
+            offered = [scene for scene, s in SCENE_SETUPS.items() if self.config.robot in s.robots]
+            raise KeyError(
+                f"scene {command.name!r} has no set-up for {self.config.robot} (scenes with "
+                f"one for it: {', '.join(offered) or 'none'})"
+            )
+        return [cmd.parse_command(v, p) for v, p in made.commands(self.model.mass)]
+
+    def use_setup(self, commands: list[cmd.Command]) -> dict:
+        """Apply a scene's set-up (`setup_commands`) right after its switch, before the new
+        scene's first tick, so that the robot never runs there without it; the reply's fields:
+        `setup`, the verbs applied, and a `note` naming a command refused (its event is shown)."""
+        if not commands:
+            return {}
+        applied: list[str] = []
+        for command in commands:
+            reply = self.execute(command.VERB, command)
+            if not reply["ok"]:
+                return {"setup": applied, "note": f"the set-up stopped: {reply['error']}"}
+            applied.append(command.VERB)
+        return {"setup": applied}
 
     def info(self) -> dict:
         return {

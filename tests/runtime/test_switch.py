@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lab.protocol import RobotCommand
+from lab.protocol import RobotCommand, SceneCommand
 from lab.runtime.intake import Request
 from lab.runtime.loop import LoopConfig, SimLoop
 from lab.runtime.scheduling import ThreadPolicy
@@ -238,6 +238,23 @@ class _OneSwitch:
     def publish_event(self, message: dict) -> None: ...
 
 
+def _run_until_answered(session: Session, transport: _OneSwitch, switcher: Switcher) -> None:
+    """Run the loop at 250 Hz with `switcher` until `transport` is answered and a second
+    more; the loop raised nothing."""
+    stop = threading.Event()
+    loop = SimLoop(session, transport, LoopConfig(rate_hz=250, sched="other"), switcher=switcher)
+    thread = threading.Thread(target=loop.run, args=(stop,))
+    thread.start()
+    try:
+        assert transport.answered.wait(WAIT_S), "no reply to the switch"
+        time.sleep(1.0)
+    finally:
+        stop.set()
+        thread.join()
+        switcher.close()
+    assert loop.error is None, repr(loop.error)
+
+
 BASELINE_TICKS = 270  # at 250 Hz: about a second of ticks before the switch (20 to settle)
 
 
@@ -258,18 +275,7 @@ def test_the_loop_keeps_ticking_the_old_robot_while_a_switch_is_built() -> None:
     session.tick = counted_tick
     transport = _OneSwitch("solo12")
     switcher = Switcher(worker=True)
-    stop = threading.Event()
-    loop = SimLoop(session, transport, LoopConfig(rate_hz=250, sched="other"), switcher=switcher)
-    thread = threading.Thread(target=loop.run, args=(stop,))
-    thread.start()
-    try:
-        assert transport.answered.wait(WAIT_S), "no reply to the switch"
-        time.sleep(1.0)
-    finally:
-        stop.set()
-        thread.join()
-        switcher.close()
-    assert loop.error is None, repr(loop.error)
+    _run_until_answered(session, transport, switcher)
     assert transport.reply_body == {"ok": True}
     assert switcher.worlds.built == 1  # the worker built it
     sent, answered = transport.sent_at, transport.answered_at
@@ -282,6 +288,54 @@ def test_the_loop_keeps_ticking_the_old_robot_while_a_switch_is_built() -> None:
     assert old[-1] - old[0] >= 0.5 * at_the_pace_before, (old[-1] - old[0], at_the_pace_before)
     # then the new robot, standing
     assert session.config.robot == "solo12" and sim_times[-1][1] == "solo12"
+    assert not session.fell and session.time > 0.1
+
+
+class _Scenes(_OneSwitch):
+    """After BASELINE_TICKS ticks, a `scene` command with `setup` that the robot has none for,
+    then, once answered, one it has; every reply kept."""
+
+    def __init__(self, refused: str, taken: str) -> None:
+        super().__init__("")
+        self.requests = [
+            Request("scene", {}, None, None, SceneCommand(name, setup=True))
+            for name in (refused, taken)
+        ]
+        self.replies: list[dict] = []
+
+    def receive(self) -> Request | None:
+        self.tick_times.append(time.monotonic())
+        if len(self.tick_times) > BASELINE_TICKS and len(self.replies) == 2 - len(self.requests):
+            return self.requests.pop(0) if self.requests else None
+        return None
+
+    def reply(self, request: Request, body: dict) -> None:
+        self.replies.append(body)
+        if len(self.replies) == 2:
+            self.answered.set()
+
+
+def test_a_scene_switch_with_its_set_up_runs_it_from_the_scene_s_first_tick() -> None:
+    """The loop's switch beside it installs a scene's set-up (the `scene` command's `setup`)
+    before the new scene's first tick: Bolt's first tick on the split wedges runs WBOSC, and
+    Bolt stands there. A scene without a set-up for the robot is refused before any switch."""
+    session = Session(SessionConfig(robot="bolt"))
+    first: list[tuple[str, str]] = []  # the first tick's (scene, method) in each scene
+    tick = session.tick
+
+    def watched_tick() -> None:
+        if not first or first[-1][0] != session.config.scene:
+            first.append((session.config.scene, session.controller.config.method))
+        tick()
+
+    session.tick = watched_tick
+    transport = _Scenes("block", "split_wedges")
+    _run_until_answered(session, transport, Switcher())
+    refused, taken = transport.replies
+    assert not refused["ok"] and "no set-up for bolt" in refused["error"], refused
+    assert taken == {"ok": True, "setup": ["hierarchy", "gains", "internal_force"]}, taken
+    assert [scene for scene, _ in first] == ["flat", "split_wedges"]
+    assert first[1] == ("split_wedges", "wbosc")
     assert not session.fell and session.time > 0.1
 
 

@@ -913,11 +913,13 @@ def test_the_internal_force_folder_sets_the_reference_and_its_gain(viser_server)
     assert not folder.folder.visible  # no internal_force task in ANYmal's stack
 
 
-def test_each_scene_set_up_is_accepted_and_bolt_holds_on_the_wedges_across_a_reset() -> None:
-    """The set-ups the page offers name scenes, presets and robots that exist, the session
-    takes every command of them, and with Kim's (WBOSC, internal force 0.51 m g, K_F 1) Bolt
-    stands on the split wedges, and again after a Reset (it fell on every Reset without)."""
-    from lab.scenes import SCENE_ROBOTS, SCENES
+def test_each_scene_set_up_is_installed_with_its_scene_and_bolt_holds_on_the_wedges() -> None:
+    """The set-ups the page offers name scenes, presets and robots that exist; a `scene` command
+    with `setup` installs every command of one before the scene's first tick (Kim's on Bolt:
+    WBOSC, internal force 0.51 m g, K_F 1), and Bolt then stands on the split wedges, and again
+    after a Reset, where without it it falls within a second. A scene without a set-up for the
+    robot running is refused with `setup`, naming the ones it has, and nothing changes."""
+    from lab.scenes import SCENES
     from lab.scenes.setups import SCENE_SETUPS
     from lab.stack_presets import PRESET_NAMES
     from lab.world.session import Session, SessionConfig
@@ -925,18 +927,27 @@ def test_each_scene_set_up_is_accepted_and_bolt_holds_on_the_wedges_across_a_res
     for scene, setup in SCENE_SETUPS.items():
         assert scene in SCENES and set(setup.robots) <= set(ROBOT_NAMES), scene
         assert setup.preset is None or setup.preset in PRESET_NAMES
-    talos = Session(SessionConfig(robot="talos", scene="block"))
-    assert "talos" in SCENE_ROBOTS["block"]
-    for verb, payload in SCENE_SETUPS["block"].commands(talos.model.mass):
-        assert talos.handle(verb, payload)["ok"], (verb, payload)
-    bolt = Session(SessionConfig(robot="bolt", scene="split_wedges"))
-    commands = SCENE_SETUPS["split_wedges"].commands(bolt.model.mass)
-    assert commands[-1] == (
-        "internal_force",
-        {"reference": round(0.51 * bolt.model.mass * 9.81, 2)},
+    talos = Session(SessionConfig(robot="talos"))
+    reply = talos.handle("scene", {"name": "block", "setup": True})
+    assert reply["ok"] and reply["setup"] == ["stack", "momentum"], reply
+    assert talos.controller.momentum_mode().startswith("lqr") and talos.time == 0.0
+    bolt = Session(SessionConfig(robot="bolt"))
+    refused = bolt.handle("scene", {"name": "block", "setup": True})
+    assert (
+        not refused["ok"]
+        and "no set-up for bolt (scenes with one for it: split_wedges)" in (refused["error"])
     )
-    for verb, payload in commands:
-        assert bolt.handle(verb, payload)["ok"], (verb, payload)
+    assert bolt.config.scene == "flat"
+    assert bolt.handle("scene", {"name": "split_wedges"})["ok"]  # without it: Bolt falls
+    while bolt.time < 1.0 and not bolt.fell:
+        bolt.tick()
+    assert bolt.fell, bolt.time
+    reply = bolt.handle("scene", {"name": "split_wedges", "setup": True})
+    assert reply["ok"] and reply["setup"] == ["hierarchy", "gains", "internal_force"], reply
+    assert bolt.time == 0.0 and bolt.controller.config.method == "wbosc"  # before a tick
+    internal = bolt.controller.internal_force
+    assert internal.reference == pytest.approx(0.51 * bolt.model.mass * 9.81, abs=0.01)
+    assert internal.gains.kp == 1.0
     for _ in range(2):
         start = bolt.time
         while bolt.time - start < 1.5 and not bolt.fell:
