@@ -135,8 +135,9 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
     dz.conservativeResize(kept);
   }
   if (!solve_qp_kept(Hz, gz, Cz, dz, u, &report)) return false;
-  x = x0;
-  x.noalias() += Z * u;
+  x = x0;  // x0 + Z u, Z's lower block being the identity
+  x.head<k>().noalias() += Zt * u;
+  x.tail(nu) += u;
   return true;
 }
 }  // namespace
