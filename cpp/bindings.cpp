@@ -210,7 +210,7 @@ class ModelMirror {
   void fill(const lab::RobotModel& robot) {
     vector(q_) = robot.q;
     vector(v_) = robot.v;
-    matrix(M_) = robot.M;
+    vector(M_) = robot.M.reshaped();  // symmetric: its column-major entries are its row-major ones
     vector(h_) = robot.h;
     matrix(Jc_) = robot.Jc;
     vector(Jc_dot_v_) = robot.Jc_dot_v;

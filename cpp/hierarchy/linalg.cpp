@@ -22,7 +22,7 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
   Z.bottomRows(n - k).setIdentity();
   x.setZero(n);
   x.head<k>().noalias() = inverse * b;
-  return Z.allFinite() && x.allFinite();
+  return Z.topRows<k>().allFinite() && x.head<k>().allFinite();  // the rest: I and 0
 }
 
 void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,

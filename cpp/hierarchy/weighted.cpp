@@ -43,8 +43,8 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
   // j: the posture and force rows) has A Z = a e_j, Z's lower block being the identity: its share
   // is w a^2 on the diagonal and w a (a x0_j - b) in the gradient, and it stays out of S (half of
   // ANYmal's rows).
-  Hz.setIdentity(nu, nu);
-  Hz *= regularization;
+  Hz.setZero(nu, nu);  // one memset, then the diagonal: setIdentity tests every entry
+  Hz.diagonal().setConstant(regularization);
   gz.noalias() = Zt.transpose() * x0.head<k>();
   gz += x0.tail(nu);
   gz *= regularization;
@@ -135,8 +135,9 @@ bool solve_reduced(const HierarchyProblem& problem, double regularization, const
     dz.conservativeResize(kept);
   }
   if (!solve_qp_kept(Hz, gz, Cz, dz, u, &report)) return false;
-  x = x0;
-  x.noalias() += Z * u;
+  x = x0;  // x0 + Z u, Z's lower block being the identity
+  x.head<k>().noalias() += Zt * u;
+  x.tail(nu) += u;
   return true;
 }
 }  // namespace
