@@ -81,10 +81,11 @@ class RowSpaceQR {
     qr_.householderQ().evalTo(out, workspace_);
   }
 
-  /// Q v, applied as reflectors.
-  void apply_q_on_the_left(Eigen::VectorXd& v) {
+  /// Q M (M a vector or a matrix of n rows), applied as reflectors.
+  template <typename Matrix>
+  void apply_q_on_the_left(Matrix& M) {
     if (rows_ == 0) return;
-    qr_.householderQ().applyThisOnTheLeft(v, workspace_);
+    qr_.householderQ().applyThisOnTheLeft(M, left_workspace_);
   }
 
  private:
@@ -92,6 +93,7 @@ class RowSpaceQR {
   Eigen::HouseholderQR<Eigen::MatrixXd> r1t_qr_;  // R1^T when A has more rows than rank
   Eigen::MatrixXd r1t_;
   Eigen::VectorXd rhs_, workspace_;
+  Eigen::VectorXd left_workspace_;  // apply_q_on_the_left's: one entry per column of M
   int rows_ = 0;
   int rank_ = 0;
 };

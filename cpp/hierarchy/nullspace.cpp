@@ -58,7 +58,18 @@ struct Entry {
 struct StepWork {
   LeastSquaresStep step;
   Eigen::MatrixXd Q;
+  Eigen::MatrixXd tail, kept;  // Q [y | 0; 0 | I] and Z Q's free columns (least_squares_step)
 };
+
+/// Whether Z Q's step and free columns cost fewer multiplications as Z (Q [y | 0; 0 | I]) than
+/// as Q's `reflectors` applied to Z (n x cols) itself: reflector k touches cols − k columns of
+/// each row, two multiplications per entry; the tail applies them to 1 + left columns of cols
+/// rows, then multiplies Z by it.
+bool tail_is_cheaper(Eigen::Index n, Eigen::Index cols, Eigen::Index reflectors,
+                     Eigen::Index left) {
+  const Eigen::Index h = reflectors, touched = h * cols - h * (h - 1) / 2;  // Σ_k<h (cols − k)
+  return (1 + left) * (2 * touched + n * cols) < 2 * n * touched;
+}
 
 /// One active-set search over z (nullspace.py active_set_least_squares), its buffers kept from
 /// tick to tick: no allocation while the shapes stay those of the last tick.
@@ -334,15 +345,26 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   const Eigen::Index rank = step.qr.rank();
   if (rank == 0) return;
   step.qr.solve(step.r, step.y);
-  if (last) {  // Z Q [y; 0]
-    step.r.setZero(e.cols);
-    step.r.head(rank) = step.y;
-    step.qr.apply_q_on_the_left(step.r);
-    e.z.noalias() += Z * step.r;
+  // Z Q: the first `rank` columns step (z += (Z Q)₁ y), the rest stay free (the next Z, the
+  // window's tail). Where few columns or none stay free (the last level, whose null space no
+  // level reads; a level that uses up what is left, or nearly), Z times the columns of Q that are
+  // needed, Q [y | 0; 0 | I], costs less than applying every reflector to Z (tail_is_cheaper).
+  const Eigen::Index left = last ? 0 : e.cols - rank;
+  if (last || (!e.identity && tail_is_cheaper(n_, e.cols, std::min(b.size(), e.cols), left))) {
+    work.tail.setZero(e.cols, 1 + left);
+    work.tail.col(0).head(rank) = step.y;
+    work.tail.bottomRightCorner(left, left).setIdentity();
+    step.qr.apply_q_on_the_left(work.tail);
+    e.z.noalias() += Z * work.tail.col(0);
+    if (last) return;
+    work.kept.noalias() = Z * work.tail.rightCols(left);
+    Z.rightCols(left) = work.kept;
+    e.first += rank;
+    e.cols -= rank;
     return;
   }
-  // Z Q: the first `rank` columns step, the rest stay free; where Z is the identity, Q itself
-  // (formed from its reflectors, which skips the identity's untouched corner)
+  // Where Z is the identity, Q itself (formed from its reflectors, which skips the identity's
+  // untouched corner)
   if (e.identity) {
     step.qr.q(work.Q);
     Z = work.Q;
