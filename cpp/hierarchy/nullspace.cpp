@@ -91,7 +91,7 @@ class ActiveSetSearch {
   void project(Eigen::Index first);
   void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
   void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e,
-                          StepWork& work, bool last = false);
+                          StepWork& work, const SparseRows* sparsity = nullptr, bool last = false);
   Eigen::Index activate_violated();
   bool release_one();
   void walked();
@@ -105,7 +105,8 @@ class ActiveSetSearch {
   Eigen::VectorXd target_, dz_, rows_, rate_;
   Eigen::MatrixXd Ca_;  // the active rows of C
   Eigen::VectorXd da_;
-  std::vector<StepWork> work_;  // per level: [2k] its active rows of C, [2k + 1] its A
+  std::vector<StepWork> work_;        // per level: [2k] its active rows of C, [2k + 1] its A
+  std::vector<SparseRows> sparsity_;  // per level: its A's sparse rows, found once per search
 };
 
 bool ActiveSetSearch::take() {
@@ -134,6 +135,8 @@ void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index 
   entry_.resize(L + 1);
   trial_.resize(L + 1);
   work_.resize(2 * L);
+  sparsity_.resize(L);
+  for (std::size_t k = 0; k < L; ++k) sparsity_[k].compute(levels[k]->A);
   entry_[0].z.setZero(n);
   entry_[0].Z_buffer.setIdentity(n, n);
   entry_[0].first = 0;
@@ -314,12 +317,14 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
         }
       least_squares_step(Ca_, da_, next, work_[2 * k]);
     }
-    least_squares_step(level.A, level.b, next, work_[2 * k + 1], k + 1 == levels.size());
+    least_squares_step(level.A, level.b, next, work_[2 * k + 1], &sparsity_[k],
+                       k + 1 == levels.size());
   }
 }
 
 void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                         Entry& e, StepWork& work, bool last) {
+                                         Entry& e, StepWork& work, const SparseRows* sparsity,
+                                         bool last) {
   // z <- z + Z (A Z)⁺ (b − A z), Z <- Z ∩ null(A Z) (eqs. 8-11), from the pivoted QR of
   // (A Z)ᵀ = Q [R1; 0] Pᵀ with linalg's rank rule: (A Z)⁺ r = Q1 (R1ᵀ)⁺ Pᵀ r, the next Z is Z Q2.
   // The last level's step (`last`) moves z only: no level below reads its null space (the
@@ -334,7 +339,11 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   if (e.identity) {
     step.qr.compute(A);  // A Z = A
   } else {
-    sparse_rows_product(A, Z, step.AZ);  // posture and force rows: one column each
+    // posture and force rows: one column each (`sparsity`: A's rows as found once per search)
+    if (sparsity)
+      sparsity->product(A, Z, step.AZ);
+    else
+      sparse_rows_product(A, Z, step.AZ);
     // The step into u, apart from r (as the cascade's): r keeps its size, no reallocation.
     if (last && full_rank_step(step, step.r, step.u)) {
       e.z.noalias() += Z * step.u;
