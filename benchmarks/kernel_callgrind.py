@@ -2,6 +2,7 @@
 the machine's load, so before/after comparisons of a C++ change hold on a shared machine.
 
     .venv/bin/python benchmarks/kernel_callgrind.py [--robots g1 talos_arms anymal] [--ticks 200]
+    .venv/bin/python benchmarks/kernel_callgrind.py --single [--robots g1 talos_arms] [--ticks 500]
     .venv/bin/python benchmarks/kernel_callgrind.py --tsid [--robots anymal talos]
 
 Per robot and method: a headless session standing on the native kernel for `--ticks` ticks, run
@@ -9,6 +10,11 @@ under `valgrind --tool=callgrind` with collection on only inside `Kernel::update
 `Kernel::solve` (the model update, then the rows, the hierarchy method and τ); prints the
 instructions per tick and the heaviest functions (inclusive) of that count. The session's first
 WARMUP ticks settle the robot onto its feet, uninstrumented and not counted.
+
+`--single`: `lab bench --gaits single`'s run instead (the LQR momentum law, the left sole, the
+push at 1 s), counted from SINGLE_FROM on: the ticks while the right sole's force bound ramps to
+zero, where `nullspace` makes its release trials (docs/performance.md, "Round 18: where the
+free-arm rows' mean tick goes").
 
 `--tsid`: benchmarks/bench_tsid.py's side of the comparison instead, whole: its `weighted`
 controller's `compute(q, v)` cycling through its recorded states with their references, as its
@@ -27,6 +33,7 @@ from pathlib import Path
 
 COLLECT = ("lab::Kernel::update*", "lab::Kernel::solve()*")
 WARMUP = 100  # ticks before the count: the robot settles onto its feet
+SINGLE_FROM = 1000  # --single: the push's tick; the sole unloads from here to ~1500
 
 
 def control(*args: str) -> None:
@@ -55,13 +62,23 @@ def callgrind(
     return subprocess.run(command, capture_output=True, text=True)
 
 
-def stand(robot: str, method: str, ticks: int) -> None:
-    """The body that runs under valgrind: `ticks` standing ticks of a native session."""
+def stand(robot: str, method: str, ticks: int, single: bool = False) -> None:
+    """The body that runs under valgrind: `ticks` standing ticks of a native session, or with
+    `single` those from SINGLE_FROM on of `lab bench --gaits single`'s run."""
+    from lab.experiments.bench import GAITS, HERZOG_PUSH
     from lab.world.session import Session, SessionConfig
 
     session = Session(SessionConfig(robot=robot, method=method, kernel="native"))
-    for _ in range(WARMUP):
+    if single:
+        for verb, payload in GAITS["single"].commands:
+            if "preset" in session.handle(verb, payload):  # as lab bench: the method benched
+                session.handle("hierarchy", {"method": method})
+    for _ in range(SINGLE_FROM if single else WARMUP):
         session.tick()
+    if single:
+        force, duration = HERZOG_PUSH
+        push = {"body": session.robot.base_link, "force": [0.0, force, 0.0]}
+        session.handle("push", {**push, "duration": duration})
     # Instrumentation on from here only (valgrind runs the imports and set-up uninstrumented,
     # several times faster).
     control("--instr=on")
@@ -97,14 +114,17 @@ def compute_path(robot: str, ticks: int) -> None:
         raise SystemExit(f"kernel_callgrind: {robot} did not run native")
 
 
-def count(robot: str, method: str, ticks: int, top: int) -> tuple[int, list[str]]:
-    """Instructions per tick inside the kernel (method "tsid": bench_tsid's compute path whole),
-    and the `top` heaviest inclusive lines."""
+def count(
+    robot: str, method: str, ticks: int, top: int, single: bool = False
+) -> tuple[int, list[str]]:
+    """Instructions per tick inside the kernel (method "tsid": bench_tsid's compute path whole;
+    `single`: the unload ticks of `--single`), and the `top` heaviest inclusive lines."""
     collect = () if method == "tsid" else COLLECT
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
         toggles = [f"--toggle-collect={pattern}" for pattern in collect]
-        run = callgrind(__file__, [robot, method, str(ticks)], toggles, out)
+        body = [robot, method, str(ticks), "single" if single else "stand"]
+        run = callgrind(__file__, body, toggles, out)
         if run.returncode:
             raise SystemExit(f"kernel_callgrind: {robot} {method} failed:\n{run.stderr[-2000:]}")
         report = subprocess.run(
@@ -129,19 +149,25 @@ def main() -> None:
     parser.add_argument(
         "--tsid", action="store_true", help="bench_tsid's compute(q, v) path whole (module doc)"
     )
-    parser.add_argument("--body", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--single",
+        action="store_true",
+        help="the unload ticks of lab bench's single-support run, not standing (module doc)",
+    )
+    parser.add_argument("--body", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.body:
-        robot, method, ticks = args.body
+        robot, method, ticks, mode = args.body
         if method == "tsid":
             compute_path(robot, int(ticks))
         else:
-            stand(robot, method, int(ticks))
+            stand(robot, method, int(ticks), single=mode == "single")
         return
-    print(f"load average {os.getloadavg()[0]:.1f}; {args.ticks} ticks each")
+    what = f"from tick {SINGLE_FROM} of lab bench's single run" if args.single else "standing"
+    print(f"load average {os.getloadavg()[0]:.1f}; {args.ticks} ticks each, {what}")
     for robot in args.robots:
         for method in ["tsid"] if args.tsid else args.methods:
-            per_tick, lines = count(robot, method, args.ticks, args.top)
+            per_tick, lines = count(robot, method, args.ticks, args.top, args.single)
             print(f"{robot} {method}: {per_tick:,} instructions per tick")
             print("\n".join(lines))
 

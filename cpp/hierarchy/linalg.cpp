@@ -50,6 +50,49 @@ void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen:
   }
 }
 
+void SparseRows::compute(const Eigen::MatrixXd& A) {
+  const Eigen::Index m = A.rows(), n = A.cols();
+  const auto sparse_limit = static_cast<std::size_t>(n / 4);  // sparse_rows_product's rule
+  any_sparse_ = false;
+  start_.assign(1, 0);
+  columns_.clear();
+  dense_.assign(static_cast<std::size_t>(m), false);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const std::size_t begin = columns_.size();
+    bool dense = false;
+    for (Eigen::Index j = 0; j < n && !dense; ++j) {
+      if (A(i, j) == 0.0) continue;
+      dense = columns_.size() - begin == sparse_limit;  // one nonzero more than the limit
+      if (!dense) columns_.push_back(j);
+    }
+    if (dense) columns_.resize(begin);
+    dense_[static_cast<std::size_t>(i)] = dense;
+    any_sparse_ = any_sparse_ || !dense;
+    start_.push_back(static_cast<Eigen::Index>(columns_.size()));
+  }
+}
+
+void SparseRows::product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
+                         Eigen::MatrixXd& out) const {
+  out.resize(A.rows(), Z.cols());
+  if (!any_sparse_) {
+    out.noalias() = A * Z;
+    return;
+  }
+  for (Eigen::Index i = 0; i < A.rows(); ++i) {
+    const auto row = static_cast<std::size_t>(i);
+    if (dense_[row]) {
+      out.row(i).noalias() = A.row(i) * Z;
+      continue;
+    }
+    out.row(i).setZero();
+    for (Eigen::Index k = start_[row]; k < start_[row + 1]; ++k) {
+      const Eigen::Index j = columns_[static_cast<std::size_t>(k)];
+      out.row(i) += A(i, j) * Z.row(j);
+    }
+  }
+}
+
 bool full_rank_by_margin(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, double frobenius,
                          Eigen::MatrixXd& R_inverse) {
   const Eigen::Index rows = qr.rows(), cols = qr.cols();

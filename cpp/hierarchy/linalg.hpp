@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <vector>
 
 namespace lab {
 
@@ -33,6 +34,25 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
 /// dense product's value exactly (its other terms are exact zeros). `out` must not alias Z.
 void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
                          Eigen::MatrixXd& out);
+
+/// sparse_rows_product for a matrix that many products read (a nullspace search's levels, in
+/// each of its hierarchy solves): which rows are sparse, and their nonzero columns, found once
+/// by `compute`; `product` then forms the same sums in the same order without looking again.
+/// Its storage is kept from call to call: no allocation once it has held the largest matrix.
+class SparseRows {
+ public:
+  void compute(const Eigen::MatrixXd& A);
+
+  /// out = A Z, A the matrix last given to `compute`: equal to sparse_rows_product(A, Z, out).
+  void product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
+               Eigen::MatrixXd& out) const;
+
+ private:
+  bool any_sparse_ = false;
+  std::vector<Eigen::Index> start_;    // row i's nonzero columns: columns_[start_[i], start_[i+1])
+  std::vector<Eigen::Index> columns_;  // (none for a dense row: start_[i] == start_[i+1])
+  std::vector<bool> dense_;
+};
 
 /// Whether B (rows >= cols, factorized as `qr`, B = Q R) has full column rank by a margin that
 /// the rank rule of RowSpaceQR, applied to B^T, cannot miss. That rule's pivoted QR of B^T keeps at
@@ -81,10 +101,11 @@ class RowSpaceQR {
     qr_.householderQ().evalTo(out, workspace_);
   }
 
-  /// Q v, applied as reflectors.
-  void apply_q_on_the_left(Eigen::VectorXd& v) {
+  /// Q M (M a vector or a matrix of n rows), applied as reflectors.
+  template <typename Matrix>
+  void apply_q_on_the_left(Matrix& M) {
     if (rows_ == 0) return;
-    qr_.householderQ().applyThisOnTheLeft(v, workspace_);
+    qr_.householderQ().applyThisOnTheLeft(M, left_workspace_);
   }
 
  private:
@@ -92,6 +113,7 @@ class RowSpaceQR {
   Eigen::HouseholderQR<Eigen::MatrixXd> r1t_qr_;  // R1^T when A has more rows than rank
   Eigen::MatrixXd r1t_;
   Eigen::VectorXd rhs_, workspace_;
+  Eigen::VectorXd left_workspace_;  // apply_q_on_the_left's: one entry per column of M
   int rows_ = 0;
   int rank_ = 0;
 };

@@ -58,7 +58,18 @@ struct Entry {
 struct StepWork {
   LeastSquaresStep step;
   Eigen::MatrixXd Q;
+  Eigen::MatrixXd tail, kept;  // Q [y | 0; 0 | I] and Z Q's free columns (least_squares_step)
 };
+
+/// Whether Z Q's step and free columns cost fewer multiplications as Z (Q [y | 0; 0 | I]) than
+/// as Q's `reflectors` applied to Z (n x cols) itself: reflector k touches cols − k columns of
+/// each row, two multiplications per entry; the tail applies them to 1 + left columns of cols
+/// rows, then multiplies Z by it.
+bool tail_is_cheaper(Eigen::Index n, Eigen::Index cols, Eigen::Index reflectors,
+                     Eigen::Index left) {
+  const Eigen::Index h = reflectors, touched = h * cols - h * (h - 1) / 2;  // Σ_k<h (cols − k)
+  return (1 + left) * (2 * touched + n * cols) < 2 * n * touched;
+}
 
 /// One active-set search over z (nullspace.py active_set_least_squares), its buffers kept from
 /// tick to tick: no allocation while the shapes stay those of the last tick.
@@ -80,7 +91,7 @@ class ActiveSetSearch {
   void project(Eigen::Index first);
   void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
   void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e,
-                          StepWork& work, bool last = false);
+                          StepWork& work, const SparseRows* sparsity = nullptr, bool last = false);
   Eigen::Index activate_violated();
   bool release_one();
   void walked();
@@ -94,7 +105,8 @@ class ActiveSetSearch {
   Eigen::VectorXd target_, dz_, rows_, rate_;
   Eigen::MatrixXd Ca_;  // the active rows of C
   Eigen::VectorXd da_;
-  std::vector<StepWork> work_;  // per level: [2k] its active rows of C, [2k + 1] its A
+  std::vector<StepWork> work_;        // per level: [2k] its active rows of C, [2k + 1] its A
+  std::vector<SparseRows> sparsity_;  // per level: its A's sparse rows, found once per search
 };
 
 bool ActiveSetSearch::take() {
@@ -123,6 +135,8 @@ void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index 
   entry_.resize(L + 1);
   trial_.resize(L + 1);
   work_.resize(2 * L);
+  sparsity_.resize(L);
+  for (std::size_t k = 0; k < L; ++k) sparsity_[k].compute(levels[k]->A);
   entry_[0].z.setZero(n);
   entry_[0].Z_buffer.setIdentity(n, n);
   entry_[0].first = 0;
@@ -303,12 +317,14 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
         }
       least_squares_step(Ca_, da_, next, work_[2 * k]);
     }
-    least_squares_step(level.A, level.b, next, work_[2 * k + 1], k + 1 == levels.size());
+    least_squares_step(level.A, level.b, next, work_[2 * k + 1], &sparsity_[k],
+                       k + 1 == levels.size());
   }
 }
 
 void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
-                                         Entry& e, StepWork& work, bool last) {
+                                         Entry& e, StepWork& work, const SparseRows* sparsity,
+                                         bool last) {
   // z <- z + Z (A Z)⁺ (b − A z), Z <- Z ∩ null(A Z) (eqs. 8-11), from the pivoted QR of
   // (A Z)ᵀ = Q [R1; 0] Pᵀ with linalg's rank rule: (A Z)⁺ r = Q1 (R1ᵀ)⁺ Pᵀ r, the next Z is Z Q2.
   // The last level's step (`last`) moves z only: no level below reads its null space (the
@@ -323,7 +339,11 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   if (e.identity) {
     step.qr.compute(A);  // A Z = A
   } else {
-    sparse_rows_product(A, Z, step.AZ);  // posture and force rows: one column each
+    // posture and force rows: one column each (`sparsity`: A's rows as found once per search)
+    if (sparsity)
+      sparsity->product(A, Z, step.AZ);
+    else
+      sparse_rows_product(A, Z, step.AZ);
     // The step into u, apart from r (as the cascade's): r keeps its size, no reallocation.
     if (last && full_rank_step(step, step.r, step.u)) {
       e.z.noalias() += Z * step.u;
@@ -334,15 +354,26 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   const Eigen::Index rank = step.qr.rank();
   if (rank == 0) return;
   step.qr.solve(step.r, step.y);
-  if (last) {  // Z Q [y; 0]
-    step.r.setZero(e.cols);
-    step.r.head(rank) = step.y;
-    step.qr.apply_q_on_the_left(step.r);
-    e.z.noalias() += Z * step.r;
+  // Z Q: the first `rank` columns step (z += (Z Q)₁ y), the rest stay free (the next Z, the
+  // window's tail). Where few columns or none stay free (the last level, whose null space no
+  // level reads; a level that uses up what is left, or nearly), Z times the columns of Q that are
+  // needed, Q [y | 0; 0 | I], costs less than applying every reflector to Z (tail_is_cheaper).
+  const Eigen::Index left = last ? 0 : e.cols - rank;
+  if (last || (!e.identity && tail_is_cheaper(n_, e.cols, std::min(b.size(), e.cols), left))) {
+    work.tail.setZero(e.cols, 1 + left);
+    work.tail.col(0).head(rank) = step.y;
+    work.tail.bottomRightCorner(left, left).setIdentity();
+    step.qr.apply_q_on_the_left(work.tail);
+    e.z.noalias() += Z * work.tail.col(0);
+    if (last) return;
+    work.kept.noalias() = Z * work.tail.rightCols(left);
+    Z.rightCols(left) = work.kept;
+    e.first += rank;
+    e.cols -= rank;
     return;
   }
-  // Z Q: the first `rank` columns step, the rest stay free; where Z is the identity, Q itself
-  // (formed from its reflectors, which skips the identity's untouched corner)
+  // Where Z is the identity, Q itself (formed from its reflectors, which skips the identity's
+  // untouched corner)
   if (e.identity) {
     step.qr.q(work.Q);
     Z = work.Q;
