@@ -477,28 +477,40 @@ NB_MODULE(_kernel, m) {
       .def(
           "set_momentum_schedule",
           [](lab::Kernel& k, std::optional<nb::callable> schedule, double arm_tolerance) {
-            std::function<void()> ask;
+            std::function<void(long)> ask;
             if (schedule)  // called inside a tick, which may have let the GIL go; the kernel
-              ask = [call = *schedule, kernel = &k]() {  // owns this, so it outlives it
+              ask = [call = *schedule, kernel = &k](long blended) {  // owns this: outlives it
                 nb::gil_scoped_acquire gil;
-                const nb::tuple out = nb::cast<nb::tuple>(call());
-                if (out.size() != 3)
-                  throw std::invalid_argument("momentum schedule: return (gain, active, arms)");
+                const nb::tuple out = nb::cast<nb::tuple>(call(blended));
+                if (out.size() != 4)
+                  throw std::invalid_argument(
+                      "momentum schedule: return (gain, active, arms, blend)");
                 kernel->set_momentum_gain(nb::cast<Eigen::MatrixXd>(out[0]));
-                if (out[1].is_none())
+                if (out[1].is_none()) {
                   kernel->release_momentum_gain();
-                else
-                  kernel->hold_momentum_gain(flags_of(nb::cast<Flags>(out[1])),
-                                             nb::cast<Eigen::MatrixXd>(out[2]));
+                  return;
+                }
+                kernel->hold_momentum_gain(flags_of(nb::cast<Flags>(out[1])),
+                                           nb::cast<Eigen::MatrixXd>(out[2]));
+                if (out[3].is_none()) return;
+                const nb::tuple blend = nb::cast<nb::tuple>(out[3]);
+                if (blend.size() != 4)
+                  throw std::invalid_argument(
+                      "momentum schedule: a blend is (from, to, step, length)");
+                kernel->blend_momentum_gain(nb::cast<Eigen::MatrixXd>(blend[0]),
+                                            nb::cast<Eigen::MatrixXd>(blend[1]),
+                                            nb::cast<long>(blend[2]), nb::cast<long>(blend[3]));
               };
             k.set_momentum_schedule(std::move(ask), arm_tolerance);
           },
           "schedule"_a.none(), "arm_tolerance"_a,
           "The momentum task's gain schedule, asked inside a tick whenever no held K_h stays "
-          "(another contact configuration, or an arm p_i - c moved more than arm_tolerance, m): "
-          "a callable returning (K_h, the contact flags, the arms, one row per contact in "
-          "support) to hold K_h at while it is settled, or (K_h, None, None). None: K_h only "
-          "from set_momentum_gain. A Python error it raises leaves the tick.")
+          "(another contact configuration, or an arm p_i - c moved more than arm_tolerance, m), "
+          "with the interpolation steps the kernel made since the last ask: a callable "
+          "returning (K_h, the contact flags, the arms, one row per contact in support, and "
+          "the blend (from, to, step, length) the kernel steps while held, or None) to hold "
+          "its target at, or (K_h, None, None, None). None: K_h only from set_momentum_gain. "
+          "A Python error it raises leaves the tick.")
       .def(
           "hold_momentum_gain",
           [](lab::Kernel& k, Flags active, const Eigen::MatrixXd& arms) {
@@ -507,6 +519,9 @@ NB_MODULE(_kernel, m) {
           "active"_a, "arms"_a,
           "Hold the current K_h as settled for the contacts `active` (bool per contact) at the "
           "arms p_i - c (one row of 3 per contact in support) its design read.")
+      .def("take_momentum_blend_steps", &lab::Kernel::take_momentum_blend_steps,
+           "The interpolation steps the kernel made since the schedule was last asked (or "
+           "this was last called), counted from zero again.")
       .def("release_momentum_gain", &lab::Kernel::release_momentum_gain,
            "The next tick asks the momentum schedule again.")
       .def("set_internal_force", &lab::Kernel::set_internal_force, "reference"_a, "source"_a,

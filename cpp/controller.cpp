@@ -150,13 +150,23 @@ void Kernel::set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain) {
   lab::set_momentum_gain(*tasks_.at("momentum"), gain);
 }
 
-void Kernel::set_momentum_schedule(std::function<void()> schedule, double arm_tolerance) {
+void Kernel::set_momentum_schedule(std::function<void(long)> schedule, double arm_tolerance) {
   lab::set_momentum_schedule(*tasks_.at("momentum"), std::move(schedule), arm_tolerance);
 }
 
 void Kernel::hold_momentum_gain(const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
                                 const Eigen::Ref<const Eigen::MatrixXd>& arms) {
   lab::hold_momentum_gain(*tasks_.at("momentum"), active, arms);
+}
+
+void Kernel::blend_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& from,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& to, long step,
+                                 long length) {
+  lab::blend_momentum_gain(*tasks_.at("momentum"), from, to, step, length);
+}
+
+long Kernel::take_momentum_blend_steps() {
+  return lab::take_momentum_blend_steps(*tasks_.at("momentum"));
 }
 
 void Kernel::release_momentum_gain() { lab::release_momentum_gain(*tasks_.at("momentum")); }

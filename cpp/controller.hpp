@@ -60,9 +60,12 @@ class Kernel {
   void set_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& gain);
   /// The momentum task's gain schedule, asked on the ticks where no settled K_h holds
   /// (tasks/registry.hpp set_momentum_schedule), and its hold and release.
-  void set_momentum_schedule(std::function<void()> schedule, double arm_tolerance);
+  void set_momentum_schedule(std::function<void(long)> schedule, double arm_tolerance);
   void hold_momentum_gain(const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
                           const Eigen::Ref<const Eigen::MatrixXd>& arms);
+  void blend_momentum_gain(const Eigen::Ref<const Eigen::MatrixXd>& from,
+                           const Eigen::Ref<const Eigen::MatrixXd>& to, long step, long length);
+  long take_momentum_blend_steps();
   void release_momentum_gain();
   /// The internal-force task's reference (N) and sensed source (`contacts` or `torques`).
   void set_internal_force(double reference, const std::string& source);

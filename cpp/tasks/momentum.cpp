@@ -1,9 +1,10 @@
 // The centroidal momentum task of Herzog 2016 (lab/controller/tasks/momentum.py): momentum.
 // K_h, the 6 × 9 feedback gain, is designed in Python (lab/controller/momentum.py: PD of eq. 22,
 // LQR of eqs. 23–26 and its interpolation across a contact switch) and set here when it changes.
-// Under LQR the gain depends on the contact configuration and the pose; the kernel holds a
-// settled gain while both stay (MomentumTask.to_kernel's rule, GainSchedule.settled) and asks
-// the Python schedule only on the other ticks: a switch, a redesign, an interpolation.
+// Under LQR the gain depends on the contact configuration and the pose; the kernel holds the
+// schedule's target while both stay (MomentumTask.to_kernel's rule, GainSchedule.held_arms),
+// steps the interpolation to it across a contact switch itself (GainSchedule.gain's blend, the
+// same arithmetic), and asks the Python schedule only on the other ticks: a switch, a redesign.
 #include <functional>
 #include <stdexcept>
 #include <utility>
@@ -19,7 +20,14 @@ namespace {
 class MomentumTask : public Task {
  public:
   void compute(const RobotModel& robot, const References& refs) override {
-    if (schedule && !holds(robot, refs)) schedule();  // it sets K_h (and holds it, if settled)
+    if (schedule && !holds(robot, refs)) {
+      const long blended = alone;  // the schedule catches up with the ticks blended here
+      alone = 0;
+      blend_length = 0;
+      schedule(blended);  // it sets K_h (and holds it, with its blend, if the target stays)
+    } else if (blend_step < blend_length) {
+      step_blend();
+    }
     if (!gain_set) throw std::logic_error("momentum: no K_h was set (Kernel.set_momentum_gain)");
     const Eigen::Matrix<double, 6, 1> h = robot.centroidal_map * robot.v;
     reset(robot, 6);
@@ -48,11 +56,30 @@ class MomentumTask : public Task {
     return true;
   }
 
+  /// One tick of the interpolation while held: GainSchedule.gain's step, K_h = (1 − α) K_from
+  /// + α K_to with α = step / length, the target itself at the last step.
+  void step_blend() {
+    ++blend_step;
+    ++alone;
+    if (blend_step == blend_length) {
+      gain = blend_to;
+    } else {
+      const double alpha = static_cast<double>(blend_step) / static_cast<double>(blend_length);
+      gain = (1.0 - alpha) * blend_from + alpha * blend_to;
+    }
+  }
+
   Eigen::Matrix<double, 6, 9> gain = Eigen::Matrix<double, 6, 9>::Zero();
   bool gain_set = false;
-  std::function<void()> schedule;  // the Python schedule's tick (empty: K_h is set from outside)
-  double arm_tolerance = 0.0;      // m (momentum.py ARM_TOLERANCE)
-  bool held = false;               // K_h is settled for held_active at held_arms
+  // the Python schedule's tick, told how many blend steps were made here since it was last asked
+  // (empty: K_h is set from outside)
+  std::function<void(long)> schedule;
+  Eigen::Matrix<double, 6, 9> blend_from = Eigen::Matrix<double, 6, 9>::Zero();
+  Eigen::Matrix<double, 6, 9> blend_to = Eigen::Matrix<double, 6, 9>::Zero();
+  long blend_step = 0, blend_length = 0;  // no blend while step >= length
+  long alone = 0;                         // blend steps made since the schedule was last asked
+  double arm_tolerance = 0.0;             // m (momentum.py ARM_TOLERANCE)
+  bool held = false;                      // K_h is settled for held_active at held_arms
   Eigen::Array<bool, Eigen::Dynamic, 1> held_active;
   Eigen::MatrixXd held_arms;  // (contacts in support) × 3, the pose the design read
 };
@@ -69,13 +96,15 @@ void set_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& 
   task.gain_set = true;
 }
 
-void set_momentum_schedule(Task& momentum, std::function<void()> schedule, double arm_tolerance) {
+void set_momentum_schedule(Task& momentum, std::function<void(long)> schedule,
+                           double arm_tolerance) {
   if (!(arm_tolerance >= 0.0))
     throw std::invalid_argument("momentum: the arm tolerance must be a number >= 0");
   auto& task = dynamic_cast<MomentumTask&>(momentum);
   task.schedule = std::move(schedule);
   task.arm_tolerance = arm_tolerance;
   task.held = false;
+  task.blend_length = task.alone = 0;
 }
 
 void hold_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
@@ -87,6 +116,25 @@ void hold_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::Array<bool
   task.held_active = active;
   task.held_arms = arms;
   task.held = true;
+}
+
+void blend_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& from,
+                         const Eigen::Ref<const Eigen::MatrixXd>& to, long step, long length) {
+  if (from.rows() != 6 || from.cols() != 9 || to.rows() != 6 || to.cols() != 9 ||
+      !from.allFinite() || !to.allFinite())
+    throw std::invalid_argument("momentum: a blend's gains need 6 x 9 finite entries");
+  if (!(0 <= step && step <= length))
+    throw std::invalid_argument("momentum: a blend's step must be within 0 ... its length");
+  auto& task = dynamic_cast<MomentumTask&>(momentum);
+  task.blend_from = from;
+  task.blend_to = to;
+  task.blend_step = step;
+  task.blend_length = length;
+}
+
+long take_momentum_blend_steps(Task& momentum) {
+  auto& task = dynamic_cast<MomentumTask&>(momentum);
+  return std::exchange(task.alone, 0);
 }
 
 void release_momentum_gain(Task& momentum) { dynamic_cast<MomentumTask&>(momentum).held = false; }

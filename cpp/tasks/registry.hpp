@@ -29,14 +29,23 @@ TaskRegistry make_tasks();
 /// size or a non-finite entry and keeps the last one.
 void set_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& gain);
 /// The momentum task asks `schedule` (the Python gain schedule, which sets K_h and holds it
-/// when settled) on every tick where no settled K_h holds for the contact configuration and
-/// pose: a contact arm moved more than `arm_tolerance` (m) from the held pose (an empty
-/// `schedule`: K_h only from set_momentum_gain). Drops the held gain.
-void set_momentum_schedule(Task& momentum, std::function<void()> schedule, double arm_tolerance);
+/// when its target stays) on every tick where no held K_h holds for the contact configuration
+/// and pose: a contact arm moved more than `arm_tolerance` (m) from the held pose (an empty
+/// `schedule`: K_h only from set_momentum_gain); it passes the blend steps made since the
+/// last ask. Drops the held gain and its blend.
+void set_momentum_schedule(Task& momentum, std::function<void(long)> schedule,
+                           double arm_tolerance);
 /// Hold the current K_h as settled for the contacts `active` at the arms p_i − c (one row per
 /// contact in support, world axes) its design read; throws std::invalid_argument for others.
 void hold_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::Array<bool, -1, 1>>& active,
                         const Eigen::Ref<const Eigen::MatrixXd>& arms);
+/// While held, K_h moves from `from` to `to` (6 × 9 each) over `length` ticks, `step` of them
+/// made (GainSchedule.gain's interpolation); throws std::invalid_argument for others.
+void blend_momentum_gain(Task& momentum, const Eigen::Ref<const Eigen::MatrixXd>& from,
+                         const Eigen::Ref<const Eigen::MatrixXd>& to, long step, long length);
+/// The blend steps made since the schedule was last asked (or since this was last called), and
+/// count from zero again: what GainSchedule.skip catches up with.
+long take_momentum_blend_steps(Task& momentum);
 /// The next tick asks the schedule again (the Python schedule changed outside a tick).
 void release_momentum_gain(Task& momentum);
 

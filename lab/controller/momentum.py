@@ -237,30 +237,54 @@ class GainSchedule:
                 return target
             self._previous, self._ticks = self._current, 0
         if self._ticks < self.transition_ticks:
-            self._ticks += 1
-            alpha = self._ticks / self.transition_ticks
-            done = self._ticks == self.transition_ticks
-            self._current = target if done else (1.0 - alpha) * self._previous + alpha * target
+            self._blend_at(self._ticks + 1)
         return self._current
 
+    def _blend_at(self, steps: int) -> None:
+        """The blend's K_h after `steps` steps: (1 − α) from + α to, α = steps /
+        transition_ticks, the target itself at the last (native: MomentumTask::step_blend)."""
+        before, target = self._previous, self._target
+        assert before is not None and target is not None
+        self._ticks = steps
+        alpha = steps / self.transition_ticks
+        done = steps == self.transition_ticks
+        self._current = target if done else (1.0 - alpha) * before + alpha * target
+
     def settled(self, key: bytes, arms: np.ndarray) -> bool:
-        """Whether `gain(key, arms, …)` would return `current` unchanged (same configuration and
-        pose, no interpolation or design running): a caller holding that gain may skip it."""
+        """Whether `gain(key, arms, …)` keeps its target (same configuration and pose, no design
+        running): a caller holding the target may skip `gain`, stepping the interpolation to it
+        itself (`blend`, `skip`)."""
         return self.held_arms(key) is not None and not self._moved(key, arms)
 
     def held_arms(self, key: bytes) -> np.ndarray | None:
         """The pose (contact_arms) that configuration `key`'s gain was designed at, when the gain
-        in use is that one and stays (no interpolation or design running); else None. A holder
+        in use is that one or is moving to it (`blend`) and no design runs; else None. A holder
         may skip `gain` while the configuration is `key` and no arm has moved more than
-        ARM_TOLERANCE from this pose (`settled`), until `version` changes."""
+        ARM_TOLERANCE from this pose (`settled`), until `version` changes, stepping the blend
+        as `gain` does and telling `skip` how many steps it made."""
         if (
             self._current is None
             or self._pending is not None
-            or self._ticks < self.transition_ticks
             or self._target is not self._gains.get(key)
         ):
             return None
         return self._arms[key]
+
+    def blend(self) -> tuple[np.ndarray, np.ndarray, int, int] | None:
+        """The interpolation in progress, (from, to, steps made, transition_ticks): each `gain`
+        makes one more step, K_h = (1 − α) from + α to with α = steps / transition_ticks; None
+        when the gain in use is its target."""
+        if self._current is None or self._ticks >= self.transition_ticks:
+            return None
+        assert self._previous is not None and self._target is not None
+        return self._previous, self._target, self._ticks, self.transition_ticks
+
+    def skip(self, steps: int) -> None:
+        """`steps` calls of `gain` with the target kept, made by a holder that stepped the blend
+        itself (the native kernel): the same K_h as those calls give, as the blend's K_h depends
+        on its step count only."""
+        if steps > 0 and self._current is not None and self._ticks < self.transition_ticks:
+            self._blend_at(min(self.transition_ticks, self._ticks + steps))
 
     @property
     def current(self) -> np.ndarray | None:

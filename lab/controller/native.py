@@ -34,6 +34,7 @@ from lab.controller.qp import QPFailure
 from lab.controller.references import References
 from lab.controller.stack import Stack
 from lab.controller.tasks import Task, TaskGains
+from lab.controller.tasks.momentum import MomentumTask
 
 try:
     from lab import _kernel
@@ -274,6 +275,7 @@ class NativeController(WholeBodyController):
         QPFailure when the hierarchy has no solution."""
         if not self._runs_native():
             self.kernel_ran = "python"
+            self._catch_up_momentum()
             return super().solve()
         if self.robot.updated_by != "native":  # the kernel's own state is the Python update's
             return self._native_tick(self.robot.q, self.robot.v)
@@ -284,8 +286,25 @@ class NativeController(WholeBodyController):
         Python model's arrays too) and the solve are one crossing; raises QPFailure when the
         hierarchy has no solution."""
         if not self._runs_native():
+            self._catch_up_momentum()
             return super().compute(q, v)
         return self._native_tick(q, v)
+
+    def _catch_up_momentum(self) -> None:
+        """The momentum task's LQR schedule brought up to the blend steps the kernel made on
+        its own (MomentumTask.catch_up), before Python reads or steps it."""
+        if self._native is not None:
+            self._task(MomentumTask).catch_up(self._native)
+
+    def momentum_gain(self) -> np.ndarray | None:
+        """As WholeBodyController.momentum_gain, the kernel's own blend steps caught up."""
+        self._catch_up_momentum()
+        return super().momentum_gain()
+
+    def momentum_gain_in_use(self) -> dict | None:
+        """As WholeBodyController.momentum_gain_in_use, the kernel's own blend steps caught up."""
+        self._catch_up_momentum()
+        return super().momentum_gain_in_use()
 
     def _native_tick(self, q: np.ndarray | None, v: np.ndarray | None) -> "NativeOutput":
         """One crossing: references in, the model update at (q, v) if given, the solve, τ and x

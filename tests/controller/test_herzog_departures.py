@@ -70,6 +70,31 @@ def test_the_gain_is_redesigned_when_the_feet_moved(talos) -> None:
     assert np.abs(expected - first).max() > 1e-3 * np.abs(first).max()
 
 
+def test_a_blend_skipped_by_its_holder_is_the_blend_stepped_here(talos) -> None:
+    """A holder that steps the interpolation itself (the native kernel) and tells `skip` how
+    many steps it made leaves the schedule where as many `gain` calls leave it: the same K_h to
+    the bit, at every point of the blend and past its end; `blend` gives what the holder steps."""
+    model, q = talos
+    active = np.ones(2, dtype=bool)
+    key = active.tobytes()
+    stepped, skipped = GainSchedule(), GainSchedule()
+    for pose in (q, wide_stance(model, q, 0.05)):  # a design, then a redesign to blend to
+        model.update(pose, np.zeros(model.nv))
+        arms = contact_arms(model, active)
+        for schedule in (stepped, skipped):
+            schedule.gain(key, arms, lambda: lqr_problem(model, active, COST))
+    blend = skipped.blend()
+    assert blend is not None and blend[2:] == (1, skipped.transition_ticks)
+    assert skipped.held_arms(key) is not None  # held while blending: the holder steps it
+    for steps in (1, 7, 40, 200):  # 200: past the blend's end
+        for _ in range(steps):
+            stepped.gain(key, arms, lambda: lqr_problem(model, active, COST))
+        skipped.skip(steps)
+        np.testing.assert_array_equal(skipped.current, stepped.current)
+        assert skipped.in_use() == stepped.in_use()
+    assert skipped.blend() is None
+
+
 def contact_arms_at(model: RobotModel, q: np.ndarray, active: np.ndarray) -> np.ndarray:
     """contact_arms at q (the model is left there)."""
     scratch = model.scratch()

@@ -110,7 +110,7 @@ def test_talos_on_one_sole_under_lqr_runs_the_native_tick_and_agrees() -> None:
     task = native.controller.tasks["momentum"]
     asked = []
     schedule_tick = task._schedule_tick
-    task._schedule_tick = lambda: asked.append(1) or schedule_tick()  # what the kernel calls
+    task._schedule_tick = lambda steps: asked.append(1) or schedule_tick(steps)  # the kernel's
     for _ in range(100):
         copy_physics(native, python)
         native.tick()

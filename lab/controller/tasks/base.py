@@ -42,6 +42,16 @@ def no_task_rows(nx: int) -> TaskRows:
     return TaskRows(*no_rows(nx), zeros(0))
 
 
+# What the momentum schedule answers the kernel (MomentumTask._schedule_tick): K_h, and to hold
+# its target at, the contact flags, the arms and the blend (from, to, steps made, length) or None.
+KernelSchedule = tuple[
+    np.ndarray,
+    np.ndarray | None,
+    np.ndarray | None,
+    tuple[np.ndarray, np.ndarray, int, int] | None,
+]
+
+
 class KernelInputs(Protocol):
     """The native kernel's setters of what tasks hold in Python (lab._kernel.Kernel)."""
 
@@ -49,12 +59,14 @@ class KernelInputs(Protocol):
         """The momentum task's K_h (6 × 9)."""
 
     def set_momentum_schedule(
-        self,
-        schedule: Callable[[], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] | None,
-        arm_tolerance: float,
+        self, schedule: Callable[[int], KernelSchedule] | None, arm_tolerance: float
     ) -> None:
-        """The momentum task's LQR schedule, asked inside a tick where no settled K_h holds: it
-        returns K_h and the contact flags and arms to hold it at (None, None: not settled)."""
+        """The momentum task's LQR schedule, asked inside a tick where no held K_h holds, with
+        the blend steps made since the last ask: it returns K_h and the contact flags and arms
+        to hold its target at, with the blend to step meanwhile (None, None, None: not held)."""
+
+    def take_momentum_blend_steps(self) -> int:
+        """The blend steps the kernel made since the schedule was last asked, from zero again."""
 
     def release_momentum_gain(self) -> None:
         """The next tick asks the momentum schedule again."""

@@ -25,7 +25,7 @@ from lab.controller.momentum import (
     pd_gain,
 )
 from lab.controller.references import References
-from lab.controller.tasks.base import KernelInputs, Task, TaskGains, TaskRows
+from lab.controller.tasks.base import KernelInputs, KernelSchedule, Task, TaskGains, TaskRows
 
 
 class MomentumTask(Task):
@@ -62,10 +62,21 @@ class MomentumTask(Task):
         pose (GainSchedule)."""
         if self.mode == "pd":
             return pd_gain(robot.mass, self.gains.kp, self.gains.kd)
+        return self._scheduled_gain(robot, refs)
+
+    def _scheduled_gain(self, robot: RobotModel, refs: References) -> np.ndarray:
         active = refs.contact_active
         return self.schedule.gain(
             active.tobytes(), contact_arms(robot, active), self._problem(robot, active)
         )
+
+    def catch_up(self, kernel: KernelInputs) -> None:
+        """Bring the schedule's blend up to the steps `kernel` made on its own since it last
+        asked (`GainSchedule.skip`), before the schedule is read or stepped outside its ticks
+        (the caller passes the kernel: held here, it and its schedule would hold each other)."""
+        if self._scheduled:
+            self.schedule.skip(kernel.take_momentum_blend_steps())
+            self._kernel_lqr = self.schedule.current  # the same K_h the kernel holds
 
     def target_gain(self, robot: RobotModel, refs: References) -> np.ndarray:
         """K_h (6 × 9) of the current contact configuration and pose, without a tick: what
@@ -101,17 +112,22 @@ class MomentumTask(Task):
         ):
             kernel.release_momentum_gain()
 
-    def _schedule_tick(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """The kernel's ask, inside its tick: this tick's K_h (GainSchedule.gain: a design, an
-        interpolation step), and the contact flags and arms to hold it at while it is settled
-        (None, None while it is not: the kernel asks again next tick)."""
+    def _schedule_tick(self, blended: int) -> KernelSchedule:
+        """The kernel's ask, inside its tick, after `blended` blend steps it made on its own:
+        this tick's K_h (GainSchedule.gain: a design, a switch, an interpolation step), and the
+        contact flags and arms to hold its target at while it stays, with the blend the kernel
+        steps meanwhile (None, None, None while it does not: the kernel asks again next
+        tick)."""
         assert self._kernel_reads is not None  # to_kernel ran before the crossing
         robot, refs = self._kernel_reads
-        gain = self.gain(robot, refs)
+        self.schedule.skip(blended)
+        gain = self._scheduled_gain(robot, refs)
         self._kernel_lqr, self._version = gain, self.schedule.version
         active = refs.contact_active
         arms = self.schedule.held_arms(active.tobytes())
-        return gain, (None if arms is None else active.copy()), arms
+        if arms is None:
+            return gain, None, None, None
+        return gain, active.copy(), arms, self.schedule.blend()
 
     def _problem(self, robot: RobotModel, active: np.ndarray) -> Callable[[], LqrProblem]:
         return lambda: lqr_problem(robot, active, self.cost)
