@@ -117,6 +117,7 @@ bool full_rank_by_margin(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, double
 void RowSpaceQR::compute(const Eigen::Ref<const Eigen::MatrixXd>& A) {
   rows_ = static_cast<int>(A.rows());
   rank_ = 0;
+  r1t_ready_ = false;
   if (rows_ == 0) return;
   qr_.compute(A.transpose());
   // Column pivoting makes |R00| >= |R11| >= ...: the rank is the count above the threshold.
@@ -138,12 +139,56 @@ void RowSpaceQR::solve(const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::Vector
     return;
   }
   // More rows than freedom: least squares of the full-column-rank R1^T (m x rank).
-  r1t_ = R.topRows(rank_).triangularView<Eigen::Upper>().transpose();
-  r1t_qr_.compute(r1t_);
+  if (!r1t_ready_) {  // R1^T's factorization, once per factorization of A
+    r1t_ = R.topRows(rank_).triangularView<Eigen::Upper>().transpose();
+    r1t_qr_.compute(r1t_);
+    r1t_ready_ = true;
+  }
   workspace_.resize(1);
   r1t_qr_.householderQ().setLength(rank_).transpose().applyThisOnTheLeft(rhs_, workspace_);
   y = rhs_.head(rank_);
   r1t_qr_.matrixQR().topLeftCorner(rank_, rank_).triangularView<Eigen::Upper>().solveInPlace(y);
+}
+
+void RowSpaceQR::solve_with_residual(const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::VectorXd& y,
+                                     Eigen::VectorXd& g) {
+  g = b;
+  if (rank_ == 0) {
+    y.resize(0);
+    return;
+  }
+  solve(b, y);
+  // P^T b - R1^T y, R1^T y summed over R1's rows (each zero left of its diagonal), then P back
+  rhs_ = qr_.colsPermutation().transpose() * b;
+  const auto& R = qr_.matrixQR();
+  for (Eigen::Index i = 0; i < rank_; ++i)
+    rhs_.tail(rows_ - i) -= y(i) * R.row(i).tail(rows_ - i).transpose();
+  g = qr_.colsPermutation() * rhs_;
+}
+
+double RowSpaceQR::frobenius() const {
+  const auto& R = qr_.matrixQR();
+  double sum = 0.0;
+  for (Eigen::Index i = 0; i < std::min<Eigen::Index>(R.rows(), rows_); ++i)
+    sum += R.row(i).tail(rows_ - i).squaredNorm();
+  return std::sqrt(sum);
+}
+
+bool RowSpaceQR::rank_by_margin() const {
+  if (rows_ == 0 || rank_ != rows_) return false;
+  const auto& R = qr_.matrixQR();
+  return std::abs(R(rows_ - 1, rows_ - 1)) >
+         kRankMargin * kRankRtol * std::max(1.0, std::abs(R(0, 0)));
+}
+
+void RowSpaceQR::apply_q_to_vector(Eigen::VectorXd& v) const {
+  // Q = H_0 H_1 ... H_(h-1): the last reflector first
+  const auto& qr = qr_.matrixQR();
+  const auto& tau = qr_.hCoeffs();
+  const Eigen::Index n = qr.rows();
+  double workspace;  // applyHouseholderOnTheLeft's, one entry per column of v
+  for (Eigen::Index k = tau.size() - 1; k >= 0; --k)
+    v.tail(n - k).applyHouseholderOnTheLeft(qr.col(k).tail(n - k - 1), tau(k), &workspace);
 }
 
 void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,

@@ -84,6 +84,22 @@ class RowSpaceQR {
     return y;
   }
 
+  /// solve's y and g = b - P R1^T y, the part of b outside A's range as the rank rule keeps it
+  /// (linalg.py least_squares_with_residual); g = b at rank 0. Reuses the factorization of R1^T
+  /// that the last `solve` formed.
+  void solve_with_residual(const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::VectorXd& y,
+                           Eigen::VectorXd& g);
+
+  /// ||A||_F, from R (Q is orthogonal).
+  double frobenius() const;
+
+  /// Whether A has full row rank with its last diagonal entry of R kRankMargin times above the
+  /// rank rule's threshold (linalg.py rank_by_margin).
+  bool rank_by_margin() const;
+
+  /// Q v for one vector of n entries, reflector by reflector (no workspace sized by columns).
+  void apply_q_to_vector(Eigen::VectorXd& v) const;
+
   /// M Q (Q of the factorization, n x n), applied as reflectors without forming Q.
   template <typename Matrix>
   void apply_q_on_the_right(Matrix&& M) {
@@ -116,6 +132,7 @@ class RowSpaceQR {
   Eigen::VectorXd left_workspace_;  // apply_q_on_the_left's: one entry per column of M
   int rows_ = 0;
   int rank_ = 0;
+  bool r1t_ready_ = false;  // r1t_qr_ holds R1^T of this factorization
 };
 
 /// The minimum-norm minimiser u of ||A u - b|| and an orthonormal basis N of null(A). Rows that

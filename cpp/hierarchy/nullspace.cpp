@@ -6,11 +6,13 @@
 // (A Z)ᵀ with linalg's rank rule (RowSpaceQR, the cascade's: one rule in both kernels).
 // Inequalities C z <= d are off until violated (§3.2), then a primal active set: the most
 // violated row of the highest violated level is activated (one per solve), a row is released
-// when the hierarchy solved without it keeps it inside its bound, and z steps towards each new
-// optimum only as far as the first row it would cross (ties: the smallest index, Bland's rule).
+// when the hierarchy solved without it keeps it inside its bound (a trial the main solve's own
+// factorizations predict clearly to keep it is not solved: predicted_violation), and z steps
+// towards each new optimum only as far as the first row it would cross (ties: the smallest
+// index, Bland's rule).
 // At most kMaxProjections hierarchy solves per call; at the cap the best point found is kept
 // and the solution says `capped`.
-// Over 400 lines: one method (nullspace.py, 339 lines in Python), longer in C++ by its explicit
+// Over 400 lines: one method (nullspace.py, ~400 lines in Python), longer in C++ by its explicit
 // buffers and loops.
 
 #include "hierarchy/nullspace.hpp"
@@ -31,6 +33,9 @@ namespace {
 constexpr double kActivationTol = 1e-9;  // ACTIVATION_TOL: violated by more is activated
 constexpr double kRatioTie = 1e-12;      // RATIO_TIE: step lengths this close block together
 constexpr Eigen::Index kNone = -1;
+// RELEASE_BAND, RELEASE_MARGIN: a release trial decided from the main solve (predicted_violation)
+constexpr double kReleaseBandLow = 1e-14, kReleaseBandHigh = 1e-11;
+constexpr double kReleaseMargin = 1e-6;
 
 using Flags = Eigen::Array<bool, Eigen::Dynamic, 1>;
 
@@ -56,9 +61,14 @@ struct Entry {
 /// holds the pivoted QR of (A Z)ᵀ, A Z, the residual r and y; the last level's also the
 /// unpivoted QR of A Z (linalg's full_rank_step).
 struct StepWork {
+  enum class Used { none, pivoted, full_rank };  // which factorization the step left, if any
   LeastSquaresStep step;
   Eigen::MatrixXd Q;
   Eigen::MatrixXd tail, kept;  // Q [y | 0; 0 | I] and Z Q's free columns (least_squares_step)
+  Used used = Used::none;
+  // predicted_violation's, per step so that their sizes stay put: M δ, its y and residual g,
+  // the correction in Z's columns and lifted to the level's entry Z, Q^T of M δ and of r
+  Eigen::VectorXd moved, y, g, correction, lifted, rotated_moved, rotated_r;
 };
 
 /// Whether Z Q's step and free columns cost fewer multiplications as Z (Q [y | 0; 0 | I]) than
@@ -89,11 +99,14 @@ class ActiveSetSearch {
   bool take();  // _Budget.take: whether one more solve fits
   bool violates(const Eigen::VectorXd& at);
   void project(Eigen::Index first);
-  void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out);
+  void project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out, bool trial);
   void least_squares_step(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Entry& e,
                           StepWork& work, const SparseRows* sparsity = nullptr, bool last = false);
   Eigen::Index activate_violated();
   bool release_one();
+  bool predicted_violation(std::size_t k, Eigen::Index j, double& violation);
+  const Eigen::VectorXd& in_entry_columns(std::size_t s, StepWork& work);
+  StepWork& work_of(std::size_t s, bool trial) { return work_[s][trial ? 1 - main_[s] : main_[s]]; }
   void walked();
   Eigen::Index step();
 
@@ -105,7 +118,11 @@ class ActiveSetSearch {
   Eigen::VectorXd target_, dz_, rows_, rate_;
   Eigen::MatrixXd Ca_;  // the active rows of C
   Eigen::VectorXd da_;
-  std::vector<StepWork> work_;        // per level: [2k] its active rows of C, [2k + 1] its A
+  // per level: [2k] its active rows of C, [2k + 1] its A; main_[s] says which of the two is the
+  // main solve's (entry_'s), the other is the trials' (trial_'s); they swap with the entries
+  std::vector<std::array<StepWork, 2>> work_;
+  std::vector<int> main_;
+  Eigen::VectorXd delta_;             // predicted_violation's direction
   std::vector<SparseRows> sparsity_;  // per level: its A's sparse rows, found once per search
 };
 
@@ -135,6 +152,7 @@ void ActiveSetSearch::run(const std::vector<const Level*>& levels, Eigen::Index 
   entry_.resize(L + 1);
   trial_.resize(L + 1);
   work_.resize(2 * L);
+  main_.assign(2 * L, 0);
   sparsity_.resize(L);
   for (std::size_t k = 0; k < L; ++k) sparsity_[k].compute(levels[k]->A);
   entry_[0].z.setZero(n);
@@ -228,12 +246,17 @@ bool ActiveSetSearch::release_one() {
     const Level& level = *(*levels_)[k];
     for (Eigen::Index j = 0; j < active[k].size(); ++j) {
       if (!active[k](j)) continue;
+      double predicted = 0.0;
+      if (predicted_violation(k, j, predicted) &&
+          predicted - kActivationTol > kReleaseMargin * std::max(1.0, std::abs(level.d(j))))
+        continue;  // kept, as the trial would have kept it: no hierarchy solve
       if (!take()) return false;
       active[k](j) = false;
-      project_from(entry_[k], static_cast<Eigen::Index>(k), trial_);
+      project_from(entry_[k], static_cast<Eigen::Index>(k), trial_, true);
       const Eigen::VectorXd& released = trial_[L].z;
       if (level.C.row(j).dot(released) - level.d(j) <= kActivationTol) {
         for (std::size_t i = k + 1; i <= L; ++i) entry_[i].swap(trial_[i]);
+        for (std::size_t s = 2 * k; s < 2 * L; ++s) main_[s] = 1 - main_[s];
         target_ = entry_[L].z;
         return true;
       }
@@ -241,6 +264,121 @@ bool ActiveSetSearch::release_one() {
     }
   }
   return false;
+}
+
+bool ActiveSetSearch::predicted_violation(std::size_t k, Eigen::Index j, double& violation) {
+  // nullspace.py _predicted_violation (its docstring derives it), from the main solve's own
+  // factorizations (entry_ and the main StepWork of each step): per step below, products with
+  // one vector and its reflectors applied to one vector, no factorization. False where the
+  // prediction is not clear-cut (then the trial runs).
+  const std::vector<const Level*>& levels = *levels_;
+  const std::size_t L = levels.size();
+  StepWork& pinned = work_of(2 * k, false);
+  if (entry_[k].cols == 0 || pinned.used != StepWork::Used::pivoted ||
+      !pinned.step.qr.rank_by_margin())
+    return false;
+  // δ = Z (C_on Z)⁺ e_j: the direction releasing row j frees, C_j δ = 1
+  pinned.moved.setZero(active[k].count());
+  pinned.moved(active[k].head(j).count()) = 1.0;
+  pinned.step.qr.solve(pinned.moved, pinned.y);
+  delta_.setZero(n_);
+  const Eigen::VectorXd& freed = in_entry_columns(2 * k, pinned);
+  if (entry_[k].identity)
+    delta_ += freed;
+  else
+    delta_.noalias() += entry_[k].Z_buffer.middleCols(entry_[k].first, entry_[k].cols) * freed;
+  for (std::size_t s = 2 * k + 1; s < 2 * L; ++s) {  // [2k'] C's active rows, [2k' + 1] A
+    const std::size_t of = s / 2;
+    const Level& level = *levels[of];
+    const bool pinned_rows = s % 2 == 0;
+    const Flags& on = active[of];
+    const Eigen::Index m = pinned_rows ? on.count() : level.b.size();
+    if (m == 0) continue;
+    StepWork& work = work_of(s, false);
+    work.moved.resize(m);  // M δ
+    if (pinned_rows) {
+      for (Eigen::Index i = 0, row = 0; i < on.size(); ++i)
+        if (on(i)) work.moved(row++) = level.C.row(i).dot(delta_);
+    } else {
+      work.moved.noalias() = level.A * delta_;
+    }
+    const double moved_size = std::max(1.0, work.moved.norm());
+    double ratio = 0.0;
+    if (work.used == StepWork::Used::none) {
+      // no freedom left from here (the step did not run): M Z has no columns, g = M δ, and z is
+      // the solution's, r = b − M z
+      ratio = work.moved.norm() / moved_size;
+      if (ratio > kReleaseBandHigh) {
+        const Eigen::VectorXd& z_final = entry_[L].z;
+        double along = 0.0;
+        for (Eigen::Index i = 0, row = 0; i < (pinned_rows ? on.size() : m); ++i) {
+          if (pinned_rows && !on(i)) continue;
+          const double r = pinned_rows ? level.d(i) - level.C.row(i).dot(z_final)
+                                       : level.b(i) - level.A.row(i).dot(z_final);
+          along += work.moved(row++) * r;
+        }
+        violation = along / work.moved.squaredNorm();
+        return true;
+      }
+      if (ratio >= kReleaseBandLow) return false;
+      continue;
+    }
+    if (work.used == StepWork::Used::full_rank) {
+      // the last level's unpivoted A Z = Q R: g = Q₂ Q₂ᵀ M δ, gᵀr = (Q₂ᵀ M δ)ᵀ (Q₂ᵀ r)
+      const auto& qr = work.step.full_rank_qr.matrixQR();
+      const auto& tau = work.step.full_rank_qr.hCoeffs();
+      const Eigen::Index cols = qr.cols();
+      work.rotated_moved = work.moved;
+      work.rotated_r = work.step.r;
+      double workspace;
+      for (Eigen::Index i = 0; i < cols; ++i) {
+        const auto essential = qr.col(i).tail(m - i - 1);
+        work.rotated_moved.tail(m - i).applyHouseholderOnTheLeft(essential, tau(i), &workspace);
+        work.rotated_r.tail(m - i).applyHouseholderOnTheLeft(essential, tau(i), &workspace);
+      }
+      const auto g = work.rotated_moved.tail(m - cols);
+      ratio = g.norm() / (std::max(1.0, work.step.AZ.norm()) * moved_size);
+      if (!(ratio > kReleaseBandHigh)) return false;  // the last level: none below to decide
+      violation = g.dot(work.rotated_r.tail(m - cols)) / g.squaredNorm();
+      return true;
+    }
+    work.step.qr.solve_with_residual(work.moved, work.y, work.g);
+    ratio = work.g.norm() / (std::max(1.0, work.step.qr.frobenius()) * moved_size);
+    if (ratio > kReleaseBandHigh) {
+      violation = work.g.dot(work.step.r) / work.g.squaredNorm();
+      return true;
+    }
+    if (ratio >= kReleaseBandLow) return false;
+    if (work.y.size() == 0) continue;
+    // δ <- δ − Z (M Z)⁺ M δ: this step's correction, carried on
+    const Entry& e = entry_[of];
+    const Eigen::VectorXd& correction = in_entry_columns(s, work);
+    if (e.identity)
+      delta_ -= correction;
+    else
+      delta_.noalias() -= e.Z_buffer.middleCols(e.first, e.cols) * correction;
+  }
+  return false;
+}
+
+const Eigen::VectorXd& ActiveSetSearch::in_entry_columns(std::size_t s, StepWork& work) {
+  // Z_s Q [y; 0] of step s as coefficients of its level's entry Z: the C rows' step has Z_s = Z,
+  // the A rows' Z_s = Z Q_C [0; I] after a C step that stepped (its window's tail).
+  const Entry& e = entry_[s / 2];
+  const RowSpaceQR* before = nullptr;
+  if (s % 2) {
+    const StepWork& pinned = work_of(s - 1, false);
+    if (pinned.used == StepWork::Used::pivoted && pinned.step.qr.rank() > 0)
+      before = &pinned.step.qr;
+  }
+  const Eigen::Index cols = e.cols - (before ? before->rank() : 0);
+  work.correction.setZero(cols);
+  work.correction.head(work.y.size()) = work.y;
+  work.step.qr.apply_q_to_vector(work.correction);
+  work.lifted.setZero(e.cols);
+  work.lifted.tail(cols) = work.correction;
+  if (before) before->apply_q_to_vector(work.lifted);
+  return work.lifted;
 }
 
 Eigen::Index ActiveSetSearch::step() {
@@ -287,9 +425,12 @@ Eigen::Index ActiveSetSearch::step() {
   return level_of;
 }
 
-void ActiveSetSearch::project(Eigen::Index first) { project_from(entry_[first], first, entry_); }
+void ActiveSetSearch::project(Eigen::Index first) {
+  project_from(entry_[first], first, entry_, false);
+}
 
-void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out) {
+void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::vector<Entry>& out,
+                                   bool trial) {
   // Solve levels `first`, ... from (z, Z) on entering `first`, writing each next level's entry
   // into `out`: one solve of the budget (nullspace.py _project).
   ++projections;
@@ -307,6 +448,8 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
         here.Z_buffer.middleCols(here.first, here.cols);
     const Flags& on = active[k];
     const Eigen::Index count = on.count();
+    StepWork& pinned = work_of(2 * k, trial);
+    pinned.used = StepWork::Used::none;
     if (count) {
       Ca_.resize(count, n_);
       da_.resize(count);
@@ -315,9 +458,9 @@ void ActiveSetSearch::project_from(const Entry& from, Eigen::Index first, std::v
           Ca_.row(row) = level.C.row(i);
           da_(row++) = level.d(i);
         }
-      least_squares_step(Ca_, da_, next, work_[2 * k]);
+      least_squares_step(Ca_, da_, next, pinned);
     }
-    least_squares_step(level.A, level.b, next, work_[2 * k + 1], &sparsity_[k],
+    least_squares_step(level.A, level.b, next, work_of(2 * k + 1, trial), &sparsity_[k],
                        k + 1 == levels.size());
   }
 }
@@ -331,6 +474,7 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
   // search restarts from the entries of the levels above it), so Z stays, and where its A Z has
   // full column rank by a margin the unpivoted QR of A Z gives the same unique step (the
   // cascade's last level, linalg's full_rank_step).
+  work.used = StepWork::Used::none;
   if (b.size() == 0 || e.cols == 0) return;
   LeastSquaresStep& step = work.step;
   auto Z = e.Z_buffer.middleCols(e.first, e.cols);
@@ -347,10 +491,12 @@ void ActiveSetSearch::least_squares_step(const Eigen::MatrixXd& A, const Eigen::
     // The step into u, apart from r (as the cascade's): r keeps its size, no reallocation.
     if (last && full_rank_step(step, step.r, step.u)) {
       e.z.noalias() += Z * step.u;
+      work.used = StepWork::Used::full_rank;
       return;
     }
     step.qr.compute(step.AZ);
   }
+  work.used = StepWork::Used::pivoted;
   const Eigen::Index rank = step.qr.rank();
   if (rank == 0) return;
   step.qr.solve(step.r, step.y);

@@ -37,6 +37,7 @@ from lab.controller.stack import Stack
 from lab.controller.tasks import TaskGains
 from lab.description import load_description
 from lab.robot import build_robot
+from tests.helpers.unload import UNLOAD_TICKS, g1_unload_searches
 
 AGREE_TOL = 1e-6  # q̈ (rad/s², m/s²) and τ (N m), the issue's cross-check tolerance
 DYNAMICS_TOL = 1e-8
@@ -245,15 +246,18 @@ def test_knee_and_hip_limits_converge_to_the_lexicographic_optimum(anymal) -> No
 
 
 def test_the_active_set_cap_stops_at_a_feasible_point_and_says_so(monkeypatch) -> None:
-    """The release example above needs four hierarchy solves (one, an activation, a release
-    trial, and the step); capped at three the search stops at the activation's point, which
-    holds every bound, and reports the cap; uncapped it reaches the optimum."""
+    """The release example above, started from z1 ≤ 1 and z1 + z2 ≤ 1 pinned, needs two
+    hierarchy solves (one, and the trial that releases z1 + z2 ≤ 1; z1 ≤ 1's release is
+    predicted to violate it, no solve); capped at one the search stops at the start's point,
+    which holds every bound, and reports the cap; uncapped it reaches the optimum."""
     C = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
     limits = Level(np.zeros((0, 2)), np.zeros(0), C, np.ones(3))
     objective = Level(np.eye(2), np.array([3.0, -1.0]), np.zeros((0, 2)), np.zeros(0))
-    full = active_set_least_squares([limits, objective], 2)
+    start = [np.array([True, False, True]), np.zeros(0, dtype=bool)]
+    full = active_set_least_squares([limits, objective], 2, start=start)
     assert not full.capped and np.allclose(full.z, [1.0, -1.0], atol=1e-12)
-    capped = active_set_least_squares([limits, objective], 2, cap=full.projections - 1)
+    assert full.projections == 2
+    capped = active_set_least_squares([limits, objective], 2, cap=1, start=start)
     assert capped.capped and capped.feasible
     assert np.all(C @ capped.z <= 1.0 + 1e-12)
     assert capped.projections <= full.projections - 1
@@ -358,3 +362,40 @@ def test_the_last_ticks_start_is_dropped_with_the_stack_or_method_it_belongs_to(
     c.set_hierarchy("nullspace", formulation="qdd_force")
     c.solve()
     assert starts[2:] == [cold, warm, cold, cold]
+
+
+def test_release_trials_decided_from_the_main_solve_decide_as_the_trials_on_g1_unloading(
+    monkeypatch,
+) -> None:
+    """G1's searches while its leaving sole unloads (tests/helpers/unload.py), every release trial
+    run and compared with `_predicted_violation`: where the prediction is clear-cut it is the
+    trial's violation (relative 1e-5; measured 4e-7), so every trial it skips (predicted above
+    ACTIVATION_TOL by RELEASE_MARGIN) keeps its row and every predicted release releases it; and
+    it is clear-cut on most trials (measured: all)."""
+    records, pending = [], []
+    predict, project = nullspace._predicted_violation, nullspace._project
+
+    def predicted(levels, active, entry, k, j):  # recorded, and the trial left to run
+        pending[:] = [(levels[k], j, predict(levels, active, entry, k, j))]
+        return None
+
+    def projected(levels, active, n, entry, first, budget):  # after a prediction: its trial
+        z = project(levels, active, n, entry, first, budget)
+        if pending:
+            level, j, guess = pending.pop()
+            margin = nullspace.RELEASE_MARGIN * max(1.0, abs(level.d[j]))
+            violation = float(level.C[j] @ z - level.d[j])
+            records.append((np.nan if guess is None else guess, violation, margin))
+        return z
+
+    monkeypatch.setattr(nullspace, "_predicted_violation", predicted)
+    monkeypatch.setattr(nullspace, "_project", projected)
+    for levels, n, start, point in g1_unload_searches(UNLOAD_TICKS):
+        active_set_least_squares(levels, n, start=start, point=point)
+    guess, violation, margin = np.array(records).T
+    clear = ~np.isnan(guess)
+    assert len(records) >= 100 and np.count_nonzero(clear) >= 0.9 * len(records)
+    np.testing.assert_allclose(guess[clear], violation[clear], rtol=1e-5, atol=1e-9)
+    tol = nullspace.ACTIVATION_TOL
+    assert np.all(violation[clear & (guess - tol > margin)] > tol)
+    assert np.all(violation[clear & (tol - guess > margin)] <= tol)

@@ -10,6 +10,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 RANK_RTOL = 1e-9
+RANK_MARGIN = 1e3  # a rank decision by this factor off the threshold is safe from rounding
 
 
 class SingularSystem(np.linalg.LinAlgError):
@@ -85,6 +86,35 @@ def least_squares_step(
         raise SingularSystem("applying Q of a level's rows failed")
     y = _triangular_solve(qr, pivots, b - A @ x, rank)
     return ZQ[:, rank:], x + ZQ[:, :rank] @ y
+
+
+def least_squares_with_residual(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """u, g and the rank: u the minimum-norm minimiser of ‖A u − b‖ and g = b − Π R₁ᵀ Q₁ᵀ u the part
+    of b outside A's range, both by the rank rule (`least_squares_and_null_space`'s QR; rows the
+    rule drops count as zero). A may have no columns (then u is empty and g is b)."""
+    m, n = A.shape
+    if n == 0:
+        return np.zeros(0), b.copy(), 0
+    qr, pivots, tau, rank = _pivoted_qr_of_transpose(A)
+    if rank == 0:
+        return np.zeros(n), b.copy(), 0
+    y = _triangular_solve(qr, pivots, b, rank)
+    g = np.empty(m)
+    g[pivots - 1] = b[pivots - 1] - np.triu(qr[:rank, :m]).T @ y  # Πᵀ b − R₁ᵀ y, unpermuted
+    padded = np.zeros((n, 1))
+    padded[:rank, 0] = y
+    u, _, info = lapack.dormqr("L", "N", qr[:, : len(tau)], tau, padded, _WORK_PER_ROW * n)
+    if info:
+        raise SingularSystem("applying Q of a level's rows failed")
+    return u[:, 0], g, rank
+
+
+def rank_by_margin(A: np.ndarray) -> bool:
+    """Whether A (rows ≤ columns) has full row rank with every diagonal entry of its pivoted QR
+    RANK_MARGIN times above the rank rule's threshold (no rank decision near the threshold)."""
+    qr, _, _, rank = _pivoted_qr_of_transpose(A)
+    diagonal = np.abs(qr.diagonal())
+    return rank == len(A) and diagonal[-1] > RANK_MARGIN * RANK_RTOL * max(1.0, diagonal[0])
 
 
 def _pivoted_qr_of_transpose(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:

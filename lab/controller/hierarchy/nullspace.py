@@ -25,6 +25,9 @@ multiplier has the wrong sign; every level is a convex least squares, so an opti
 row that satisfies it is the optimum with it), and z steps from where it is towards the optimum of
 the new active set only as far as no inactive row gets violated, the row that blocks it being
 activated (jumping to that optimum and activating all it violates can cycle between active sets).
+A trial whose outcome the solve with the row already gives (`_predicted_violation`: the freed
+direction carried down the levels below, exact where its rank decisions are clear-cut) is not
+solved when it would keep the row: on G1's unload ticks nearly every trial, ~2/3 of the tick.
 A row blocks only when the step would violate it by more than the tolerance a release allows,
 ties broken by the smallest index (Bland's rule): rows pinned together and linearly dependent,
 such as a contact's normal, CoP and friction rows as its force goes to zero, otherwise cycled,
@@ -59,7 +62,11 @@ from lab.controller.hierarchy.formulations import (
     reparametrize,
     torque_step,
 )
-from lab.controller.hierarchy.linalg import least_squares_step
+from lab.controller.hierarchy.linalg import (
+    least_squares_step,
+    least_squares_with_residual,
+    rank_by_margin,
+)
 from lab.controller.hierarchy.problem import HierarchyProblem, Level
 from lab.controller.hierarchy.solution import PROJECTED, HierarchySolution, level_residuals
 
@@ -70,6 +77,12 @@ RATIO_TIE = 1e-12  # step lengths this close block together (ties, broken by Bla
 # tests/controller/test_nullspace.py use at most
 # 121 (measured over their 16,796 calls; p99 18): the cap leaves their results as they were.
 MAX_PROJECTIONS = 128
+# A release trial decided from the main solve (`_predicted_violation`, not a hierarchy solve, so
+# not counted against MAX_PROJECTIONS): ratios below the band's low end count as zero, above its
+# high end decide; a predicted violation within RELEASE_MARGIN · max(1, |d_j|) of ACTIVATION_TOL
+# runs the trial. benchmarks/release_sensitivity.py measured the gap the band sits in.
+RELEASE_BAND = (1e-14, 1e-11)
+RELEASE_MARGIN = 1e-6
 
 
 class ActiveSetCapWarning(RuntimeWarning):
@@ -242,10 +255,15 @@ def _release_one(
     budget: _Budget,
 ) -> np.ndarray | None:
     """Release the first active row that the hierarchy solved without it keeps inside its bound;
-    the hierarchy's solution without it. Each trial reuses the levels above the row's. None when
-    no row can be released or the budget ran out first."""
+    the hierarchy's solution without it. Each trial reuses the levels above the row's, and is
+    skipped where `_predicted_violation` says clearly that it would keep the row. None when no
+    row can be released or the budget ran out first."""
     for k, (level, on) in enumerate(zip(levels, active, strict=True)):
         for j in np.flatnonzero(on):
+            predicted = _predicted_violation(levels, active, entry, k, int(j))
+            margin = RELEASE_MARGIN * max(1.0, abs(level.d[j]))
+            if predicted is not None and predicted - ACTIVATION_TOL > margin:
+                continue  # kept, as the trial would have kept it: no hierarchy solve
             if not budget.take():
                 return None
             on[j] = False
@@ -255,6 +273,56 @@ def _release_one(
                 entry[:] = trial
                 return released
             on[j] = True
+    return None
+
+
+def _predicted_violation(
+    levels: Sequence[Level],
+    active: Sequence[np.ndarray],
+    entry: list[tuple[np.ndarray, np.ndarray]],
+    k: int,
+    j: int,
+) -> float | None:
+    """C_j z − d_j of the hierarchy solved without active row j of level k, from the solve with
+    it (`entry`, its levels' (z, Z)), or None where that is not clear-cut (then the trial runs).
+
+    Exact, not an estimate: releasing j frees one direction, δ = Z (C_on Z)⁺ e_j (C_j δ = 1, the
+    other pinned rows unmoved), and the solution is affine in row j's value s,
+    z(s) = z* + (s − d_j) δ, δ carried down the sub-levels below each by its least-squares
+    correction δ ← δ − Z (M Z)⁺ M δ. The first sub-level whose residual the direction moves,
+    g = M δ − M Z (M Z)⁺ M δ ≠ 0, fixes s: the one minimising ‖r − (s − d_j) g‖, r = b − M z its
+    residual, s − d_j = gᵀr / gᵀg; the levels below have no say. Whether g ≠ 0 is a rank decision
+    (benchmarks/release_sensitivity.py measured it on G1 and Talos): ratios ‖g‖ / (max(1, ‖M Z‖_F)
+    max(1, ‖M δ‖)) below RELEASE_BAND[0] are zero, above RELEASE_BAND[1] decide, and one between
+    leaves it to the trial, as do pinned rows of level k near dependent (`rank_by_margin`).
+    The C++ kernel reuses the main solve's factorizations; this reference solves again."""
+    z, Z = entry[k]
+    level, on = levels[k], active[k]
+    if Z.shape[1] == 0 or not rank_by_margin(level.C[on] @ Z):
+        return None
+    unit = (np.flatnonzero(on) == j).astype(float)
+    coefficients, _, _ = least_squares_with_residual(level.C[on] @ Z, unit)
+    delta = Z @ coefficients
+    Z, z = least_squares_step(Z, z, level.C[on], level.d[on])
+    below = [(level.A, level.b)] + [
+        pair
+        for lower, pinned in zip(levels[k + 1 :], active[k + 1 :], strict=True)
+        for pair in ((lower.C[pinned], lower.d[pinned]), (lower.A, lower.b))
+    ]
+    for M, b in below:
+        if len(b) == 0:
+            continue
+        moved, MZ = M @ delta, M @ Z
+        correction, g, _ = least_squares_with_residual(MZ, moved)
+        size = max(1.0, float(np.linalg.norm(MZ))) * max(1.0, float(np.linalg.norm(moved)))
+        ratio = float(np.linalg.norm(g)) / size
+        if ratio > RELEASE_BAND[1]:
+            return float(g @ (b - M @ z) / (g @ g))
+        if ratio >= RELEASE_BAND[0]:
+            return None
+        delta = delta - Z @ correction
+        if Z.shape[1]:
+            Z, z = least_squares_step(Z, z, M, b)
     return None
 
 
