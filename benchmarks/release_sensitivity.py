@@ -1,5 +1,6 @@
 """Whether `nullspace`'s release trials could be decided from the main solve (a design probe for
-issue 26's G1 single-support row, not a test).
+issue 26's G1 single-support row, not a test; built since as nullspace.py `_predicted_violation`,
+whose band sits in the gap this prints).
 
 On one sole the leaving sole's rows stay pinned through the unload, and every tick the active-set
 search tries to release each of them: a trial solves the hierarchy again from the row's level down

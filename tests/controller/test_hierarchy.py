@@ -7,7 +7,12 @@ import pytest
 
 from lab.controller.hierarchy import METHODS, HierarchyProblem, Level, cascade
 from lab.controller.hierarchy.cascade import solve_cascade
-from lab.controller.hierarchy.linalg import least_squares_and_null_space, least_squares_step
+from lab.controller.hierarchy.linalg import (
+    least_squares_and_null_space,
+    least_squares_step,
+    least_squares_with_residual,
+    rank_by_margin,
+)
 from lab.controller.hierarchy.problem import DynamicsTerms
 from lab.controller.hierarchy.weighted import solve_weighted
 from lab.controller.qp import QPFailure
@@ -176,6 +181,27 @@ def test_one_qr_gives_the_minimum_norm_least_squares_step_and_the_null_space(
     assert N.shape == (cols, cols - rank)
     assert np.allclose(A @ N, 0.0, atol=EQUALITY_TOL)
     assert np.allclose(N.T @ N, np.eye(cols - rank), atol=EQUALITY_TOL)
+
+
+@pytest.mark.parametrize(
+    ("rows", "cols", "rank"),
+    [(12, 24, 12), (24, 6, 6), (24, 6, 3), (5, 10, 3), (6, 6, 0), (4, 0, 0)],
+)
+def test_the_least_squares_residual_is_the_part_of_b_outside_the_range(
+    rows: int, cols: int, rank: int
+) -> None:
+    """u is the minimum-norm minimiser and g = b − A u its residual, orthogonal to A's range (the
+    release prediction's g); full row rank by the margin exactly where rank = rows."""
+    rng = np.random.default_rng(rows + cols + rank)
+    A = rng.standard_normal((rows, rank)) @ rng.standard_normal((rank, cols))
+    b = rng.standard_normal(rows)
+    u, g, found = least_squares_with_residual(A, b)
+    assert found == rank and u.shape == (cols,)
+    assert np.allclose(u, np.linalg.pinv(A, rcond=1e-9) @ b, atol=EQUALITY_TOL)
+    assert np.allclose(g, b - A @ u, atol=EQUALITY_TOL)
+    assert np.allclose(A.T @ g, 0.0, atol=EQUALITY_TOL)
+    if cols:
+        assert rank_by_margin(A) == (rank == rows)
 
 
 @pytest.mark.parametrize(("rows", "rank"), [(12, 12), (24, 10), (5, 3), (6, 0)])
