@@ -20,6 +20,9 @@ that is, is a rank decision: the script prints the ratio ‖g‖ / (‖M Z‖ ma
 sub-level and the largest one above it (rounding), to show the gap a threshold must fall in.
 
     .venv/bin/python benchmarks/release_sensitivity.py [--robot g1] [--ticks 300]
+
+It also prints what the built rule (`_predicted_violation`: its band and margin) decides on the
+same trials: how many it finds clear-cut, skips, and predicts to release.
 """
 
 import argparse
@@ -84,7 +87,8 @@ def main() -> None:
     parser.add_argument("--ticks", type=int, default=300, help="unload ticks from the push on")
     parser.add_argument("--threshold", type=float, default=1e-12, help="ratio deciding a sub-level")
     args = parser.parse_args()
-    trials: list[tuple[float, float, float, float]] = []  # predicted, actual, ratio, above
+    # predicted, actual, ratio, above, the built rule's prediction (NaN: left to the trial), margin
+    trials: list[tuple[float, float, float, float, float, float]] = []
 
     def release_one(levels, active, z, n, entry, budget):  # nullspace._release_one, recorded
         for k, (level, on) in enumerate(zip(levels, active, strict=True)):
@@ -92,13 +96,17 @@ def main() -> None:
                 guess, ratio, above = predicted_violation(
                     levels, active, entry, k, j, args.threshold
                 )
+                built = nullspace._predicted_violation(levels, active, entry, k, int(j))
+                margin = nullspace.RELEASE_MARGIN * max(1.0, abs(level.d[j]))
                 if not budget.take():
                     return None
                 on[j] = False
                 trial = entry[: k + 1]
                 released = nullspace._project(levels, active, n, trial, k, budget)
                 actual = float(level.C[j] @ released - level.d[j])
-                trials.append((guess, actual, ratio, above))
+                trials.append(
+                    (guess, actual, ratio, above, np.nan if built is None else built, margin)
+                )
                 if actual <= nullspace.ACTIVATION_TOL:
                     entry[:] = trial
                     return released
@@ -118,7 +126,9 @@ def main() -> None:
             nullspace._release_one = release_one
         session.tick()
     nullspace._release_one = original
-    guess, actual, ratio, above = (np.array(column) for column in zip(*trials, strict=True))
+    guess, actual, ratio, above, built, margin = (
+        np.array(column) for column in zip(*trials, strict=True)
+    )
     tol = nullspace.ACTIVATION_TOL
     same = int(np.sum((guess > tol) == (actual > tol)))
     error = np.abs(guess - actual) / np.maximum(np.abs(actual), 1e-12)
@@ -128,6 +138,14 @@ def main() -> None:
     print(f"  largest relative error of the predicted violation: {error.max():.2g}")
     print(
         f"  smallest violation of a kept row: {actual[actual > tol].min():.3g} (tolerance {tol:g})"
+    )
+    clear = ~np.isnan(built)
+    skipped = clear & (built - tol > margin)
+    print(
+        f"  the built rule (nullspace._predicted_violation): clear-cut in {np.sum(clear)}, "
+        f"skipped {np.sum(skipped)} (released by the trial: {np.sum(skipped & (actual <= tol))})"
+        f", predicted releases {np.sum(clear & (tol - built > margin))} (released "
+        f"{np.sum(clear & (tol - built > margin) & (actual <= tol))})"
     )
     if decided.any():
         print(
