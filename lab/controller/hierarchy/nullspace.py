@@ -49,6 +49,9 @@ without the dynamics, then the rows with force terms (torque and force objective
 limits, friction) solve τ under the projected dynamics (eq. 49). The x returned is what that τ
 does (constrained forward dynamics): when the support set cannot realize the kinematic q̈
 (truly under-actuated, Definition 1), q̈ differs from it and the dynamics still hold exactly.
+
+Just over 400 lines: one method, its active-set search and the release prediction the search
+calls, read top to bottom in one place as nullspace.cpp mirrors them.
 """
 
 import warnings
