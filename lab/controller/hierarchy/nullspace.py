@@ -301,10 +301,11 @@ def _predicted_violation(
     The C++ kernel reuses the main solve's factorizations; this reference solves again."""
     z, Z = entry[k]
     level, on = levels[k], active[k]
-    if Z.shape[1] == 0 or not rank_by_margin(level.C[on] @ Z):
+    pinned = level.C[on] @ Z
+    if Z.shape[1] == 0 or not rank_by_margin(pinned):
         return None
     unit = (np.flatnonzero(on) == j).astype(float)
-    coefficients, _, _ = least_squares_with_residual(level.C[on] @ Z, unit)
+    coefficients, _, _ = least_squares_with_residual(pinned, unit)
     delta = Z @ coefficients
     Z, z = least_squares_step(Z, z, level.C[on], level.d[on])
     below = [(level.A, level.b)] + [
