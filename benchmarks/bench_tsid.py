@@ -6,6 +6,9 @@ answers agree, and prints the per-tick times back to back and ours/TSID of the m
 
     .venv/bin/python benchmarks/bench_tsid.py            # makes build/tsid-venv on first use
 
+Over 400 lines: both sides of one comparison (the TSID venv, the worker that poses the problem to
+TSID, our side of it, the check that the answers agree), which share the problem's description.
+
 Two processes, because TSID 1.10's bindings are built against pinocchio 4.0.0 and the lab runs
 4.1: this script runs in the lab's venv (states, our kernel, the report) and starts itself again
 as a worker (`--worker`) in a separate venv holding TSID, talking JSON lines over a pipe. Timing

@@ -11,6 +11,9 @@ and the method; otherwise the Python one runs and `kernel_note` says why (never 
 What a task holds in Python for the kernel (the momentum task's K_h, the internal force's
 setting) crosses through the task's own declared `to_kernel` / `from_kernel` (tasks/base.py):
 no task is asked for by name here.
+
+Over 400 lines: most of it is one class, NativeController, whose methods share the kernel it
+mirrors into and decide, tick by tick, which kernel ran and why.
 """
 
 import contextlib

@@ -39,6 +39,9 @@ or `<verb>.<field>` of the base scenario's one event with that protocol verb (`p
 `push.body`, `velocity.vx`, `gait.name`; `<verb>.t` is the event's time). Two fields are
 derived from a push's force vector: `push.force_n` (its magnitude, direction kept) and
 `push.direction_deg` (its horizontal direction, degrees about z from +x, magnitude kept).
+
+Just over 400 lines: the sweep file's whole grammar (grid, samples, points, bisection and the
+derived push fields), each part checked where it is read, as one reader of the format expects.
 """
 
 import copy
