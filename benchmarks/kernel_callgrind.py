@@ -4,6 +4,7 @@ the machine's load, so before/after comparisons of a C++ change hold on a shared
     .venv/bin/python benchmarks/kernel_callgrind.py [--robots g1 talos_arms anymal] [--ticks 200]
     .venv/bin/python benchmarks/kernel_callgrind.py --single [--robots g1 talos_arms] [--ticks 500]
     .venv/bin/python benchmarks/kernel_callgrind.py --tsid [--robots anymal talos]
+    .venv/bin/python benchmarks/kernel_callgrind.py --tsid --theirs [--robots anymal talos]
 
 Per robot and method: a headless session standing on the native kernel for `--ticks` ticks, run
 under `valgrind --tool=callgrind` with collection on only inside `Kernel::update` and
@@ -20,9 +21,14 @@ free-arm rows' mean tick goes").
 controller's `compute(q, v)` cycling through its recorded states with their references, as its
 timing loop calls it, every instruction counted (Python, the crossing, the references, the
 outcome and the kernel): the part of ours/TSID that the load cannot move.
+
+`--tsid --theirs`: TSID's side of the same comparison, counted the same way: bench_tsid's
+`TsidProblem.tick` (three setReference, computeProblemData, solve, getActuatorForces) on the same
+recorded states, in bench_tsid's TSID venv (made on first use, as bench_tsid makes it).
 """
 
 import argparse
+import json
 import os
 import re
 import subprocess
@@ -44,7 +50,7 @@ def control(*args: str) -> None:
 
 
 def callgrind(
-    script: str, body: list[str], options: list[str], out: Path
+    script: str, body: list[str], options: list[str], out: Path, python: str = sys.executable
 ) -> subprocess.CompletedProcess[str]:
     """`script --body *body` run under callgrind with instrumentation off until the body's
     `control("--instr=on")`, its profile written to `out` (and `out`.N for each dump)."""
@@ -54,7 +60,7 @@ def callgrind(
         "--instr-atstart=no",
         *options,
         f"--callgrind-out-file={out}",
-        sys.executable,
+        python,
         script,
         "--body",
         *body,
@@ -90,6 +96,34 @@ def stand(robot: str, method: str, ticks: int, single: bool = False) -> None:
         raise SystemExit(f"kernel_callgrind: {robot} fell")
 
 
+def tsid_path(spec: str, ticks: int) -> None:
+    """The body that runs under valgrind in the TSID venv for --tsid --theirs: TSID's timing
+    loop (bench_tsid's TsidProblem.tick over the states of `spec`), counted whole."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_tsid
+
+    problem = bench_tsid.TsidProblem(json.loads(Path(spec).read_text()), "SolverHQuadProgFast")
+    n = len(problem.states)
+    for i in range(WARMUP):
+        problem.tick(i % n)
+    control("--instr=on")
+    for i in range(ticks):
+        problem.tick(i % n)
+    control("--instr=off")
+
+
+def tsid_spec(robot: str, out: Path) -> None:
+    """bench_tsid's problem for `robot` (its recorded states, gains and contacts), as its worker
+    reads it, written to `out`."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_tsid
+
+    recorded = bench_tsid.record_states(robot, 4, 4)
+    controller = bench_tsid.our_controller(recorded["session"], robot)
+    problem = bench_tsid.problem_for_tsid(recorded["session"], controller, recorded["states"])
+    out.write_text(json.dumps(problem))
+
+
 def compute_path(robot: str, ticks: int) -> None:
     """The body that runs under valgrind for --tsid: bench_tsid's timing loop of `ticks` calls,
     every instruction between the two requests counted."""
@@ -118,13 +152,23 @@ def count(
     robot: str, method: str, ticks: int, top: int, single: bool = False
 ) -> tuple[int, list[str]]:
     """Instructions per tick inside the kernel (method "tsid": bench_tsid's compute path whole;
-    `single`: the unload ticks of `--single`), and the `top` heaviest inclusive lines."""
-    collect = () if method == "tsid" else COLLECT
+    "tsid-theirs": TSID's side of it whole; `single`: the unload ticks of `--single`), and the
+    `top` heaviest inclusive lines."""
+    collect = () if method.startswith("tsid") else COLLECT
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
         toggles = [f"--toggle-collect={pattern}" for pattern in collect]
         body = [robot, method, str(ticks), "single" if single else "stand"]
-        run = callgrind(__file__, body, toggles, out)
+        python = sys.executable
+        if method == "tsid-theirs":
+            sys.path.insert(0, str(Path(__file__).resolve().parent))
+            import bench_tsid
+
+            python = str(bench_tsid.ensure_tsid_venv(bench_tsid.DEFAULT_VENV, False))
+            spec = Path(tmp) / f"{robot}.json"
+            tsid_spec(robot, spec)
+            body = [str(spec), method, str(ticks), "stand"]
+        run = callgrind(__file__, body, toggles, out, python)
         if run.returncode:
             raise SystemExit(f"kernel_callgrind: {robot} {method} failed:\n{run.stderr[-2000:]}")
         report = subprocess.run(
@@ -150,6 +194,9 @@ def main() -> None:
         "--tsid", action="store_true", help="bench_tsid's compute(q, v) path whole (module doc)"
     )
     parser.add_argument(
+        "--theirs", action="store_true", help="with --tsid: TSID's side instead (module doc)"
+    )
+    parser.add_argument(
         "--single",
         action="store_true",
         help="the unload ticks of lab bench's single-support run, not standing (module doc)",
@@ -160,13 +207,16 @@ def main() -> None:
         robot, method, ticks, mode = args.body
         if method == "tsid":
             compute_path(robot, int(ticks))
+        elif method == "tsid-theirs":
+            tsid_path(robot, int(ticks))  # `robot`: the problem's spec file
         else:
             stand(robot, method, int(ticks), single=mode == "single")
         return
     what = f"from tick {SINGLE_FROM} of lab bench's single run" if args.single else "standing"
     print(f"load average {os.getloadavg()[0]:.1f}; {args.ticks} ticks each, {what}")
     for robot in args.robots:
-        for method in ["tsid"] if args.tsid else args.methods:
+        tsid = ["tsid-theirs" if args.theirs else "tsid"]
+        for method in tsid if args.tsid else args.methods:
             per_tick, lines = count(robot, method, args.ticks, args.top, args.single)
             print(f"{robot} {method}: {per_tick:,} instructions per tick")
             print("\n".join(lines))
