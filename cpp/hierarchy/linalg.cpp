@@ -191,6 +191,30 @@ void RowSpaceQR::apply_q_to_vector(Eigen::VectorXd& v) const {
     v.tail(n - k).applyHouseholderOnTheLeft(qr.col(k).tail(n - k - 1), tau(k), &workspace);
 }
 
+void RowSpaceQR::step_and_null_space(Eigen::Ref<Eigen::MatrixXd> Z, const Eigen::VectorXd& y,
+                                     Eigen::VectorXd& x, bool identity_below) {
+  const auto& qr = qr_.matrixQR();
+  const Eigen::Index n = qr.rows(), k = qr_.hCoeffs().size(), left = n - rank_;
+  V_ = qr.leftCols(k).triangularView<Eigen::UnitLower>();  // zeros above the unit diagonal
+  T_.setZero(k, k);  // the factor fills its upper triangle: dense products below
+  Eigen::internal::make_block_householder_triangular_factor(T_, V_, qr_.hCoeffs());
+  ZV_.resize(Z.rows(), k);
+  if (identity_below) {
+    ZV_.topRows<kBaseRows>().noalias() = Z.topRows<kBaseRows>() * V_;
+    ZV_.bottomRows(n) = V_;
+  } else {
+    ZV_.noalias() = Z * V_;
+  }
+  // (Z Q) [y; 0] = Z_lead y - (Z V) T V_lead^T y, V_lead V's first `rank` rows
+  Vy_.noalias() = V_.topRows(rank_).transpose() * y;
+  TVy_.noalias() = T_ * Vy_;
+  x.noalias() += Z.leftCols(rank_) * y;
+  x.noalias() -= ZV_ * TVy_;
+  // (Z Q)'s trailing columns: Z_tail - (Z V) T V_tail^T, from Z V formed before Z_tail changes
+  W_.noalias() = T_ * V_.bottomRows(left).transpose();
+  Z.rightCols(left).noalias() -= ZV_ * W_;
+}
+
 void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                   Eigen::VectorXd& u, Eigen::MatrixXd& N) {
   const Eigen::Index n = A.cols();
@@ -235,8 +259,9 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
   if (identity_below) {  // A Z = A_1 Z_top + A_2: a product over kBaseRows only, unrolled
     step.AZ.noalias() = A.leftCols<kBaseRows>().lazyProduct(Z.topRows<kBaseRows>());
     step.AZ += A.rightCols(cols);
-  } else {
-    sparse_rows_product(A, Z, step.AZ);
+  } else {  // one scan of A's rows, which keeps their nonzero columns for the product
+    step.sparsity.compute(A);
+    step.sparsity.product(A, Z, step.AZ);
   }
   step.r = b;
   step.r.noalias() -= A * x;
@@ -255,8 +280,8 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
     x.noalias() += Z * step.r;
     return;
   }
-  step.qr.apply_q_on_the_right(Z);  // Z Q: the first `rank` columns step, the rest stay free
-  x.noalias() += Z.leftCols(rank) * step.y;
+  // Z Q: its first `rank` columns step, the rest stay free (the window's tail)
+  step.qr.step_and_null_space(Z, step.y, x, identity_below);
   first += rank;
   cols -= rank;
 }
