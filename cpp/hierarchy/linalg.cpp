@@ -27,27 +27,9 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
 
 void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
                          Eigen::MatrixXd& out) {
-  const Eigen::Index m = A.rows(), n = A.cols();
-  out.resize(m, Z.cols());
-  // A row is sparse with at most a quarter of its entries nonzero: below that the strided sum
-  // over its entries costs less than the vectorised dense product.
-  const Eigen::Index sparse_limit = n / 4;
-  bool any_sparse = false;
-  for (Eigen::Index i = 0; i < m && !any_sparse; ++i)
-    any_sparse = (A.row(i).array() != 0.0).count() <= sparse_limit;
-  if (!any_sparse) {
-    out.noalias() = A * Z;
-    return;
-  }
-  for (Eigen::Index i = 0; i < m; ++i) {
-    if ((A.row(i).array() != 0.0).count() > sparse_limit) {
-      out.row(i).noalias() = A.row(i) * Z;
-      continue;
-    }
-    out.row(i).setZero();
-    for (Eigen::Index j = 0; j < n; ++j)
-      if (A(i, j) != 0.0) out.row(i) += A(i, j) * Z.row(j);
-  }
+  thread_local SparseRows rows;  // its storage kept from call to call: no allocation once warm
+  rows.compute(A);
+  rows.product(A, Z, out);
 }
 
 void SparseRows::compute(const Eigen::MatrixXd& A) {
@@ -60,10 +42,12 @@ void SparseRows::compute(const Eigen::MatrixXd& A) {
   for (Eigen::Index i = 0; i < m; ++i) {
     const std::size_t begin = columns_.size();
     bool dense = false;
-    for (Eigen::Index j = 0; j < n && !dense; ++j) {
-      if (A(i, j) == 0.0) continue;
+    const double* entry = A.data() + i;  // A(i, j), column-major: m apart
+    for (Eigen::Index j = 0; j < n; ++j, entry += m) {
+      if (*entry == 0.0) continue;
       dense = columns_.size() - begin == sparse_limit;  // one nonzero more than the limit
-      if (!dense) columns_.push_back(j);
+      if (dense) break;
+      columns_.push_back(j);
     }
     if (dense) columns_.resize(begin);
     dense_[static_cast<std::size_t>(i)] = dense;
@@ -259,9 +243,8 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
   if (identity_below) {  // A Z = A_1 Z_top + A_2: a product over kBaseRows only, unrolled
     step.AZ.noalias() = A.leftCols<kBaseRows>().lazyProduct(Z.topRows<kBaseRows>());
     step.AZ += A.rightCols(cols);
-  } else {  // one scan of A's rows, which keeps their nonzero columns for the product
-    step.sparsity.compute(A);
-    step.sparsity.product(A, Z, step.AZ);
+  } else {
+    sparse_rows_product(A, Z, step.AZ);
   }
   step.r = b;
   step.r.noalias() -= A * x;

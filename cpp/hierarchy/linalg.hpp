@@ -32,6 +32,7 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
 /// those entries' rows of Z, any other row is a dense row-times-matrix product; with no sparse
 /// row it is one dense product. A selection row's product is then a copy of a row of Z, the
 /// dense product's value exactly (its other terms are exact zeros). `out` must not alias Z.
+/// SparseRows' `compute` then `product` (one scan of A's rows, which keeps their nonzero columns).
 void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
                          Eigen::MatrixXd& out);
 
@@ -160,7 +161,6 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
 /// Buffers of one equality level of the cascade, kept from tick to tick.
 struct LeastSquaresStep {
   RowSpaceQR qr;
-  SparseRows sparsity;                                 // the level's A, for A Z
   Eigen::HouseholderQR<Eigen::MatrixXd> full_rank_qr;  // the last level's, see linalg.cpp
   Eigen::MatrixXd AZ, R_inverse;
   Eigen::VectorXd r, y, u;  // u: a last level's step, apart from r (no resize between them)
