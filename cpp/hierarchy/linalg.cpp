@@ -202,15 +202,15 @@ void RowSpaceQR::step_and_null_space(Eigen::Ref<Eigen::MatrixXd> Z, const Eigen:
 void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                   Eigen::VectorXd& u, Eigen::MatrixXd& N) {
   const Eigen::Index n = A.cols();
-  Eigen::MatrixXd Q = Eigen::MatrixXd::Identity(n, n);
   if (A.rows() == 0) {
     u.setZero(n);
-    N = Q;
+    N = Eigen::MatrixXd::Identity(n, n);
     return;
   }
   RowSpaceQR qr;
   qr.compute(A);
-  qr.apply_q_on_the_right(Q);
+  Eigen::MatrixXd Q;
+  qr.q(Q);  // as dorgqr forms it (linalg.py): accumulated, not applied to a whole identity
   const int rank = qr.rank();
   u = rank ? (Q.leftCols(rank) * qr.solve(b)).eval() : Eigen::VectorXd::Zero(n);
   N = Q.rightCols(n - rank);
