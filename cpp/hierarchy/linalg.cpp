@@ -34,7 +34,9 @@ void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen:
 
 void SparseRows::compute(const Eigen::MatrixXd& A) {
   const Eigen::Index m = A.rows(), n = A.cols();
-  const auto sparse_limit = static_cast<std::size_t>(n / 4);  // sparse_rows_product's rule
+  // A row is sparse with at most a quarter of its entries nonzero: below that the strided sum
+  // over its entries costs less than the vectorised dense product.
+  const auto sparse_limit = static_cast<std::size_t>(n / 4);
   any_sparse_ = false;
   start_.assign(1, 0);
   columns_.clear();
