@@ -27,32 +27,16 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
 
 void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
                          Eigen::MatrixXd& out) {
-  const Eigen::Index m = A.rows(), n = A.cols();
-  out.resize(m, Z.cols());
-  // A row is sparse with at most a quarter of its entries nonzero: below that the strided sum
-  // over its entries costs less than the vectorised dense product.
-  const Eigen::Index sparse_limit = n / 4;
-  bool any_sparse = false;
-  for (Eigen::Index i = 0; i < m && !any_sparse; ++i)
-    any_sparse = (A.row(i).array() != 0.0).count() <= sparse_limit;
-  if (!any_sparse) {
-    out.noalias() = A * Z;
-    return;
-  }
-  for (Eigen::Index i = 0; i < m; ++i) {
-    if ((A.row(i).array() != 0.0).count() > sparse_limit) {
-      out.row(i).noalias() = A.row(i) * Z;
-      continue;
-    }
-    out.row(i).setZero();
-    for (Eigen::Index j = 0; j < n; ++j)
-      if (A(i, j) != 0.0) out.row(i) += A(i, j) * Z.row(j);
-  }
+  thread_local SparseRows rows;  // its storage kept from call to call: no allocation once warm
+  rows.compute(A);
+  rows.product(A, Z, out);
 }
 
 void SparseRows::compute(const Eigen::MatrixXd& A) {
   const Eigen::Index m = A.rows(), n = A.cols();
-  const auto sparse_limit = static_cast<std::size_t>(n / 4);  // sparse_rows_product's rule
+  // A row is sparse with at most a quarter of its entries nonzero: below that the strided sum
+  // over its entries costs less than the vectorised dense product.
+  const auto sparse_limit = static_cast<std::size_t>(n / 4);
   any_sparse_ = false;
   start_.assign(1, 0);
   columns_.clear();
@@ -60,10 +44,12 @@ void SparseRows::compute(const Eigen::MatrixXd& A) {
   for (Eigen::Index i = 0; i < m; ++i) {
     const std::size_t begin = columns_.size();
     bool dense = false;
-    for (Eigen::Index j = 0; j < n && !dense; ++j) {
-      if (A(i, j) == 0.0) continue;
+    const double* entry = A.data() + i;  // A(i, j), column-major: m apart
+    for (Eigen::Index j = 0; j < n; ++j, entry += m) {
+      if (*entry == 0.0) continue;
       dense = columns_.size() - begin == sparse_limit;  // one nonzero more than the limit
-      if (!dense) columns_.push_back(j);
+      if (dense) break;
+      columns_.push_back(j);
     }
     if (dense) columns_.resize(begin);
     dense_[static_cast<std::size_t>(i)] = dense;
@@ -191,18 +177,42 @@ void RowSpaceQR::apply_q_to_vector(Eigen::VectorXd& v) const {
     v.tail(n - k).applyHouseholderOnTheLeft(qr.col(k).tail(n - k - 1), tau(k), &workspace);
 }
 
+void RowSpaceQR::step_and_null_space(Eigen::Ref<Eigen::MatrixXd> Z, const Eigen::VectorXd& y,
+                                     Eigen::VectorXd& x, bool identity_below) {
+  const auto& qr = qr_.matrixQR();
+  const Eigen::Index n = qr.rows(), k = qr_.hCoeffs().size(), left = n - rank_;
+  V_ = qr.leftCols(k).triangularView<Eigen::UnitLower>();  // zeros above the unit diagonal
+  T_.setZero(k, k);  // the factor fills its upper triangle: dense products below
+  Eigen::internal::make_block_householder_triangular_factor(T_, V_, qr_.hCoeffs());
+  ZV_.resize(Z.rows(), k);
+  if (identity_below) {
+    ZV_.topRows<kBaseRows>().noalias() = Z.topRows<kBaseRows>() * V_;
+    ZV_.bottomRows(n) = V_;
+  } else {
+    ZV_.noalias() = Z * V_;
+  }
+  // (Z Q) [y; 0] = Z_lead y - (Z V) T V_lead^T y, V_lead V's first `rank` rows
+  Vy_.noalias() = V_.topRows(rank_).transpose() * y;
+  TVy_.noalias() = T_ * Vy_;
+  x.noalias() += Z.leftCols(rank_) * y;
+  x.noalias() -= ZV_ * TVy_;
+  // (Z Q)'s trailing columns: Z_tail - (Z V) T V_tail^T, from Z V formed before Z_tail changes
+  W_.noalias() = T_ * V_.bottomRows(left).transpose();
+  Z.rightCols(left).noalias() -= ZV_ * W_;
+}
+
 void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                   Eigen::VectorXd& u, Eigen::MatrixXd& N) {
   const Eigen::Index n = A.cols();
-  Eigen::MatrixXd Q = Eigen::MatrixXd::Identity(n, n);
   if (A.rows() == 0) {
     u.setZero(n);
-    N = Q;
+    N = Eigen::MatrixXd::Identity(n, n);
     return;
   }
   RowSpaceQR qr;
   qr.compute(A);
-  qr.apply_q_on_the_right(Q);
+  Eigen::MatrixXd Q;
+  qr.q(Q);  // as dorgqr forms it (linalg.py): accumulated, not applied to a whole identity
   const int rank = qr.rank();
   u = rank ? (Q.leftCols(rank) * qr.solve(b)).eval() : Eigen::VectorXd::Zero(n);
   N = Q.rightCols(n - rank);
@@ -255,8 +265,8 @@ void least_squares_step(Eigen::MatrixXd& Z_buffer, Eigen::Index& first, Eigen::I
     x.noalias() += Z * step.r;
     return;
   }
-  step.qr.apply_q_on_the_right(Z);  // Z Q: the first `rank` columns step, the rest stay free
-  x.noalias() += Z.leftCols(rank) * step.y;
+  // Z Q: its first `rank` columns step, the rest stay free (the window's tail)
+  step.qr.step_and_null_space(Z, step.y, x, identity_below);
   first += rank;
   cols -= rank;
 }

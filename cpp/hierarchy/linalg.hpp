@@ -32,6 +32,7 @@ bool solution_and_null_space_of_leading_block(const Eigen::MatrixXd& A, const Ei
 /// those entries' rows of Z, any other row is a dense row-times-matrix product; with no sparse
 /// row it is one dense product. A selection row's product is then a copy of a row of Z, the
 /// dense product's value exactly (its other terms are exact zeros). `out` must not alias Z.
+/// SparseRows' `compute` then `product` (one scan of A's rows, which keeps their nonzero columns).
 void sparse_rows_product(const Eigen::MatrixXd& A, const Eigen::Ref<const Eigen::MatrixXd>& Z,
                          Eigen::MatrixXd& out);
 
@@ -110,6 +111,17 @@ class RowSpaceQR {
     qr_.householderQ().applyThisOnTheRight(M, workspace_);
   }
 
+  /// One level's step and the null space it leaves, for Z (rows x n) spanning the space A was
+  /// written in: x += (Z Q) [y; 0], and Z's trailing n - rank columns become Z Q's, the null space
+  /// of A in Z's coordinates (Z's leading `rank` columns are left as they were). Q = I - V T V^T,
+  /// the reflectors' compact WY form (V their unit lower trapezoid, T Eigen's block reflector
+  /// factor): two matrix products over the k reflectors instead of k rank-one updates of all of
+  /// Z, and only the columns of Z Q that are kept are formed, the others only times y. Equal to
+  /// apply_q_on_the_right's Z Q up to rounding (the same reflectors, grouped). `identity_below`:
+  /// Z = [Z_top; I] with Z_top its first kBaseRows rows, whose Z V is [Z_top V; V].
+  void step_and_null_space(Eigen::Ref<Eigen::MatrixXd> Z, const Eigen::VectorXd& y,
+                           Eigen::VectorXd& x, bool identity_below);
+
   /// Q itself (n x n), formed from the reflectors (Eigen's accumulation, which skips the
   /// identity's untouched corner): I Q without applying the reflectors to a whole identity.
   void q(Eigen::MatrixXd& out) {
@@ -132,6 +144,10 @@ class RowSpaceQR {
   Eigen::MatrixXd r1t_;
   Eigen::VectorXd rhs_, workspace_;
   Eigen::VectorXd left_workspace_;  // apply_q_on_the_left's: one entry per column of M
+  // step_and_null_space's: V, T (row-major, as Eigen's own block reflector), Z V, T V_tail^T
+  Eigen::MatrixXd V_, ZV_, W_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> T_;
+  Eigen::VectorXd Vy_, TVy_;
   int rows_ = 0;
   int rank_ = 0;
   bool r1t_ready_ = false;  // r1t_qr_ holds R1^T of this factorization
