@@ -36,6 +36,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from types import ModuleType
 
 COLLECT = ("lab::Kernel::update*", "lab::Kernel::solve()*")
 WARMUP = 100  # ticks before the count: the robot settles onto its feet
@@ -96,12 +97,18 @@ def stand(robot: str, method: str, ticks: int, single: bool = False) -> None:
         raise SystemExit(f"kernel_callgrind: {robot} fell")
 
 
-def tsid_path(spec: str, ticks: int) -> None:
-    """The body that runs under valgrind in the TSID venv for --tsid --theirs: TSID's timing
-    loop (bench_tsid's TsidProblem.tick over the states of `spec`), counted whole."""
+def _bench_tsid() -> ModuleType:
+    """benchmarks/bench_tsid.py, imported from beside this file."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_tsid
 
+    return bench_tsid
+
+
+def tsid_path(spec: str, ticks: int) -> None:
+    """The body that runs under valgrind in the TSID venv for --tsid --theirs: TSID's timing
+    loop (bench_tsid's TsidProblem.tick over the states of `spec`), counted whole."""
+    bench_tsid = _bench_tsid()
     problem = bench_tsid.TsidProblem(json.loads(Path(spec).read_text()), "SolverHQuadProgFast")
     n = len(problem.states)
     for i in range(WARMUP):
@@ -115,9 +122,7 @@ def tsid_path(spec: str, ticks: int) -> None:
 def tsid_spec(robot: str, out: Path) -> None:
     """bench_tsid's problem for `robot` (its recorded states, gains and contacts), as its worker
     reads it, written to `out`."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import bench_tsid
-
+    bench_tsid = _bench_tsid()
     recorded = bench_tsid.record_states(robot, 4, 4)
     controller = bench_tsid.our_controller(recorded["session"], robot)
     problem = bench_tsid.problem_for_tsid(recorded["session"], controller, recorded["states"])
@@ -127,9 +132,7 @@ def tsid_spec(robot: str, out: Path) -> None:
 def compute_path(robot: str, ticks: int) -> None:
     """The body that runs under valgrind for --tsid: bench_tsid's timing loop of `ticks` calls,
     every instruction between the two requests counted."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import bench_tsid
-
+    bench_tsid = _bench_tsid()
     recorded = bench_tsid.record_states(robot, 4, 4)
     controller = bench_tsid.our_controller(recorded["session"], robot)
     states = recorded["states"]
@@ -161,9 +164,7 @@ def count(
         body = [robot, method, str(ticks), "single" if single else "stand"]
         python = sys.executable
         if method == "tsid-theirs":
-            sys.path.insert(0, str(Path(__file__).resolve().parent))
-            import bench_tsid
-
+            bench_tsid = _bench_tsid()
             python = str(bench_tsid.ensure_tsid_venv(bench_tsid.DEFAULT_VENV, False))
             spec = Path(tmp) / f"{robot}.json"
             tsid_spec(robot, spec)
