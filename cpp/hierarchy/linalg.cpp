@@ -218,21 +218,25 @@ void least_squares_and_null_space(const Eigen::MatrixXd& A, const Eigen::VectorX
   N = Q.rightCols(n - rank);
 }
 
+void apply_qt_to_vector(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, Eigen::VectorXd& v) {
+  // Reflector by reflector on v's tail: HouseholderSequence::applyThisOnTheLeft takes a vector
+  // as a block of dynamic columns, and each reflector's outer product then evaluates tau * v into
+  // a heap temporary (one allocation per reflector, per tick).
+  const auto& reflectors = qr.matrixQR();
+  const auto& tau = qr.hCoeffs();
+  const Eigen::Index m = reflectors.rows();
+  double workspace;  // applyHouseholderOnTheLeft's, one entry per column of v
+  for (Eigen::Index k = 0; k < tau.size(); ++k)
+    v.tail(m - k).applyHouseholderOnTheLeft(reflectors.col(k).tail(m - k - 1), tau(k), &workspace);
+}
+
 bool full_rank_step(LeastSquaresStep& step, const Eigen::VectorXd& r, Eigen::VectorXd& u) {
   const Eigen::Index n = step.AZ.cols();
   if (step.AZ.rows() < n) return false;
   step.full_rank_qr.compute(step.AZ);
   if (!full_rank_by_margin(step.full_rank_qr, step.AZ.norm(), step.R_inverse)) return false;
   step.y = r;
-  // Q^T y, reflector by reflector on y's tail: HouseholderSequence::applyThisOnTheLeft takes a
-  // vector as a block of dynamic columns, and each reflector's outer product then evaluates
-  // tau * v into a heap temporary (one allocation per reflector, per tick).
-  const auto& qr = step.full_rank_qr.matrixQR();
-  const auto& tau = step.full_rank_qr.hCoeffs();
-  const Eigen::Index m = qr.rows();
-  double workspace;  // applyHouseholderOnTheLeft's, one entry per column of y
-  for (Eigen::Index k = 0; k < n; ++k)
-    step.y.tail(m - k).applyHouseholderOnTheLeft(qr.col(k).tail(m - k - 1), tau(k), &workspace);
+  apply_qt_to_vector(step.full_rank_qr, step.y);
   u.noalias() = step.R_inverse * step.y.head(n);
   return true;
 }

@@ -166,6 +166,10 @@ struct LeastSquaresStep {
   Eigen::VectorXd r, y, u;  // u: a last level's step, apart from r (no resize between them)
 };
 
+/// Q^T v for the unpivoted QR `qr` of a matrix of v.size() rows (rows >= cols), its reflectors
+/// applied one by one, without a heap temporary.
+void apply_qt_to_vector(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, Eigen::VectorXd& v);
+
 /// The step u of a last level (no level below needs its null space) where its A Z, in
 /// `step.AZ` (rows >= cols), has full column rank by a margin (full_rank_by_margin): the minimiser
 /// of ||A Z u - r|| is then unique, and an unpivoted QR of A Z finds it for less than the pivoted

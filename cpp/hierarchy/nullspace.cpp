@@ -325,17 +325,11 @@ bool ActiveSetSearch::predicted_violation(std::size_t k, Eigen::Index j, double&
     }
     if (work.used == StepWork::Used::full_rank) {
       // the last level's unpivoted A Z = Q R: g = Q₂ Q₂ᵀ M δ, gᵀr = (Q₂ᵀ M δ)ᵀ (Q₂ᵀ r)
-      const auto& qr = work.step.full_rank_qr.matrixQR();
-      const auto& tau = work.step.full_rank_qr.hCoeffs();
-      const Eigen::Index cols = qr.cols();
+      const Eigen::Index cols = work.step.full_rank_qr.cols();
       work.rotated_moved = work.moved;
       work.rotated_r = work.step.r;
-      double workspace;
-      for (Eigen::Index i = 0; i < cols; ++i) {
-        const auto essential = qr.col(i).tail(m - i - 1);
-        work.rotated_moved.tail(m - i).applyHouseholderOnTheLeft(essential, tau(i), &workspace);
-        work.rotated_r.tail(m - i).applyHouseholderOnTheLeft(essential, tau(i), &workspace);
-      }
+      apply_qt_to_vector(work.step.full_rank_qr, work.rotated_moved);
+      apply_qt_to_vector(work.step.full_rank_qr, work.rotated_r);
       const auto g = work.rotated_moved.tail(m - cols);
       ratio = g.norm() / (std::max(1.0, work.step.AZ.norm()) * moved_size);
       if (!(ratio > kReleaseBandHigh)) return false;  // the last level: none below to decide
