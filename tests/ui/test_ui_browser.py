@@ -545,7 +545,10 @@ def switch_draw_push(page, lab, serve, pushes, dropdown: str, value: str, robot:
         playwright_api.expect(box).to_have_value(wanted, timeout=PAGE_TIMEOUT_MS)
     pushes.seen.clear()
     press(page, "forward")
-    pushes.wait(float(box.input_value()))
+    try:
+        pushes.wait(float(box.input_value()))
+    except AssertionError as missed:  # say what the page saw (a refusal, a lost click)
+        raise AssertionError(f"{missed}; the page's event log: {event_log(page)}") from None
     ui_alive(page, serve)
 
 
